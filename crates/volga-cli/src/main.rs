@@ -1,0 +1,141 @@
+//! `volga`: build scene files, and (later) voxelize meshes and validate voxel models.
+//!
+//! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
+
+mod progress;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use volga_scene::{build, load_scene, plan::plan, BuildOptions};
+
+#[derive(Parser)]
+#[command(name = "volga", version, about = "volga — a volume graphics modeling kernel")]
+struct Cli {
+    /// Worker threads (default: all cores). Results are identical for any count.
+    #[arg(long, global = true)]
+    threads: Option<usize>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Plan and build a scene: voxelize, render its images, write its volumes and a report.json.
+    Build {
+        /// Scene file (.ron or .json).
+        scene: PathBuf,
+        /// Output directory (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Refuse builds estimated to need more memory than this (e.g. 512M, 8G);
+        /// default: the machine's available memory.
+        #[arg(long, value_parser = parse_size)]
+        memory_limit: Option<u64>,
+    },
+    /// Validate a scene and print its plan (channels, effects, memory estimate) without building.
+    Plan {
+        /// Scene file (.ron or .json).
+        scene: PathBuf,
+        #[arg(long, value_parser = parse_size)]
+        memory_limit: Option<u64>,
+    },
+}
+
+/// Parses `123`, `64K`, `512M`, `8G`, `1T` (binary units).
+fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let (num, mul) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => {
+            let m = match c.to_ascii_uppercase() {
+                'K' => 1u64 << 10,
+                'M' => 1 << 20,
+                'G' => 1 << 30,
+                'T' => 1 << 40,
+                _ => return Err(format!("unknown size unit `{c}` (use K, M, G or T)")),
+            };
+            (&t[..i], m)
+        }
+        _ => (t, 1),
+    };
+    let n: f64 = num.parse().map_err(|_| format!("`{s}` is not a size"))?;
+    if !(n.is_finite() && n >= 0.0) {
+        return Err(format!("`{s}` is not a size"));
+    }
+    Ok((n * mul as f64) as u64)
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    if let Some(n) = cli.threads {
+        if n == 0 {
+            eprintln!("error: --threads must be ≥ 1");
+            return ExitCode::from(2);
+        }
+        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+            eprintln!("error: cannot start {n} threads: {e}");
+            return ExitCode::from(1);
+        }
+    }
+    match cli.command {
+        Command::Build {
+            scene,
+            out,
+            memory_limit,
+        } => {
+            let progress = progress::BarProgress::new();
+            let options = BuildOptions {
+                out_dir: out,
+                memory_limit,
+            };
+            match build(&scene, &options, &progress) {
+                Ok(report) => {
+                    for o in &report.outputs {
+                        println!("wrote {}", o.display());
+                    }
+                    println!(
+                        "built {} in {:.2} s: {} active voxels in {} bricks",
+                        scene.display(),
+                        report.total_wall_s,
+                        report.voxels.active,
+                        report.voxels.bricks
+                    );
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(if e.is_bad_input() { 2 } else { 1 })
+                }
+            }
+        }
+        Command::Plan { scene, memory_limit } => {
+            let result = load_scene(&scene).and_then(|s| plan(&s, memory_limit));
+            match result {
+                Ok(p) => {
+                    println!("{}", serde_json::to_string_pretty(&p).expect("plan serializes"));
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(2)
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_size;
+
+    #[test]
+    fn sizes() {
+        assert_eq!(parse_size("512"), Ok(512));
+        assert_eq!(parse_size("1K"), Ok(1024));
+        assert_eq!(parse_size("1.5G"), Ok(3 << 29));
+        assert!(parse_size("12Q").is_err());
+        assert!(parse_size("-1").is_err());
+        assert!(parse_size("").is_err());
+    }
+}

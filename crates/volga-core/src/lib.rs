@@ -1,0 +1,63 @@
+//! # volga-core — grids, volumes and the one sampling interface
+//!
+//! Everything else in volga is a tool over the types defined here (survey §17; the
+//! split follows OpenVDB's tree/tools separation):
+//!
+//! * [`Transform`] maps **world space** (`world_*`, metres or whatever unit the scene
+//!   uses) to continuous **index space** (`index_*`, `ijk` for integer voxel
+//!   coordinates) with per-axis spacing and an origin. [`Grid`] adds the voxel extent.
+//! * [`DenseVolume`] and [`SparseVolume`] store voxel payloads; [`SparseGrid`] is the
+//!   bricked storage (8³ bricks addressed by **brick space** coordinates `brick_*`).
+//! * [`Field`] is the narrow trait every representation implements and the renderer
+//!   consumes: value, gradient, colour, bounds and a conservative value range.
+//!
+//! ## Voxel convention (stated once, used everywhere)
+//! Voxel `ijk` is a *sample point* at `world = origin + ijk ⊙ spacing`; it stands for
+//! the cell `[ijk − ½, ijk + ½)` in index space. A grid of `dims` voxels therefore
+//! covers the world box `origin − spacing/2 .. origin + (dims − ½) ⊙ spacing`.
+//! Nearest-neighbour reconstruction follows the same half-open rule: a point exactly
+//! between two voxel centres belongs to the upper one (`floor(x + ½)`).
+//! Outside the grid every voxel has the volume's background value.
+//!
+//! ## Precision
+//! Geometry (positions, distances, transforms) is `f64`: a grid whose origin sits at
+//! 1e6 still resolves 1e-6 of a voxel, which `f32` cannot (its spacing at 1e6 is
+//! 0.06). Voxel payloads (density, colour) are `f32`: they are bounded quantities in
+//! \[0, 1\] (or distances of a few voxels) where `f32`'s 24 bits exceed any render or
+//! filter accuracy, and they halve memory, which bounds how large a volume fits.
+//! Reconstruction arithmetic is done in `f64`, so trilinear interpolation of stored
+//! values is exact up to the final rounding.
+//!
+//! ```
+//! use volga_core::{Grid, Transform, DenseVolume, Sampled, Filter, Field};
+//! use glam::{DVec3, UVec3};
+//! let grid = Grid::new(Transform::new(DVec3::ZERO, DVec3::splat(0.5)).unwrap(), UVec3::splat(4)).unwrap();
+//! let mut vol = DenseVolume::new(grid, 0.0, false).unwrap();
+//! vol.density.set(glam::IVec3::new(1, 1, 1), 1.0);
+//! let field = Sampled::new(&vol, Filter::Trilinear);
+//! assert_eq!(field.value(DVec3::new(0.5, 0.5, 0.75)), 0.5);
+//! ```
+
+mod aabb;
+mod dense;
+mod error;
+mod field;
+mod grid;
+mod layout;
+pub mod memory;
+mod progress;
+mod sampled;
+mod sparse;
+
+pub use aabb::Aabb;
+pub use dense::{Dense, DenseVolume};
+pub use error::CoreError;
+pub use field::Field;
+pub use grid::{Grid, IndexBox, Transform};
+pub use layout::Shape3;
+pub use progress::{NoProgress, Progress};
+pub use sampled::{Filter, Sampled, VoxelSource};
+pub use sparse::{Brick, SparseGrid, SparseVolume, BRICK_DIM, BRICK_LOG2, BRICK_VOXELS};
+
+/// Linear RGB colour payload, each component in \[0, 1\].
+pub type Rgb = [f32; 3];

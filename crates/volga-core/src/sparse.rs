@@ -1,0 +1,352 @@
+use glam::{IVec3, UVec3};
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+
+use crate::{CoreError, DenseVolume, Grid, IndexBox, Rgb};
+
+/// log2 of the brick edge length.
+pub const BRICK_LOG2: i32 = 3;
+/// Brick edge length in voxels (8).
+pub const BRICK_DIM: i32 = 1 << BRICK_LOG2;
+/// Voxels per brick (512).
+pub const BRICK_VOXELS: usize = (BRICK_DIM * BRICK_DIM * BRICK_DIM) as usize;
+
+/// One 8³ block of voxels: either one value for all 512 voxels, or each stored.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Brick<T> {
+    Uniform(T),
+    Dense(Box<[T; BRICK_VOXELS]>),
+}
+
+impl<T: Copy + PartialEq> Brick<T> {
+    /// Offset of a voxel inside its brick from its `ijk` (x fastest).
+    #[inline]
+    pub fn local_offset(ijk: IVec3) -> usize {
+        let l = ijk & IVec3::splat(BRICK_DIM - 1);
+        (l.x + BRICK_DIM * (l.y + BRICK_DIM * l.z)) as usize
+    }
+
+    #[inline]
+    pub fn get_local(&self, offset: usize) -> T {
+        match self {
+            Brick::Uniform(v) => *v,
+            Brick::Dense(d) => d[offset],
+        }
+    }
+
+    /// A uniform brick if every value is equal, else the dense brick unchanged.
+    pub fn collapsed(self) -> Self {
+        match self {
+            Brick::Dense(d) if d.iter().all(|v| *v == d[0]) => Brick::Uniform(d[0]),
+            b => b,
+        }
+    }
+
+    fn densify(&mut self) -> &mut [T; BRICK_VOXELS] {
+        if let Brick::Uniform(v) = *self {
+            *self = Brick::Dense(Box::new([v; BRICK_VOXELS]));
+        }
+        match self {
+            Brick::Dense(d) => d,
+            Brick::Uniform(_) => unreachable!("densified above"),
+        }
+    }
+}
+
+/// Brick coordinate (**brick space**) of voxel `ijk`: `ijk >> 3`, arithmetic shift so
+/// negative voxels map to negative bricks.
+#[inline]
+pub fn brick_of(ijk: IVec3) -> IVec3 {
+    ijk >> BRICK_LOG2
+}
+
+/// Sparse bricked storage: 8³ bricks in a hash map keyed by brick coordinate; voxels
+/// in absent bricks read as `background`.
+///
+/// Iteration order of the map never reaches results: everything that walks bricks in
+/// an order that matters uses [`SparseGrid::sorted_bricks`].
+#[derive(Debug, Clone)]
+pub struct SparseGrid<T> {
+    bricks: FxHashMap<IVec3, Brick<T>>,
+    background: T,
+}
+
+impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
+    pub fn new(background: T) -> Self {
+        SparseGrid {
+            bricks: FxHashMap::default(),
+            background,
+        }
+    }
+
+    pub fn background(&self) -> T {
+        self.background
+    }
+
+    #[inline]
+    pub fn get(&self, ijk: IVec3) -> T {
+        match self.bricks.get(&brick_of(ijk)) {
+            Some(b) => b.get_local(Brick::<T>::local_offset(ijk)),
+            None => self.background,
+        }
+    }
+
+    pub fn set(&mut self, ijk: IVec3, value: T) {
+        let bg = self.background;
+        let brick = self.bricks.entry(brick_of(ijk)).or_insert(Brick::Uniform(bg));
+        if let Brick::Uniform(v) = brick {
+            if *v == value {
+                return;
+            }
+        }
+        brick.densify()[Brick::<T>::local_offset(ijk)] = value;
+    }
+
+    pub fn brick(&self, brick: IVec3) -> Option<&Brick<T>> {
+        self.bricks.get(&brick)
+    }
+
+    /// Puts `data` at brick coordinate `brick`, replacing what was there.
+    pub fn insert_brick(&mut self, brick: IVec3, data: Brick<T>) {
+        self.bricks.insert(brick, data);
+    }
+
+    pub fn remove_brick(&mut self, brick: IVec3) -> Option<Brick<T>> {
+        self.bricks.remove(&brick)
+    }
+
+    /// Brick coordinates in lexicographic (z, y, x) order.
+    pub fn sorted_bricks(&self) -> Vec<IVec3> {
+        let mut v: Vec<IVec3> = self.bricks.keys().copied().collect();
+        v.sort_unstable_by_key(|b| (b.z, b.y, b.x));
+        v
+    }
+
+    /// Collapses bricks whose voxels are all equal and drops those equal to the
+    /// background, so storage follows the content, not the history of edits.
+    pub fn prune(&mut self) {
+        let bg = self.background;
+        self.bricks.par_iter_mut().for_each(|(_, b)| {
+            let owned = std::mem::replace(b, Brick::Uniform(bg));
+            *b = owned.collapsed();
+        });
+        self.bricks.retain(|_, b| *b != Brick::Uniform(bg));
+    }
+
+    pub fn brick_count(&self) -> usize {
+        self.bricks.len()
+    }
+
+    pub fn dense_brick_count(&self) -> usize {
+        self.bricks.values().filter(|b| matches!(b, Brick::Dense(_))).count()
+    }
+
+    /// Bytes held by bricks and the map (an estimate of the map's own overhead).
+    pub fn memory_bytes(&self) -> u64 {
+        let per_entry = (std::mem::size_of::<(IVec3, Brick<T>)>() + 1) as u64;
+        let dense = self.dense_brick_count() as u64 * (BRICK_VOXELS * std::mem::size_of::<T>()) as u64;
+        self.bricks.capacity() as u64 * per_entry + dense
+    }
+
+    /// Number of voxels inside `index_box` whose value differs from the background.
+    pub fn count_active_in(&self, index_box: &IndexBox) -> u64 {
+        let bg = self.background;
+        self.sorted_bricks()
+            .par_iter()
+            .map(|&b| {
+                let bbox = brick_index_box(b).intersection(index_box);
+                match &self.bricks[&b] {
+                    Brick::Uniform(v) if *v == bg => 0,
+                    Brick::Uniform(_) => bbox.volume(),
+                    Brick::Dense(d) => bbox
+                        .iter()
+                        .filter(|&ijk| d[Brick::<T>::local_offset(ijk)] != bg)
+                        .count() as u64,
+                }
+            })
+            .sum()
+    }
+}
+
+impl SparseGrid<f32> {
+    /// Minimum and maximum over the voxels of `index_box` (background for absent bricks).
+    pub fn range_in(&self, index_box: &IndexBox) -> (f32, f32) {
+        let mut lo = f32::INFINITY;
+        let mut hi = f32::NEG_INFINITY;
+        if index_box.is_empty() {
+            return (self.background, self.background);
+        }
+        let b0 = brick_of(index_box.min);
+        let b1 = brick_of(index_box.max - IVec3::ONE);
+        for bz in b0.z..=b1.z {
+            for by in b0.y..=b1.y {
+                for bx in b0.x..=b1.x {
+                    let b = IVec3::new(bx, by, bz);
+                    let (l, h) = match self.bricks.get(&b) {
+                        None => (self.background, self.background),
+                        Some(Brick::Uniform(v)) => (*v, *v),
+                        Some(Brick::Dense(d)) => {
+                            let sub = brick_index_box(b).intersection(index_box);
+                            sub.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), ijk| {
+                                let v = d[Brick::<f32>::local_offset(ijk)];
+                                (l.min(v), h.max(v))
+                            })
+                        }
+                    };
+                    lo = lo.min(l);
+                    hi = hi.max(h);
+                }
+            }
+        }
+        (lo, hi)
+    }
+}
+
+/// The voxels of brick `brick` in index space.
+pub fn brick_index_box(brick: IVec3) -> IndexBox {
+    let min = brick * BRICK_DIM;
+    IndexBox::new(min, min + IVec3::splat(BRICK_DIM))
+}
+
+/// The main volume storage: a grid with a sparse density channel and an optional
+/// sparse colour channel (allocated only when something reads it).
+#[derive(Debug, Clone)]
+pub struct SparseVolume {
+    pub grid: Grid,
+    pub density: SparseGrid<f32>,
+    pub colour: Option<SparseGrid<Rgb>>,
+}
+
+impl SparseVolume {
+    pub fn new(grid: Grid, background: f32, with_colour: bool) -> Self {
+        SparseVolume {
+            grid,
+            density: SparseGrid::new(background),
+            colour: with_colour.then(|| SparseGrid::new([0.0; 3])),
+        }
+    }
+
+    /// Brick coordinates covering the grid: `0 ≤ brick < ceil(dims / 8)`.
+    pub fn brick_extent(&self) -> IVec3 {
+        brick_extent(self.grid.dims())
+    }
+
+    /// Voxels inside the grid whose density differs from the background.
+    pub fn active_voxel_count(&self) -> u64 {
+        self.density.count_active_in(&self.grid.index_box())
+    }
+
+    pub fn memory_bytes(&self) -> u64 {
+        self.density.memory_bytes() + self.colour.as_ref().map_or(0, |c| c.memory_bytes())
+    }
+
+    /// Densifies the volume; fails if the grid is too large to address.
+    pub fn to_dense(&self) -> Result<DenseVolume, CoreError> {
+        let mut out = DenseVolume::new(self.grid, self.density.background(), self.colour.is_some())?;
+        let shape = out.density.shape();
+        let dims = shape.dims().as_ivec3();
+        let plane = (dims.x * dims.y) as usize;
+        out.density
+            .as_mut_slice()
+            .par_chunks_mut(plane)
+            .enumerate()
+            .for_each(|(z, slab)| {
+                for y in 0..dims.y {
+                    for x in 0..dims.x {
+                        slab[(x + dims.x * y) as usize] = self.density.get(IVec3::new(x, y, z as i32));
+                    }
+                }
+            });
+        if let (Some(dst), Some(src)) = (out.colour.as_mut(), self.colour.as_ref()) {
+            for (i, c) in dst.as_mut_slice().iter_mut().enumerate() {
+                *c = src.get(shape.delinearize(i));
+            }
+        }
+        Ok(out)
+    }
+
+    /// Stores a dense volume brick by brick, collapsing uniform bricks.
+    pub fn from_dense(dense: &DenseVolume) -> SparseVolume {
+        let mut out = SparseVolume::new(dense.grid, dense.density.background(), dense.colour.is_some());
+        let ext = brick_extent(dense.grid.dims());
+        let coords: Vec<IVec3> = IndexBox::new(IVec3::ZERO, ext).iter().collect();
+        let density: Vec<_> = coords
+            .par_iter()
+            .map(|&b| (b, gather_brick(b, |ijk| dense.density.get(ijk))))
+            .collect();
+        for (b, brick) in density {
+            if brick != Brick::Uniform(out.density.background()) {
+                out.density.insert_brick(b, brick);
+            }
+        }
+        if let (Some(dst), Some(src)) = (out.colour.as_mut(), dense.colour.as_ref()) {
+            for &b in &coords {
+                let brick = gather_brick(b, |ijk| src.get(ijk));
+                if brick != Brick::Uniform(dst.background()) {
+                    dst.insert_brick(b, brick);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Number of bricks along each axis needed to cover `dims` voxels.
+pub fn brick_extent(dims: UVec3) -> IVec3 {
+    ((dims + UVec3::splat(BRICK_DIM as u32 - 1)) / BRICK_DIM as u32).as_ivec3()
+}
+
+/// A collapsed brick holding `f(ijk)` for each voxel of brick `brick`.
+pub fn gather_brick<T: Copy + PartialEq>(brick: IVec3, f: impl Fn(IVec3) -> T) -> Brick<T> {
+    let base = brick * BRICK_DIM;
+    let first = f(base);
+    let mut data = Box::new([first; BRICK_VOXELS]);
+    for (i, ijk) in brick_index_box(brick).iter().enumerate() {
+        data[i] = f(ijk);
+    }
+    debug_assert_eq!(
+        Brick::<T>::local_offset(base + IVec3::new(1, 2, 3)),
+        1 + 8 * (2 + 8 * 3)
+    );
+    Brick::Dense(data).collapsed()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Transform;
+    use glam::DVec3;
+
+    #[test]
+    fn set_get_negative_and_prune() {
+        let mut g = SparseGrid::new(0.0f32);
+        g.set(IVec3::new(-1, -9, 17), 2.0);
+        assert_eq!(g.get(IVec3::new(-1, -9, 17)), 2.0);
+        assert_eq!(g.get(IVec3::new(-2, -9, 17)), 0.0);
+        assert_eq!(brick_of(IVec3::new(-1, -9, 17)), IVec3::new(-1, -2, 2));
+        g.set(IVec3::new(-1, -9, 17), 0.0);
+        assert_eq!(g.brick_count(), 1);
+        g.prune();
+        assert_eq!(g.brick_count(), 0);
+    }
+
+    #[test]
+    fn dense_round_trip() {
+        let grid = Grid::new(Transform::new(DVec3::ZERO, DVec3::ONE).unwrap(), UVec3::new(11, 9, 3)).unwrap();
+        let mut d = DenseVolume::new(grid, 0.0, true).unwrap();
+        for (i, v) in d.density.as_mut_slice().iter_mut().enumerate() {
+            *v = if i % 7 == 0 { i as f32 } else { 0.0 };
+        }
+        for (i, c) in d.colour.as_mut().unwrap().as_mut_slice().iter_mut().enumerate() {
+            *c = [i as f32, 0.5, 0.0];
+        }
+        let s = SparseVolume::from_dense(&d);
+        assert_eq!(s.to_dense().unwrap(), d);
+        assert_eq!(
+            s.active_voxel_count(),
+            d.density.as_slice().iter().filter(|v| **v != 0.0).count() as u64
+        );
+        let ib = IndexBox::new(IVec3::new(0, 0, 0), IVec3::new(8, 1, 1));
+        assert_eq!(s.density.range_in(&ib), (0.0, 7.0));
+    }
+}

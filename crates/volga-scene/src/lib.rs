@@ -1,0 +1,32 @@
+//! # volga-scene — scene files, planning and `volga build`
+//!
+//! A scene file (RON or JSON, chosen by extension) names a grid, solids, a transfer
+//! function, lights, cameras and outputs. This crate
+//!
+//! 1. parses it into the raw serde types of [`model`] (unknown fields and wrong types
+//!    are errors naming file, line and column),
+//! 2. validates it into kernel types ([`Scene`]; out-of-range values are errors naming
+//!    the field path, e.g. `objects[1].shape.radius`),
+//! 3. plans it ([`plan::plan`]): which channels and effects the outputs call for, and an
+//!    upper bound on the memory the build needs, refused before anything is allocated
+//!    when it exceeds the available memory,
+//! 4. builds it ([`build`]): voxelize, render, write PNG / NRRD outputs atomically and a
+//!    `report.json` with every stage's wall time and peak memory.
+//!
+//! World coordinates in scenes are `f64`; the serde types stay in this crate, and the
+//! kernel crates only ever see validated values.
+
+mod build;
+mod error;
+mod load;
+pub mod model;
+pub mod plan;
+mod stages;
+mod validate;
+
+pub use build::{build, load_scene, BuildOptions, GridReport, ImageReport, Report, VoxelReport};
+pub use error::{BuildError, SceneError};
+pub use load::{parse_file, parse_json, parse_ron};
+pub use plan::{Decision, MemoryEstimate, Plan};
+pub use stages::{peak_rss_bytes, StageReport};
+pub use validate::{content_bounds, validate, ImageJob, Scene};

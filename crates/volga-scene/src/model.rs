@@ -1,0 +1,207 @@
+//! The scene file as users write it (RON or JSON). These serde types are the raw
+//! input: [`crate::validate`] turns them into checked kernel types, so the kernel never
+//! sees unvalidated user input. Every struct denies unknown fields.
+
+use serde::{Deserialize, Serialize};
+
+pub type V3 = [f64; 3];
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// RON files may name the top-level struct `Scene(...)`.
+#[serde(deny_unknown_fields, rename = "Scene")]
+pub struct SceneFile {
+    pub grid: GridSpec,
+    pub objects: Vec<ObjectSpec>,
+    #[serde(default)]
+    pub transfer_function: Option<Vec<TransferPoint>>,
+    #[serde(default)]
+    pub lights: Vec<LightSpec>,
+    #[serde(default)]
+    pub material: Option<MaterialSpec>,
+    pub cameras: Vec<CameraSpec>,
+    pub outputs: OutputsSpec,
+}
+
+/// The voxel grid: a world box tiled by voxel cells, sized either by `resolution`
+/// (voxels along the box's longest side, cubic voxels) or by `voxel_size`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSpec {
+    pub bounds: BoundsSpec,
+    #[serde(default)]
+    pub resolution: Option<u64>,
+    #[serde(default)]
+    pub voxel_size: Option<VoxelSize>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundsSpec {
+    pub min: V3,
+    pub max: V3,
+}
+
+/// One edge length for cubic voxels, or three for anisotropic ones.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum VoxelSize {
+    Cubic(f64),
+    PerAxis(V3),
+}
+
+/// A solid of the scene. All objects are merged with the fuzzy union (max).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectSpec {
+    #[serde(default)]
+    pub name: Option<String>,
+    pub shape: ShapeSpec,
+    /// Linear RGB in \[0, 1\]; white when absent.
+    #[serde(default)]
+    pub colour: Option<V3>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ShapeSpec {
+    Sphere {
+        center: V3,
+        radius: f64,
+    },
+    Box {
+        min: V3,
+        max: V3,
+    },
+    /// Rotation as intrinsic X-then-Y-then-Z Euler angles in degrees.
+    OrientedBox {
+        center: V3,
+        half_extents: V3,
+        rotation_deg: V3,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransferPoint {
+    pub value: f64,
+    pub rgba: [f64; 4],
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSpec {
+    /// Direction towards the light (world space).
+    pub direction: V3,
+    #[serde(default = "white")]
+    pub colour: V3,
+}
+
+fn white() -> V3 {
+    [1.0; 3]
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    pub ambient: f64,
+    pub diffuse: f64,
+    pub specular: f64,
+    pub shininess: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    pub name: String,
+    pub eye: V3,
+    pub target: V3,
+    #[serde(default = "y_up")]
+    pub up: V3,
+    pub projection: ProjectionSpec,
+}
+
+fn y_up() -> V3 {
+    [0.0, 1.0, 0.0]
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ProjectionSpec {
+    Perspective { fov_deg: f64 },
+    Orthographic { height: f64 },
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputsSpec {
+    #[serde(default)]
+    pub images: Vec<ImageSpec>,
+    #[serde(default)]
+    pub volumes: Vec<VolumeOutputSpec>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImageSpec {
+    /// File stem: the image is written to `{out}/{name}.png`.
+    pub name: String,
+    pub camera: String,
+    pub mode: ModeSpec,
+    pub width: u32,
+    pub height: u32,
+    /// Ray step in voxels (default 0.5).
+    #[serde(default)]
+    pub step_voxels: Option<f64>,
+    #[serde(default)]
+    pub filter: Option<FilterSpec>,
+    /// Phong shading from the scene's lights (default true; needs lights).
+    #[serde(default)]
+    pub shading: Option<bool>,
+    #[serde(default)]
+    pub early_ray_termination: Option<bool>,
+    #[serde(default)]
+    pub empty_space_skipping: Option<bool>,
+    #[serde(default)]
+    pub background: Option<[f64; 4]>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum FilterSpec {
+    Nearest,
+    Trilinear,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ModeSpec {
+    /// Shaded iso-surface at `value`; colour from the objects (`FromVolume`) or fixed.
+    Iso {
+        value: f64,
+        #[serde(default)]
+        colour: Option<ColourSpec>,
+    },
+    /// Full volume rendering with the scene's transfer function; RGB from the objects'
+    /// colours when `colour_from_volume` is true.
+    Volume {
+        #[serde(default)]
+        colour_from_volume: bool,
+    },
+    Mip,
+    XRay,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum ColourSpec {
+    FromVolume,
+    Constant(V3),
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeOutputSpec {
+    /// File stem: `{out}/{name}.nrrd` + `{out}/{name}.raw`.
+    pub name: String,
+    /// Also write the colour channel (`{name}_colour.nrrd`).
+    #[serde(default)]
+    pub colour: bool,
+}

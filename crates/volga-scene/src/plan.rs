@@ -1,0 +1,159 @@
+//! Planning: decide before running what the scene calls for (channels, effects) and
+//! what it will cost in memory, and refuse what does not fit (MISSION: simulate only
+//! the effects a scene calls for; check memory before allocating).
+
+use serde::Serialize;
+use volga_core::memory::{self, Bytes};
+use volga_core::BRICK_VOXELS;
+use volga_render::Mode;
+use volga_voxelize::estimate_solid_bricks;
+
+use crate::{Scene, SceneError};
+
+/// One decision of the plan with the reason for it, as shown in `report.json`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Decision {
+    pub name: String,
+    pub enabled: bool,
+    pub why: String,
+}
+
+impl Decision {
+    fn new(name: impl Into<String>, enabled: bool, why: impl Into<String>) -> Self {
+        Decision {
+            name: name.into(),
+            enabled,
+            why: why.into(),
+        }
+    }
+}
+
+/// Upper bounds on the memory a build holds at once.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct MemoryEstimate {
+    /// Bricks the voxelizer may allocate (bricks within the filter band of any solid).
+    pub bricks_upper_bound: u64,
+    pub volume_bytes: u64,
+    /// The largest image's buffers (float pixels, 8-bit copy, PNG).
+    pub image_bytes: u64,
+    /// One z-slab of every written volume (raw output is streamed slab by slab).
+    pub output_slab_bytes: u64,
+    pub total_bytes: u64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Plan {
+    pub channels: Vec<Decision>,
+    pub effects: Vec<Decision>,
+    pub memory: MemoryEstimate,
+    pub memory_limit_bytes: u64,
+    /// Whether the colour channel is allocated.
+    #[serde(skip)]
+    pub colour_channel: bool,
+}
+
+/// Bytes a hash-map entry costs beyond its payload (key, enum tag, box pointer, control).
+const BRICK_OVERHEAD_BYTES: u64 = 48;
+
+pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError> {
+    let colour_readers: Vec<&str> = scene
+        .images
+        .iter()
+        .filter(|i| i.reads_colour)
+        .map(|i| i.name.as_str())
+        .chain(scene.volumes.iter().filter(|v| v.colour).map(|v| v.name.as_str()))
+        .collect();
+    let colour_channel = !colour_readers.is_empty();
+    let channels = vec![
+        Decision::new("density", true, "every image and volume output reads density"),
+        if colour_channel {
+            Decision::new("colour", true, format!("read by {}", colour_readers.join(", ")))
+        } else {
+            Decision::new("colour", false, "no image or volume output reads colour")
+        },
+    ];
+
+    let mut effects = Vec::new();
+    for im in &scene.images {
+        let n = &im.name;
+        let (gradients, why) = match (&im.mode, im.settings.lights.len()) {
+            (Mode::Mip | Mode::XRay, _) => (false, format!("`{n}` is a projection image: no shading")),
+            (_, 0) => (false, format!("`{n}` is unlit (no lights, or shading: false)")),
+            (_, k) => (true, format!("`{n}` is shaded by {k} light(s) (Phong, eq. 9)")),
+        };
+        effects.push(Decision::new(format!("{n}: gradients"), gradients, why));
+        let ert = im.settings.early_termination_alpha <= 1.0;
+        let ert_why = match (&im.mode, ert) {
+            (Mode::Volume { .. }, true) => {
+                format!("stop rays once opacity reaches {}", im.settings.early_termination_alpha)
+            }
+            (Mode::Volume { .. }, false) => "disabled in the scene".to_string(),
+            (Mode::Iso { .. }, _) => "iso rays stop at the first hit".to_string(),
+            _ => "projections read the whole ray".to_string(),
+        };
+        effects.push(Decision::new(
+            format!("{n}: early ray termination"),
+            ert && matches!(im.mode, Mode::Volume { .. }),
+            ert_why,
+        ));
+        let ess = im.settings.empty_space_skipping && !matches!(im.mode, Mode::XRay);
+        effects.push(Decision::new(
+            format!("{n}: empty-space skipping"),
+            ess,
+            if ess {
+                "skip macro-cells whose value range is invisible".to_string()
+            } else {
+                "disabled in the scene, or an X-ray sums every sample".to_string()
+            },
+        ));
+    }
+
+    let memory = estimate(scene, colour_channel);
+    let limit = memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX);
+    if memory.total_bytes > limit {
+        let d = scene.grid.dims();
+        return Err(SceneError::TooLarge {
+            path: scene.source.clone(),
+            needed: Bytes(memory.total_bytes as u128),
+            limit: Bytes(limit as u128),
+            detail: format!(
+                "grid {}×{}×{} = {} voxels, up to {} bricks of 8³ voxels",
+                d.x,
+                d.y,
+                d.z,
+                scene.grid.voxel_count(),
+                memory.bricks_upper_bound
+            ),
+        });
+    }
+    Ok(Plan {
+        channels,
+        effects,
+        memory,
+        memory_limit_bytes: limit,
+        colour_channel,
+    })
+}
+
+fn estimate(scene: &Scene, colour: bool) -> MemoryEstimate {
+    let bricks = estimate_solid_bricks(&scene.grid, &scene.solids);
+    let per_brick = BRICK_VOXELS as u64 * (4 + if colour { 12 } else { 0 }) + BRICK_OVERHEAD_BYTES + 12; // the voxelizer's list of candidate brick coordinates
+    let volume_bytes = bricks.saturating_mul(per_brick);
+    let image_bytes = scene
+        .images
+        .iter()
+        .map(|i| i.settings.width as u64 * i.settings.height as u64 * (16 + 4 + 4))
+        .max()
+        .unwrap_or(0);
+    let d = scene.grid.dims().as_u64vec3();
+    let output_slab_bytes = if scene.volumes.is_empty() { 0 } else { d.x * d.y * 4 * 3 };
+    MemoryEstimate {
+        bricks_upper_bound: bricks,
+        volume_bytes,
+        image_bytes,
+        output_slab_bytes,
+        total_bytes: volume_bytes
+            .saturating_add(image_bytes)
+            .saturating_add(output_slab_bytes),
+    }
+}

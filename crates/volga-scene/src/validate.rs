@@ -1,0 +1,419 @@
+//! Raw scene → validated kernel types. Each check names the field path
+//! (`objects[1].shape.radius`) of the value it refuses.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+use glam::{DQuat, DVec3, EulerRot, UVec3, Vec3, Vec4};
+use volga_core::{Aabb, Filter, Grid, Transform};
+use volga_render::{Camera, Light, Material, Mode, Projection, RenderSettings, SurfaceColour, TransferFunction};
+use volga_voxelize::shapes::{AxisBox, OrientedBox, Sphere};
+use volga_voxelize::{Shape, Solid};
+
+use crate::model::*;
+use crate::SceneError;
+
+/// A scene whose every value has been checked: what the planner and builder run.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    pub source: PathBuf,
+    pub grid: Grid,
+    pub solids: Vec<Solid>,
+    pub object_names: Vec<String>,
+    pub images: Vec<ImageJob>,
+    pub volumes: Vec<VolumeOutputSpec>,
+}
+
+/// One image output: a camera, a mode and the render settings for it.
+#[derive(Debug, Clone)]
+pub struct ImageJob {
+    pub name: String,
+    pub camera_name: String,
+    pub camera: Camera,
+    pub mode: Mode,
+    pub settings: RenderSettings,
+    pub filter: Filter,
+    /// The image reads the volume's colour channel.
+    pub reads_colour: bool,
+}
+
+struct Ctx<'a> {
+    path: &'a Path,
+}
+
+impl Ctx<'_> {
+    fn err(&self, field: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError::Invalid {
+            path: self.path.to_owned(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    fn finite3(&self, field: &str, v: V3) -> Result<DVec3, SceneError> {
+        let d = DVec3::from_array(v);
+        if d.is_finite() {
+            Ok(d)
+        } else {
+            Err(self.err(field, format!("must be finite, got {v:?}")))
+        }
+    }
+
+    fn positive(&self, field: &str, v: f64) -> Result<f64, SceneError> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err(field, format!("must be finite and > 0, got {v}")))
+        }
+    }
+
+    fn unit_interval(&self, field: &str, v: &[f64]) -> Result<(), SceneError> {
+        if v.iter().all(|x| (0.0..=1.0).contains(x)) {
+            Ok(())
+        } else {
+            Err(self.err(field, format!("components must lie in [0, 1], got {v:?}")))
+        }
+    }
+
+    fn file_stem(&self, field: &str, name: &str) -> Result<(), SceneError> {
+        let ok = !name.is_empty()
+            && name.len() <= 100
+            && !name.starts_with('.')
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+        if ok {
+            Ok(())
+        } else {
+            Err(self.err(
+                field,
+                format!("`{name}` is not a valid file name (letters, digits, `_`, `-`, `.`; not starting with `.`)"),
+            ))
+        }
+    }
+}
+
+/// Largest voxel count per axis a scene may ask for (the grid type's own limit).
+const MAX_DIM: f64 = (i32::MAX / 2) as f64;
+
+pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
+    let cx = Ctx { path };
+    let grid = validate_grid(&cx, &file.grid)?;
+
+    if file.objects.is_empty() {
+        return Err(cx.err("objects", "the scene has no objects"));
+    }
+    let mut solids = Vec::new();
+    let mut object_names = Vec::new();
+    for (i, o) in file.objects.iter().enumerate() {
+        let f = format!("objects[{i}]");
+        let shape = validate_shape(&cx, &format!("{f}.shape"), &o.shape)?;
+        let colour = match o.colour {
+            Some(c) => {
+                cx.unit_interval(&format!("{f}.colour"), &c)?;
+                c.map(|x| x as f32)
+            }
+            None => [1.0; 3],
+        };
+        solids.push(Solid::new(shape, colour));
+        object_names.push(o.name.clone().unwrap_or_else(|| format!("object{i}")));
+    }
+
+    let transfer = validate_transfer(&cx, file.transfer_function.as_deref())?;
+    let mut lights = Vec::new();
+    for (i, l) in file.lights.iter().enumerate() {
+        let f = format!("lights[{i}]");
+        let dir = cx.finite3(&format!("{f}.direction"), l.direction)?;
+        if dir.length_squared() == 0.0 {
+            return Err(cx.err(format!("{f}.direction"), "must not be the zero vector"));
+        }
+        cx.unit_interval(&format!("{f}.colour"), &l.colour)?;
+        lights.push(Light {
+            direction: dir,
+            colour: DVec3::from_array(l.colour).as_vec3(),
+        });
+    }
+    let material = match &file.material {
+        None => Material::default(),
+        Some(m) => {
+            for (name, v) in [("ambient", m.ambient), ("diffuse", m.diffuse), ("specular", m.specular)] {
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(cx.err(format!("material.{name}"), format!("must lie in [0, 1], got {v}")));
+                }
+            }
+            if !(m.shininess.is_finite() && m.shininess >= 1.0) {
+                return Err(cx.err(
+                    "material.shininess",
+                    format!("must be finite and ≥ 1, got {}", m.shininess),
+                ));
+            }
+            Material {
+                ambient: m.ambient as f32,
+                diffuse: m.diffuse as f32,
+                specular: m.specular as f32,
+                shininess: m.shininess as f32,
+            }
+        }
+    };
+
+    let mut cameras = Vec::new();
+    for (i, c) in file.cameras.iter().enumerate() {
+        let f = format!("cameras[{i}]");
+        let eye = cx.finite3(&format!("{f}.eye"), c.eye)?;
+        let target = cx.finite3(&format!("{f}.target"), c.target)?;
+        let up = cx.finite3(&format!("{f}.up"), c.up)?;
+        let projection = match c.projection {
+            ProjectionSpec::Perspective { fov_deg } => {
+                if !(fov_deg.is_finite() && fov_deg > 0.0 && fov_deg < 180.0) {
+                    return Err(cx.err(
+                        format!("{f}.projection.fov_deg"),
+                        format!("must lie in (0, 180), got {fov_deg}"),
+                    ));
+                }
+                Projection::Perspective { fov_y_deg: fov_deg }
+            }
+            ProjectionSpec::Orthographic { height } => Projection::Orthographic {
+                height_world: cx.positive(&format!("{f}.projection.height"), height)?,
+            },
+        };
+        let camera = Camera::look_at(eye, target, up, projection).map_err(|e| cx.err(f.clone(), e.to_string()))?;
+        if cameras.iter().any(|(n, _): &(String, Camera)| *n == c.name) {
+            return Err(cx.err(format!("{f}.name"), format!("camera `{}` is defined twice", c.name)));
+        }
+        cameras.push((c.name.clone(), camera));
+    }
+
+    let mut stems = HashSet::new();
+    stems.insert("report".to_string());
+    let mut images = Vec::new();
+    for (i, im) in file.outputs.images.iter().enumerate() {
+        let f = format!("outputs.images[{i}]");
+        images.push(validate_image(&cx, &f, im, &cameras, &transfer, &lights, material)?);
+        if !stems.insert(im.name.clone()) {
+            return Err(cx.err(
+                format!("{f}.name"),
+                format!("output name `{}` is used twice (or is reserved)", im.name),
+            ));
+        }
+    }
+    for (i, v) in file.outputs.volumes.iter().enumerate() {
+        let f = format!("outputs.volumes[{i}].name");
+        cx.file_stem(&f, &v.name)?;
+        let colour_stem = format!("{}_colour", v.name);
+        if !stems.insert(v.name.clone()) || (v.colour && !stems.insert(colour_stem)) {
+            return Err(cx.err(f, format!("output name `{}` is used twice (or is reserved)", v.name)));
+        }
+    }
+    if images.is_empty() && file.outputs.volumes.is_empty() {
+        return Err(cx.err("outputs", "the scene asks for no output (no images, no volumes)"));
+    }
+
+    Ok(Scene {
+        source: path.to_owned(),
+        grid,
+        solids,
+        object_names,
+        images,
+        volumes: file.outputs.volumes.clone(),
+    })
+}
+
+fn validate_grid(cx: &Ctx, g: &GridSpec) -> Result<Grid, SceneError> {
+    let min = cx.finite3("grid.bounds.min", g.bounds.min)?;
+    let max = cx.finite3("grid.bounds.max", g.bounds.max)?;
+    if min.cmpge(max).any() {
+        return Err(cx.err("grid.bounds", "min must be < max on every axis"));
+    }
+    let size = max - min;
+    let voxel = match (g.resolution, &g.voxel_size) {
+        (Some(_), Some(_)) => return Err(cx.err("grid", "give either `resolution` or `voxel_size`, not both")),
+        (None, None) => {
+            return Err(cx.err(
+                "grid",
+                "give `resolution` (voxels along the longest side) or `voxel_size`",
+            ))
+        }
+        (Some(0), None) => return Err(cx.err("grid.resolution", "must be ≥ 1, got 0")),
+        (Some(n), None) => DVec3::splat(size.max_element() / n as f64),
+        (None, Some(VoxelSize::Cubic(h))) => DVec3::splat(cx.positive("grid.voxel_size", *h)?),
+        (None, Some(VoxelSize::PerAxis(h))) => {
+            for (a, v) in h.iter().enumerate() {
+                cx.positive(&format!("grid.voxel_size[{a}]"), *v)?;
+            }
+            DVec3::from_array(*h)
+        }
+    };
+    // Cells tile the bounds; a side that is not a whole number of voxels is rounded up
+    // (the tolerance absorbs the rounding of size / voxel).
+    let dims_f = (size / voxel - 1e-9).ceil().max(DVec3::ONE);
+    if dims_f.max_element() > MAX_DIM {
+        let field = if g.resolution.is_some() {
+            "grid.resolution"
+        } else {
+            "grid.voxel_size"
+        };
+        return Err(cx.err(
+            field,
+            format!("asks for {dims_f:?} voxels per axis; at most {MAX_DIM} are supported"),
+        ));
+    }
+    let dims = UVec3::new(dims_f.x as u32, dims_f.y as u32, dims_f.z as u32);
+    let transform = Transform::new(min + voxel * 0.5, voxel).map_err(|e| cx.err("grid", e.to_string()))?;
+    Grid::new(transform, dims).map_err(|e| cx.err("grid", e.to_string()))
+}
+
+fn validate_shape(cx: &Ctx, f: &str, s: &ShapeSpec) -> Result<Shape, SceneError> {
+    Ok(match s {
+        ShapeSpec::Sphere { center, radius } => {
+            let c = cx.finite3(&format!("{f}.center"), *center)?;
+            let r = cx.positive(&format!("{f}.radius"), *radius)?;
+            Shape::Sphere(Sphere::new(c, r).map_err(|e| cx.err(f, e.to_string()))?)
+        }
+        ShapeSpec::Box { min, max } => {
+            let lo = cx.finite3(&format!("{f}.min"), *min)?;
+            let hi = cx.finite3(&format!("{f}.max"), *max)?;
+            Shape::AxisBox(AxisBox::new(lo, hi).map_err(|e| cx.err(f, e.to_string()))?)
+        }
+        ShapeSpec::OrientedBox {
+            center,
+            half_extents,
+            rotation_deg,
+        } => {
+            let c = cx.finite3(&format!("{f}.center"), *center)?;
+            let h = cx.finite3(&format!("{f}.half_extents"), *half_extents)?;
+            for a in 0..3 {
+                cx.positive(&format!("{f}.half_extents[{a}]"), h[a])?;
+            }
+            let r = cx.finite3(&format!("{f}.rotation_deg"), *rotation_deg)?;
+            let q = DQuat::from_euler(EulerRot::XYZ, r.x.to_radians(), r.y.to_radians(), r.z.to_radians());
+            Shape::OrientedBox(OrientedBox::new(c, h, q).map_err(|e| cx.err(f, e.to_string()))?)
+        }
+    })
+}
+
+/// The default transfer function: transparent below density 0.3, ramping to a
+/// translucent white at the surface (0.5) and more opaque inside.
+fn default_transfer() -> Vec<(f64, Vec4)> {
+    vec![
+        (0.0, Vec4::ZERO),
+        (0.3, Vec4::new(1.0, 1.0, 1.0, 0.0)),
+        (0.5, Vec4::new(1.0, 1.0, 1.0, 0.15)),
+        (1.0, Vec4::new(1.0, 1.0, 1.0, 0.3)),
+    ]
+}
+
+fn validate_transfer(cx: &Ctx, points: Option<&[TransferPoint]>) -> Result<TransferFunction, SceneError> {
+    let pts = match points {
+        None => default_transfer(),
+        Some(p) => {
+            let mut out = Vec::new();
+            for (i, tp) in p.iter().enumerate() {
+                let f = format!("transfer_function[{i}]");
+                if !tp.value.is_finite() {
+                    return Err(cx.err(format!("{f}.value"), format!("must be finite, got {}", tp.value)));
+                }
+                cx.unit_interval(&format!("{f}.rgba"), &tp.rgba)?;
+                out.push((tp.value, Vec4::from_array(tp.rgba.map(|x| x as f32))));
+            }
+            out
+        }
+    };
+    TransferFunction::new(pts).map_err(|e| cx.err("transfer_function", e.to_string()))
+}
+
+fn validate_image(
+    cx: &Ctx,
+    f: &str,
+    im: &ImageSpec,
+    cameras: &[(String, Camera)],
+    transfer: &TransferFunction,
+    lights: &[Light],
+    material: Material,
+) -> Result<ImageJob, SceneError> {
+    cx.file_stem(&format!("{f}.name"), &im.name)?;
+    let camera = cameras
+        .iter()
+        .find(|(n, _)| *n == im.camera)
+        .map(|(_, c)| *c)
+        .ok_or_else(|| cx.err(format!("{f}.camera"), format!("no camera named `{}`", im.camera)))?;
+    for (name, v) in [("width", im.width), ("height", im.height)] {
+        if !(1..=16384).contains(&v) {
+            return Err(cx.err(format!("{f}.{name}"), format!("must lie in 1..=16384, got {v}")));
+        }
+    }
+    let (mode, reads_colour) = match &im.mode {
+        ModeSpec::Iso { value, colour } => {
+            if !value.is_finite() {
+                return Err(cx.err(format!("{f}.mode.value"), format!("must be finite, got {value}")));
+            }
+            let (colour, reads) = match colour {
+                None | Some(ColourSpec::FromVolume) => (SurfaceColour::FromField, true),
+                Some(ColourSpec::Constant(c)) => {
+                    cx.unit_interval(&format!("{f}.mode.colour"), c)?;
+                    (SurfaceColour::Constant(DVec3::from_array(*c).as_vec3()), false)
+                }
+            };
+            (Mode::Iso { value: *value, colour }, reads)
+        }
+        ModeSpec::Volume { colour_from_volume } => (
+            Mode::Volume {
+                transfer: transfer.clone(),
+                colour_from_field: *colour_from_volume,
+            },
+            *colour_from_volume,
+        ),
+        ModeSpec::Mip => (Mode::Mip, false),
+        ModeSpec::XRay => (Mode::XRay, false),
+    };
+    let defaults = RenderSettings::default();
+    let step = match im.step_voxels {
+        Some(s) => cx.positive(&format!("{f}.step_voxels"), s)?,
+        None => defaults.step_voxels,
+    };
+    if step > 16.0 {
+        return Err(cx.err(format!("{f}.step_voxels"), format!("must be ≤ 16 voxels, got {step}")));
+    }
+    let lit = im.shading.unwrap_or(true) && matches!(mode, Mode::Iso { .. } | Mode::Volume { .. });
+    let background = match im.background {
+        Some(b) => {
+            cx.unit_interval(&format!("{f}.background"), &b)?;
+            Vec4::from_array(b.map(|x| x as f32))
+        }
+        None => defaults.background,
+    };
+    let settings = RenderSettings {
+        width: im.width,
+        height: im.height,
+        step_voxels: step,
+        early_termination_alpha: if im.early_ray_termination.unwrap_or(true) {
+            defaults.early_termination_alpha
+        } else {
+            f32::INFINITY
+        },
+        empty_space_skipping: im.empty_space_skipping.unwrap_or(true),
+        background,
+        lights: if lit { lights.to_vec() } else { Vec::new() },
+        ambient_colour: Vec3::ONE,
+        material,
+        ..defaults
+    };
+    let filter = match im.filter.unwrap_or(FilterSpec::Trilinear) {
+        FilterSpec::Nearest => Filter::Nearest,
+        FilterSpec::Trilinear => Filter::Trilinear,
+    };
+    Ok(ImageJob {
+        name: im.name.clone(),
+        camera_name: im.camera.clone(),
+        camera,
+        mode,
+        settings,
+        filter,
+        reads_colour,
+    })
+}
+
+/// World bounds of all solids (for tools that frame a camera).
+pub fn content_bounds(scene: &Scene) -> Aabb {
+    use volga_voxelize::SignedDistance;
+    scene.solids.iter().fold(Aabb::EMPTY, |b, s| b.union(&s.shape.bounds()))
+}

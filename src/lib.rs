@@ -1,0 +1,37 @@
+//! # volga — a volume graphics modeling kernel
+//!
+//! volga turns geometry into voxels, combines and decorates voxel objects, and renders
+//! them with its own raycaster. This facade re-exports the public API of its crates:
+//!
+//! * [`core`] (`volga-core`): grid transform, dense and sparse bricked volumes, the
+//!   [`Field`] sampling trait, reconstruction filters;
+//! * [`voxelize`] (`volga-voxelize`): volume-sampled solids with the oriented box filter;
+//! * [`render`] (`volga-render`): cameras, transfer functions, iso-surface and volume
+//!   rendering over any [`Field`];
+//! * [`io`] (`volga-io`): PNG and NRRD files, atomic writes;
+//! * [`scene`] (`volga-scene`): scene files, planning and the `volga build` pipeline.
+//!
+//! World coordinates are `f64`, voxel payloads `f32` (see [`core`] for why).
+//!
+//! ```
+//! use volga::{Grid, Transform, Field, Filter, Sampled, NoProgress};
+//! use volga::voxelize::{voxelize_solids, Solid, Shape, shapes::Sphere};
+//! use glam::{DVec3, UVec3};
+//!
+//! let grid = Grid::new(Transform::new(DVec3::ZERO, DVec3::ONE).unwrap(), UVec3::splat(32)).unwrap();
+//! let ball = Solid::new(Shape::Sphere(Sphere::new(DVec3::splat(16.0), 10.0).unwrap()), [1.0, 0.5, 0.2]);
+//! let volume = voxelize_solids(&grid, &[ball], false, &NoProgress);
+//! let field = Sampled::new(&volume, Filter::Trilinear);
+//! // Density is 0.5 on the sphere's surface (oriented box filter, survey §17.4).
+//! assert!((field.value(DVec3::new(26.0, 16.0, 16.0)) - 0.5).abs() < 1e-6);
+//! ```
+
+pub use volga_core as core;
+pub use volga_io as io;
+pub use volga_render as render;
+pub use volga_scene as scene;
+pub use volga_voxelize as voxelize;
+
+pub use volga_core::{
+    Aabb, DenseVolume, Field, Filter, Grid, IndexBox, NoProgress, Progress, Sampled, SparseVolume, Transform,
+};
