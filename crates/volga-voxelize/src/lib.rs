@@ -23,12 +23,14 @@
 //! assert_eq!(volume.density.get(glam::IVec3::splat(16)), 1.0);
 //! ```
 
+pub mod binary;
 mod field;
 mod filter;
 pub mod measure;
 pub mod shapes;
 mod solids;
 
+pub use binary::{triangle_covers_voxel, voxelize_triangles, Separability};
 pub use field::AnalyticField;
 pub use filter::OrientedBoxFilter;
 pub use shapes::{Shape, SignedDistance};
