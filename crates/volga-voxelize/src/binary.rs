@@ -261,7 +261,7 @@ fn canonical(n: DVec3) -> DVec3 {
     }
 }
 
-fn clamp_i(v: DVec3) -> IVec3 {
+pub(crate) fn clamp_i(v: DVec3) -> IVec3 {
     let lim = (i32::MAX / 4) as f64;
     let c = v.clamp(DVec3::splat(-lim), DVec3::splat(lim));
     IVec3::new(c.x as i32, c.y as i32, c.z as i32)

@@ -26,6 +26,7 @@
 pub mod binary;
 mod field;
 mod filter;
+pub mod lines;
 pub mod measure;
 pub mod shapes;
 mod solids;
@@ -33,5 +34,6 @@ mod solids;
 pub use binary::{triangle_covers_voxel, voxelize_triangles, Separability};
 pub use field::AnalyticField;
 pub use filter::OrientedBoxFilter;
+pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity};
 pub use shapes::{Shape, SignedDistance};
 pub use solids::{estimate_solid_bricks, voxelize_solids, Solid};
