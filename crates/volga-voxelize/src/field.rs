@@ -56,6 +56,9 @@ impl Field for AnalyticField {
         let r = world_box.size().length() * 0.5;
         let mut range = (0.0f64, 0.0f64);
         for s in &self.solids {
+            if !s.shape.is_exact() {
+                return (0.0, 1.0);
+            }
             let d = s.shape.signed_distance(c);
             range.0 = range.0.max(self.filter.density(d + r));
             range.1 = range.1.max(self.filter.density(d - r));

@@ -30,6 +30,7 @@ pub mod lines;
 pub mod measure;
 pub mod shapes;
 mod solids;
+pub mod surfaces;
 
 pub use binary::{triangle_covers_voxel, voxelize_triangles, Separability};
 pub use field::AnalyticField;
@@ -37,3 +38,4 @@ pub use filter::OrientedBoxFilter;
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity};
 pub use shapes::{Shape, SignedDistance};
 pub use solids::{estimate_solid_bricks, voxelize_solids, Solid};
+pub use surfaces::{voxelize_shapes, SurfaceMode};

@@ -10,8 +10,21 @@ use volga_core::Aabb;
 /// the brick classifier relies on.
 pub trait SignedDistance {
     fn signed_distance(&self, world_pos: DVec3) -> f64;
-    /// Tight world bounds of the solid.
+    /// Tight world bounds of the solid (may be infinite for unbounded quadrics).
     fn bounds(&self) -> Aabb;
+    /// Whether `signed_distance` is the exact Euclidean distance (hence 1-Lipschitz).
+    /// Approximate distances (first order, `F/‖∇F‖`) return false, and voxelizers do not
+    /// use Lipschitz bounds on them.
+    fn is_exact(&self) -> bool {
+        true
+    }
+    /// Direction of increasing distance (need not be unit length); central differences
+    /// unless a shape knows better.
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        let h = 1e-6 * (1.0 + p.abs().max_element());
+        let d = |e: DVec3| self.signed_distance(p + e * h) - self.signed_distance(p - e * h);
+        DVec3::new(d(DVec3::X), d(DVec3::Y), d(DVec3::Z)) / (2.0 * h)
+    }
 }
 
 /// Why a shape's parameters were refused.
@@ -62,6 +75,14 @@ impl SignedDistance for Sphere {
     #[inline]
     fn signed_distance(&self, p: DVec3) -> f64 {
         (p - self.center).length() - self.radius
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        let v = p - self.center;
+        if v == DVec3::ZERO {
+            DVec3::Z
+        } else {
+            v
+        }
     }
     fn bounds(&self) -> Aabb {
         Aabb::new(self.center - self.radius, self.center + self.radius)
@@ -154,6 +175,10 @@ pub enum Shape {
     Sphere(Sphere),
     AxisBox(AxisBox),
     OrientedBox(OrientedBox),
+    Ellipsoid(Ellipsoid),
+    Cylinder(Cylinder),
+    Cone(Cone),
+    Quadric(Quadric),
 }
 
 impl SignedDistance for Shape {
@@ -163,6 +188,10 @@ impl SignedDistance for Shape {
             Shape::Sphere(s) => s.signed_distance(p),
             Shape::AxisBox(s) => s.signed_distance(p),
             Shape::OrientedBox(s) => s.signed_distance(p),
+            Shape::Ellipsoid(s) => s.signed_distance(p),
+            Shape::Cylinder(s) => s.signed_distance(p),
+            Shape::Cone(s) => s.signed_distance(p),
+            Shape::Quadric(s) => s.signed_distance(p),
         }
     }
     fn bounds(&self) -> Aabb {
@@ -170,7 +199,392 @@ impl SignedDistance for Shape {
             Shape::Sphere(s) => s.bounds(),
             Shape::AxisBox(s) => s.bounds(),
             Shape::OrientedBox(s) => s.bounds(),
+            Shape::Ellipsoid(s) => s.bounds(),
+            Shape::Cylinder(s) => s.bounds(),
+            Shape::Cone(s) => s.bounds(),
+            Shape::Quadric(s) => s.bounds(),
         }
+    }
+    fn is_exact(&self) -> bool {
+        !matches!(self, Shape::Quadric(_))
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        match self {
+            Shape::Sphere(s) => s.gradient(p),
+            Shape::AxisBox(s) => s.gradient(p),
+            Shape::OrientedBox(s) => s.gradient(p),
+            Shape::Ellipsoid(s) => s.gradient(p),
+            Shape::Cylinder(s) => s.gradient(p),
+            Shape::Cone(s) => s.gradient(p),
+            Shape::Quadric(s) => s.gradient(p),
+        }
+    }
+}
+
+/// An ellipsoid with semi-axes `radii` along its own axes, rotated by `rotation` about
+/// its centre. Exact distance by Eberly's robust bisection ("Distance from a Point to
+/// an Ellipse, an Ellipsoid, or a Hyperellipsoid", 2013), accurate to f64 rounding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ellipsoid {
+    center: DVec3,
+    radii: DVec3,
+    to_local: DMat3,
+    to_world: DMat3,
+}
+
+impl Ellipsoid {
+    pub fn new(center: DVec3, radii: DVec3, rotation: DQuat) -> Result<Self, InvalidShape> {
+        finite(center, "center must be finite")?;
+        if !radii.is_finite() || radii.cmple(DVec3::ZERO).any() {
+            return Err(InvalidShape("radii must be finite and > 0"));
+        }
+        if !rotation.is_finite() || rotation.length_squared() == 0.0 {
+            return Err(InvalidShape("rotation must be a finite non-zero quaternion"));
+        }
+        let to_world = DMat3::from_quat(rotation.normalize());
+        Ok(Ellipsoid {
+            center,
+            radii,
+            to_local: to_world.transpose(),
+            to_world,
+        })
+    }
+}
+
+impl SignedDistance for Ellipsoid {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let local = self.to_local * (p - self.center);
+        // Sort the axes by decreasing radius, work in the first octant.
+        let mut idx = [0usize, 1, 2];
+        idx.sort_by(|&i, &j| self.radii[j].total_cmp(&self.radii[i]));
+        let e = [self.radii[idx[0]], self.radii[idx[1]], self.radii[idx[2]]];
+        let y = [local[idx[0]].abs(), local[idx[1]].abs(), local[idx[2]].abs()];
+        let dist = ellipsoid_distance(e, y);
+        let inside = (y[0] / e[0]).powi(2) + (y[1] / e[1]).powi(2) + (y[2] / e[2]).powi(2) < 1.0;
+        if inside {
+            -dist
+        } else {
+            dist
+        }
+    }
+    fn bounds(&self) -> Aabb {
+        let m = self.to_world;
+        // Extent along world axis a of a rotated ellipsoid: sqrt(Σ_b (R_ab r_b)²).
+        let e = DVec3::new(
+            (m.row(0) * self.radii).length(),
+            (m.row(1) * self.radii).length(),
+            (m.row(2) * self.radii).length(),
+        );
+        Aabb::new(self.center - e, self.center + e)
+    }
+}
+
+fn robust_length(v: &[f64]) -> f64 {
+    let m = v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    if m == 0.0 {
+        0.0
+    } else {
+        m * v.iter().map(|x| (x / m).powi(2)).sum::<f64>().sqrt()
+    }
+}
+
+/// Bisection for the root of Σ (nᵢ/(s + rᵢ))² − 1 on [s0, s1] (Eberly's GetRoot).
+fn bisect_root(n: &[f64], r: &[f64], mut s0: f64, mut s1: f64) -> f64 {
+    let mut s = s0;
+    for _ in 0..1100 {
+        s = 0.5 * (s0 + s1);
+        if s == s0 || s == s1 {
+            break;
+        }
+        let g: f64 = n.iter().zip(r).map(|(ni, ri)| (ni / (s + ri)).powi(2)).sum::<f64>() - 1.0;
+        if g > 0.0 {
+            s0 = s;
+        } else if g < 0.0 {
+            s1 = s;
+        } else {
+            break;
+        }
+    }
+    s
+}
+
+/// Distance from `y` (first octant) to the ellipse with semi-axes e0 ≥ e1.
+fn ellipse_distance([e0, e1]: [f64; 2], [y0, y1]: [f64; 2]) -> f64 {
+    if y1 > 0.0 {
+        if y0 > 0.0 {
+            let (z0, z1) = (y0 / e0, y1 / e1);
+            let g = z0 * z0 + z1 * z1 - 1.0;
+            if g == 0.0 {
+                return 0.0;
+            }
+            let r0 = (e0 / e1).powi(2);
+            let n0 = r0 * z0;
+            let s = bisect_root(
+                &[n0, z1],
+                &[r0, 1.0],
+                z1 - 1.0,
+                if g < 0.0 { 0.0 } else { robust_length(&[n0, z1]) - 1.0 },
+            );
+            let x0 = r0 * y0 / (s + r0);
+            let x1 = y1 / (s + 1.0);
+            ((x0 - y0).powi(2) + (x1 - y1).powi(2)).sqrt()
+        } else {
+            (y1 - e1).abs()
+        }
+    } else {
+        let (numer0, denom0) = (e0 * y0, e0 * e0 - e1 * e1);
+        if numer0 < denom0 {
+            let xde0 = numer0 / denom0;
+            let x0 = e0 * xde0;
+            let x1 = e1 * (1.0 - xde0 * xde0).max(0.0).sqrt();
+            ((x0 - y0).powi(2) + x1 * x1).sqrt()
+        } else {
+            (y0 - e0).abs()
+        }
+    }
+}
+
+/// Distance from `y` (first octant) to the ellipsoid with semi-axes e0 ≥ e1 ≥ e2.
+fn ellipsoid_distance(e: [f64; 3], y: [f64; 3]) -> f64 {
+    let [e0, e1, e2] = e;
+    let [y0, y1, y2] = y;
+    if y2 > 0.0 {
+        if y1 > 0.0 {
+            if y0 > 0.0 {
+                let z = [y0 / e0, y1 / e1, y2 / e2];
+                let g = z[0] * z[0] + z[1] * z[1] + z[2] * z[2] - 1.0;
+                if g == 0.0 {
+                    return 0.0;
+                }
+                let (r0, r1) = ((e0 / e2).powi(2), (e1 / e2).powi(2));
+                let n = [r0 * z[0], r1 * z[1], z[2]];
+                let s = bisect_root(
+                    &n,
+                    &[r0, r1, 1.0],
+                    z[2] - 1.0,
+                    if g < 0.0 { 0.0 } else { robust_length(&n) - 1.0 },
+                );
+                let x = [r0 * y0 / (s + r0), r1 * y1 / (s + r1), y2 / (s + 1.0)];
+                ((x[0] - y0).powi(2) + (x[1] - y1).powi(2) + (x[2] - y2).powi(2)).sqrt()
+            } else {
+                ellipse_distance([e1, e2], [y1, y2]).hypot(y0)
+            }
+        } else if y0 > 0.0 {
+            ellipse_distance([e0, e2], [y0, y2]).hypot(y1)
+        } else {
+            (y2 - e2).abs()
+        }
+    } else {
+        let (denom0, denom1) = (e0 * e0 - e2 * e2, e1 * e1 - e2 * e2);
+        let (numer0, numer1) = (e0 * y0, e1 * y1);
+        if numer0 < denom0 && numer1 < denom1 {
+            let (xde0, xde1) = (numer0 / denom0, numer1 / denom1);
+            let discr = 1.0 - xde0 * xde0 - xde1 * xde1;
+            if discr > 0.0 {
+                let x = [e0 * xde0, e1 * xde1, e2 * discr.sqrt()];
+                return ((x[0] - y0).powi(2) + (x[1] - y1).powi(2) + x[2] * x[2]).sqrt();
+            }
+        }
+        ellipse_distance([e0, e1], [y0, y1])
+    }
+}
+
+/// A circular cylinder around the axis through `center` with unit direction `axis`;
+/// `half_length: None` makes it infinite. Exact distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cylinder {
+    center: DVec3,
+    axis: DVec3,
+    radius: f64,
+    half_length: Option<f64>,
+}
+
+impl Cylinder {
+    pub fn new(center: DVec3, axis: DVec3, radius: f64, half_length: Option<f64>) -> Result<Self, InvalidShape> {
+        finite(center, "center must be finite")?;
+        let axis = finite(axis, "axis must be finite")?;
+        if axis.length_squared() == 0.0 {
+            return Err(InvalidShape("axis must not be the zero vector"));
+        }
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(InvalidShape("radius must be finite and > 0"));
+        }
+        if let Some(l) = half_length {
+            if !(l.is_finite() && l > 0.0) {
+                return Err(InvalidShape("half_length must be finite and > 0"));
+            }
+        }
+        Ok(Cylinder {
+            center,
+            axis: axis.normalize(),
+            radius,
+            half_length,
+        })
+    }
+}
+
+impl SignedDistance for Cylinder {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let v = p - self.center;
+        let h = v.dot(self.axis);
+        let radial = (v - self.axis * h).length();
+        match self.half_length {
+            None => radial - self.radius,
+            Some(l) => {
+                let q = glam::DVec2::new(radial - self.radius, h.abs() - l);
+                q.max(glam::DVec2::ZERO).length() + q.max_element().min(0.0)
+            }
+        }
+    }
+    fn bounds(&self) -> Aabb {
+        match self.half_length {
+            None => Aabb::new(DVec3::NEG_INFINITY, DVec3::INFINITY),
+            Some(l) => {
+                let disk = (DVec3::ONE - self.axis * self.axis).max(DVec3::ZERO).powf(0.5) * self.radius;
+                let (a, b) = (self.center - self.axis * l, self.center + self.axis * l);
+                Aabb::new(a.min(b) - disk, a.max(b) + disk)
+            }
+        }
+    }
+}
+
+/// A solid circular cone with its apex at `apex`, opening along the unit `axis` with
+/// half-angle `half_angle_rad` ∈ (0, π/2); capped at `height` or infinite. Exact
+/// distance (computed in the cone's meridian half-plane).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cone {
+    apex: DVec3,
+    axis: DVec3,
+    half_angle_rad: f64,
+    height: Option<f64>,
+}
+
+impl Cone {
+    pub fn new(apex: DVec3, axis: DVec3, half_angle_rad: f64, height: Option<f64>) -> Result<Self, InvalidShape> {
+        finite(apex, "apex must be finite")?;
+        let axis = finite(axis, "axis must be finite")?;
+        if axis.length_squared() == 0.0 {
+            return Err(InvalidShape("axis must not be the zero vector"));
+        }
+        if !(half_angle_rad > 0.0 && half_angle_rad < std::f64::consts::FRAC_PI_2) {
+            return Err(InvalidShape("half angle must lie in (0°, 90°)"));
+        }
+        if let Some(hh) = height {
+            if !(hh.is_finite() && hh > 0.0) {
+                return Err(InvalidShape("height must be finite and > 0"));
+            }
+        }
+        Ok(Cone {
+            apex,
+            axis: axis.normalize(),
+            half_angle_rad,
+            height,
+        })
+    }
+}
+
+/// Distance from `p` to the segment `a b` in the plane.
+fn segment_distance_2d(p: glam::DVec2, a: glam::DVec2, b: glam::DVec2) -> f64 {
+    let ab = b - a;
+    let t = if ab == glam::DVec2::ZERO {
+        0.0
+    } else {
+        ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
+    };
+    (p - (a + ab * t)).length()
+}
+
+impl SignedDistance for Cone {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        use glam::DVec2;
+        let v = p - self.apex;
+        let h = v.dot(self.axis);
+        let radial = (v - self.axis * h).length();
+        let q = DVec2::new(radial, h);
+        let (s, c) = self.half_angle_rad.sin_cos();
+        let slant = DVec2::new(s, c);
+        let inside_slant = radial * c <= h * s;
+        match self.height {
+            None => {
+                let t = q.dot(slant).max(0.0);
+                let d = (q - slant * t).length();
+                if inside_slant {
+                    -d
+                } else {
+                    d
+                }
+            }
+            Some(height) => {
+                let rim = DVec2::new(height * s / c, height);
+                let d =
+                    segment_distance_2d(q, DVec2::ZERO, rim).min(segment_distance_2d(q, DVec2::new(0.0, height), rim));
+                if inside_slant && h <= height {
+                    -d
+                } else {
+                    d
+                }
+            }
+        }
+    }
+    fn bounds(&self) -> Aabb {
+        match self.height {
+            None => Aabb::new(DVec3::NEG_INFINITY, DVec3::INFINITY),
+            Some(h) => {
+                let r = h * self.half_angle_rad.tan();
+                let disk = (DVec3::ONE - self.axis * self.axis).max(DVec3::ZERO).powf(0.5) * r;
+                let cap = self.apex + self.axis * h;
+                Aabb::new(self.apex.min(cap - disk), self.apex.max(cap + disk))
+            }
+        }
+    }
+}
+
+/// The general quadric solid `F(x) = xᵀAx + bᵀx + c ≤ 0` clipped by a box.
+/// Distance is first order, `F/‖∇F‖`: exact for planes, with an error of order
+/// `d²·κ` (κ the surface curvature) elsewhere; it is intersected with the box's exact
+/// distance by `max`. Not 1-Lipschitz, so voxelizers sample every voxel of its box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Quadric {
+    a: DMat3,
+    b: DVec3,
+    c: f64,
+    clip: AxisBox,
+}
+
+impl Quadric {
+    pub fn new(a: DMat3, b: DVec3, c: f64, clip: AxisBox) -> Result<Self, InvalidShape> {
+        if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+            return Err(InvalidShape("A, b and c must be finite"));
+        }
+        if a == DMat3::ZERO && b == DVec3::ZERO {
+            return Err(InvalidShape("A and b must not both be zero"));
+        }
+        // Only the symmetric part of A contributes to xᵀAx.
+        let a = (a + a.transpose()) * 0.5;
+        Ok(Quadric { a, b, c, clip })
+    }
+
+    /// F(p).
+    pub fn value(&self, p: DVec3) -> f64 {
+        p.dot(self.a * p) + self.b.dot(p) + self.c
+    }
+}
+
+impl SignedDistance for Quadric {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let f = self.value(p);
+        let g = (2.0 * (self.a * p) + self.b).length();
+        let d = if g > 0.0 { f / g } else { f64::MAX.copysign(f) };
+        d.max(self.clip.signed_distance(p))
+    }
+    fn bounds(&self) -> Aabb {
+        self.clip.bounds()
+    }
+    fn is_exact(&self) -> bool {
+        false
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        2.0 * (self.a * p) + self.b
     }
 }
 

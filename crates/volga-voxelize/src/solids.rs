@@ -63,6 +63,9 @@ enum Cover {
 }
 
 fn classify(shape: &Shape, center: DVec3, radius: f64, half_width: f64) -> Cover {
+    if !shape.is_exact() {
+        return Cover::Partial;
+    }
     let d = shape.signed_distance(center);
     if d + radius <= -half_width {
         Cover::Full
