@@ -57,7 +57,10 @@ pub use grid::{Grid, IndexBox, Transform};
 pub use layout::Shape3;
 pub use progress::{NoProgress, Progress};
 pub use sampled::{Filter, Sampled, VoxelSource};
-pub use sparse::{Brick, SparseGrid, SparseVolume, BRICK_DIM, BRICK_LOG2, BRICK_VOXELS};
+pub use sparse::{
+    brick_extent, brick_index_box, brick_of, gather_brick, Brick, SparseGrid, SparseVolume, BRICK_DIM, BRICK_LOG2,
+    BRICK_VOXELS,
+};
 
 /// Linear RGB colour payload, each component in \[0, 1\].
 pub type Rgb = [f32; 3];

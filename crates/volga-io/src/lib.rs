@@ -39,6 +39,7 @@
 //! round-trips through [`write_nrrd`] and [`read_nrrd`] with its transform bit-exact.
 
 mod atomic;
+mod binvox;
 mod nrrd_header;
 mod nrrd_read;
 mod nrrd_write;
@@ -47,6 +48,7 @@ mod png_io;
 use std::path::{Path, PathBuf};
 
 pub use atomic::{write_atomic, StagedOutputs};
+pub use binvox::{decode_binvox, encode_binvox, read_binvox, write_binvox, Binvox, BinvoxError};
 pub use nrrd_read::{read_nrrd, read_nrrd_with_colour};
 pub use nrrd_write::write_nrrd;
 pub use png_io::{decode_png, encode_png, write_png};

@@ -28,14 +28,17 @@ mod field;
 mod filter;
 pub mod lines;
 pub mod measure;
+pub mod mesh;
 pub mod shapes;
 mod solids;
 pub mod surfaces;
+mod tri_distance;
 
 pub use binary::{triangle_covers_voxel, voxelize_triangles, Separability};
 pub use field::AnalyticField;
 pub use filter::OrientedBoxFilter;
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity};
+pub use mesh::MeshVoxelizer;
 pub use shapes::{Shape, SignedDistance};
 pub use solids::{estimate_solid_bricks, voxelize_solids, Solid};
 pub use surfaces::{voxelize_shapes, SurfaceMode};

@@ -1,0 +1,468 @@
+//! Bounding volume hierarchy over a mesh's triangles: exact closest point, box
+//! queries, and the fast (Barnes–Hut) winding number.
+
+use std::f64::consts::PI;
+
+use glam::{DMat3, DVec3};
+use volga_core::Aabb;
+
+use crate::{closest_point_on_triangle, solid_angle, triangle_box_overlap, Feature, TriMesh};
+
+/// Most triangles in a leaf.
+const LEAF_SIZE: usize = 4;
+/// Subtrees with at least this many triangles build their halves with `rayon::join`.
+const PARALLEL_MIN_TRIANGLES: usize = 8192;
+/// Traversal stack size; median splits keep the depth ≤ ⌈log₂ n⌉ ≤ 32 for `u32` counts.
+const STACK_SIZE: usize = 64;
+
+/// The far-field criterion of [`Bvh::winding_number`]: a node is approximated when
+/// `p` is farther than `FAR_FIELD_BETA × radius` from its centre (Barill et al. 2018
+/// recommend 2; 3 roughly halves the error at about four times the cost).
+pub const FAR_FIELD_BETA: f64 = 2.0;
+
+/// The nearest point of a mesh to a query point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Closest {
+    /// Euclidean distance (world units) from the query to `point`.
+    pub distance: f64,
+    /// Index of the triangle in the mesh the BVH was built from.
+    pub triangle: u32,
+    pub point: DVec3,
+    /// Where on that triangle `point` lies (its corner numbering).
+    pub feature: Feature,
+}
+
+/// A BVH over a [`TriMesh`], in **world space**. It keeps its own copy of the triangle
+/// corners (in tree order, for locality), so it does not borrow the mesh.
+///
+/// Built by median splits of triangle centroids along the longest axis of their box,
+/// ties broken by triangle index, with large subtrees built in parallel. Every split is
+/// a function of the input alone and each half writes only its own slice, so the tree
+/// is bit-identical for any number of threads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bvh {
+    /// Preorder: a node's left child follows it; its right child is `right_offset` on.
+    nodes: Vec<Node>,
+    /// Triangle corners in tree order.
+    triangles: Vec<[DVec3; 3]>,
+    /// Tree order → mesh triangle index.
+    triangle_ids: Vec<u32>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Node {
+    bounds: Aabb,
+    /// `Σ ½ (b − a) × (c − a)`: the area-weighted normal sum (dipole moment).
+    area_normal: DVec3,
+    /// `Σ (xᵢ − center) (aᵢnᵢ)ᵀ` over triangle centroids `xᵢ`: the first moment, for
+    /// the second term of the far-field expansion.
+    first_moment: DMat3,
+    /// Sum of triangle areas.
+    area: f64,
+    /// Area-weighted centroid (box centre if the area is zero): the expansion point.
+    center: DVec3,
+    /// An upper bound on the distance from `center` to any corner in the node.
+    radius: f64,
+    /// Leaf: index of the first triangle in tree order; internal: offset to the right child.
+    first_or_right: u32,
+    /// Leaf: number of triangles (≥ 1); internal: 0.
+    count: u32,
+}
+
+impl Node {
+    fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+}
+
+impl Bvh {
+    /// Builds the hierarchy. Panics if a triangle index is out of range (a mesh from the
+    /// loaders or [`TriMesh::new`] never has one).
+    pub fn build(mesh: &TriMesh) -> Bvh {
+        let corners: Vec<[DVec3; 3]> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
+        let centroids: Vec<DVec3> = corners.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
+        let mut order: Vec<u32> = (0..corners.len() as u32).collect();
+        let input = BuildInput {
+            corners: &corners,
+            centroids: &centroids,
+        };
+        let nodes = if order.is_empty() {
+            Vec::new()
+        } else {
+            input.build_parallel(&mut order, 0)
+        };
+        Bvh {
+            nodes,
+            triangles: order.iter().map(|&i| corners[i as usize]).collect(),
+            triangle_ids: order,
+        }
+    }
+
+    /// Number of triangles indexed.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Box of all triangles ([`Aabb::EMPTY`] for an empty mesh).
+    pub fn bounds(&self) -> Aabb {
+        self.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds)
+    }
+
+    /// The exact nearest point of the mesh (`None` only for an empty mesh or NaN `p`).
+    pub fn closest(&self, p: DVec3) -> Option<Closest> {
+        self.closest_within(p, f64::INFINITY)
+    }
+
+    /// The exact nearest point if it is at most `max_distance` away.
+    ///
+    /// Branch and bound: nodes are visited nearer box first and skipped once their box
+    /// is farther than the best distance so far. Among triangles at exactly the same
+    /// distance the first in tree order wins (deterministic).
+    pub fn closest_within(&self, p: DVec3, max_distance: f64) -> Option<Closest> {
+        if self.nodes.is_empty() || max_distance.is_nan() || max_distance < 0.0 {
+            return None;
+        }
+        // Until a triangle is found the bound has slack for the rounding of the square;
+        // acceptance itself compares the distance (`sqrt` of the square) with `max_distance`.
+        let mut bound_squared = max_distance * max_distance * (1.0 + 1e-12);
+        let mut best: Option<(usize, DVec3, Feature, f64)> = None;
+        let mut stack = [(0u32, 0.0f64); STACK_SIZE];
+        stack[0] = (0, box_distance_squared(&self.nodes[0].bounds, p));
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let (index, box_distance) = stack[top];
+            if box_distance > bound_squared {
+                continue;
+            }
+            let node = &self.nodes[index as usize];
+            if node.is_leaf() {
+                let first = node.first_or_right as usize;
+                for k in first..first + node.count as usize {
+                    let (point, feature) = closest_point_on_triangle(p, self.triangles[k]);
+                    let d2 = (p - point).length_squared();
+                    let better = match best {
+                        Some(_) => d2 < bound_squared,
+                        None => d2.sqrt() <= max_distance,
+                    };
+                    if better {
+                        bound_squared = d2;
+                        best = Some((k, point, feature, d2));
+                    }
+                }
+                continue;
+            }
+            let left = index + 1;
+            let right = index + node.first_or_right;
+            let dl = box_distance_squared(&self.nodes[left as usize].bounds, p);
+            let dr = box_distance_squared(&self.nodes[right as usize].bounds, p);
+            // Push the farther child first so the nearer one is searched first.
+            let (near, far) = if dr < dl {
+                ((right, dr), (left, dl))
+            } else {
+                ((left, dl), (right, dr))
+            };
+            for child in [far, near] {
+                if child.1 <= bound_squared {
+                    stack[top] = child;
+                    top += 1;
+                }
+            }
+        }
+        best.map(|(k, point, feature, d2)| Closest {
+            distance: d2.sqrt(),
+            triangle: self.triangle_ids[k],
+            point,
+            feature,
+        })
+    }
+
+    /// Replaces the contents of `out` with the indices (ascending) of the triangles
+    /// that touch the closed box, by the exact test [`triangle_box_overlap`].
+    pub fn triangles_overlapping(&self, query: &Aabb, out: &mut Vec<u32>) {
+        out.clear();
+        if self.nodes.is_empty() || query.is_empty() {
+            return;
+        }
+        let mut stack = [0u32; STACK_SIZE];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let index = stack[top];
+            let node = &self.nodes[index as usize];
+            if node.bounds.min.cmpgt(query.max).any() || node.bounds.max.cmplt(query.min).any() {
+                continue;
+            }
+            if node.is_leaf() {
+                let first = node.first_or_right as usize;
+                for k in first..first + node.count as usize {
+                    if triangle_box_overlap(self.triangles[k], query) {
+                        out.push(self.triangle_ids[k]);
+                    }
+                }
+            } else {
+                stack[top] = index + node.first_or_right;
+                stack[top + 1] = index + 1;
+                top += 2;
+            }
+        }
+        out.sort_unstable();
+    }
+
+    /// Fast generalized winding number at `p` (Barill, Dickson, Schmidt, Levin &
+    /// Jacobson, "Fast Winding Numbers for Soups and Clouds", SIGGRAPH 2018).
+    ///
+    /// Each node stores its dipole moment `N = Σ aᵢnᵢ` (area-weighted normals) and first
+    /// moment `M = Σ (xᵢ − c) (aᵢnᵢ)ᵀ` about its area-weighted centroid `c`. When `p` is
+    /// farther than [`FAR_FIELD_BETA`]` × r` from `c` (`r` bounds the node's extent from
+    /// `c`), the node contributes the first two terms of the Taylor expansion of its
+    /// solid angle about `c`: with `d = c − p`,
+    /// `(N·d/|d|³ + tr(M)/|d|³ − 3 dᵀMd/|d|⁵) / 4π`. The first is the dipole term
+    /// `(Σ aᵢnᵢ)·(c − p)/(4π|c − p|³)`; the second, which Barill et al. also keep, costs
+    /// a 3×3 product and cuts the error about threefold. Otherwise the node's children
+    /// are visited, and leaves near `p` sum exact solid angles ([`solid_angle`]), so the
+    /// answer is exact where `p` is close to the surface.
+    ///
+    /// **Error.** The dropped terms of a far node are of relative order `(r/|d|)²`
+    /// (≤ 1/β²) of its unsigned contribution `A/(4π|d|²)`. Measured against the exact
+    /// sum at 1000 random points of the bounding box padded by 10%, with β = 2 (the
+    /// `winding_accuracy` example): on spot the absolute error has median 1.6e-3, mean
+    /// 3.0e-3, max 2.7e-2; on the Stanford bunny median 2.1e-3, mean 3.7e-3, max 3.6e-2
+    /// (the dipole term alone: means about 9e-3, maxima about 5e-2). That is far below
+    /// the ½ that decides inside: no sample was classified differently from the exact
+    /// sum. Cost per query: about 2 µs against 120 µs (spot) and 1.5 ms (bunny) exact.
+    pub fn winding_number(&self, p: DVec3) -> f64 {
+        if self.nodes.is_empty() {
+            return 0.0;
+        }
+        let far_squared = FAR_FIELD_BETA * FAR_FIELD_BETA;
+        let mut total = 0.0;
+        let mut stack = [0u32; STACK_SIZE];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let index = stack[top];
+            let node = &self.nodes[index as usize];
+            let to_center = node.center - p;
+            let distance_squared = to_center.length_squared();
+            if distance_squared > far_squared * node.radius * node.radius {
+                total += far_field(node, to_center, distance_squared);
+            } else if node.is_leaf() {
+                let first = node.first_or_right as usize;
+                for triangle in &self.triangles[first..first + node.count as usize] {
+                    total += solid_angle(p, *triangle);
+                }
+            } else {
+                stack[top] = index + node.first_or_right;
+                stack[top + 1] = index + 1;
+                top += 2;
+            }
+        }
+        total / (4.0 * PI)
+    }
+
+    /// The exact winding number by summing every triangle's solid angle (`O(n)`): the
+    /// reference for [`Bvh::winding_number`].
+    pub fn winding_number_exact(&self, p: DVec3) -> f64 {
+        self.triangles.iter().map(|&t| solid_angle(p, t)).sum::<f64>() / (4.0 * PI)
+    }
+}
+
+/// `u vᵀ`.
+#[inline]
+fn outer(u: DVec3, v: DVec3) -> DMat3 {
+    DMat3::from_cols(u * v.x, u * v.y, u * v.z)
+}
+
+/// A far node's solid angle seen from `p`, where `r = center − p`: the Taylor
+/// expansion of `∫ n·(x − p)/|x − p|³ dA` about the centre to first order,
+/// `N·r/|r|³ + tr(J M)` with `J = I/|r|³ − 3 r rᵀ/|r|⁵` the kernel's Jacobian and `M`
+/// the first moment (Barill et al. 2018, §3, the first two terms of the expansion).
+#[inline]
+fn far_field(node: &Node, r: DVec3, r_squared: f64) -> f64 {
+    let r_cubed = r_squared * r_squared.sqrt();
+    let dipole = node.area_normal.dot(r) / r_cubed;
+    let m = &node.first_moment;
+    let trace = m.x_axis.x + m.y_axis.y + m.z_axis.z;
+    dipole + trace / r_cubed - 3.0 * r.dot(*m * r) / (r_cubed * r_squared)
+}
+
+/// Squared distance from `p` to the closed box (0 inside).
+#[inline]
+fn box_distance_squared(b: &Aabb, p: DVec3) -> f64 {
+    (b.min - p).max(p - b.max).max(DVec3::ZERO).length_squared()
+}
+
+struct BuildInput<'a> {
+    corners: &'a [[DVec3; 3]],
+    centroids: &'a [DVec3],
+}
+
+impl BuildInput<'_> {
+    /// Nodes of the subtree over `order` (which starts at tree position `first`), in
+    /// preorder; the two halves of large subtrees are built on separate threads and
+    /// concatenated, which leaves the relative child offsets valid.
+    fn build_parallel(&self, order: &mut [u32], first: usize) -> Vec<Node> {
+        if order.len() < PARALLEL_MIN_TRIANGLES {
+            let mut nodes = Vec::with_capacity(2 * order.len() / LEAF_SIZE + 1);
+            self.build_sequential(order, first, &mut nodes);
+            return nodes;
+        }
+        let mid = self.split(order);
+        let (lo, hi) = order.split_at_mut(mid);
+        let (left, right) = rayon::join(
+            || self.build_parallel(lo, first),
+            || self.build_parallel(hi, first + mid),
+        );
+        let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
+        nodes.push(parent(&left[0], &right[0], 1 + left.len()));
+        nodes.extend(left);
+        nodes.extend(right);
+        nodes
+    }
+
+    fn build_sequential(&self, order: &mut [u32], first: usize, nodes: &mut Vec<Node>) {
+        if order.len() <= LEAF_SIZE {
+            nodes.push(self.leaf(order, first));
+            return;
+        }
+        let mid = self.split(order);
+        let (lo, hi) = order.split_at_mut(mid);
+        let index = nodes.len();
+        nodes.push(self.leaf(&[], 0)); // placeholder, replaced below
+        self.build_sequential(lo, first, nodes);
+        let right = nodes.len();
+        self.build_sequential(hi, first + mid, nodes);
+        nodes[index] = parent(&nodes[index + 1], &nodes[right], right - index);
+    }
+
+    /// Partitions `order` at its median centroid along the longest axis of the centroid
+    /// box (ties by triangle index, a total order, so the halves are unique).
+    fn split(&self, order: &mut [u32]) -> usize {
+        let centroid_box = order.iter().fold(Aabb::EMPTY, |b, &i| {
+            let c = self.centroids[i as usize];
+            b.union(&Aabb::new(c, c))
+        });
+        let size = centroid_box.size();
+        let axis = if size.x >= size.y && size.x >= size.z {
+            0
+        } else if size.y >= size.z {
+            1
+        } else {
+            2
+        };
+        let mid = order.len() / 2;
+        order.select_nth_unstable_by(mid, |&i, &j| {
+            let (ci, cj) = (self.centroids[i as usize][axis], self.centroids[j as usize][axis]);
+            ci.total_cmp(&cj).then(i.cmp(&j))
+        });
+        mid
+    }
+
+    fn leaf(&self, order: &[u32], first: usize) -> Node {
+        let mut bounds = Aabb::EMPTY;
+        let (mut area_normal, mut area, mut weighted_centroid) = (DVec3::ZERO, 0.0, DVec3::ZERO);
+        for &i in order {
+            let [a, b, c] = self.corners[i as usize];
+            bounds = bounds.union(&Aabb::new(a.min(b).min(c), a.max(b).max(c)));
+            let n = 0.5 * (b - a).cross(c - a);
+            let triangle_area = n.length();
+            area_normal += n;
+            area += triangle_area;
+            weighted_centroid += triangle_area * self.centroids[i as usize];
+        }
+        let center = if area > 0.0 {
+            weighted_centroid / area
+        } else {
+            bounds.center()
+        };
+        let first_moment = order.iter().fold(DMat3::ZERO, |m, &i| {
+            let [a, b, c] = self.corners[i as usize];
+            m + outer(self.centroids[i as usize] - center, 0.5 * (b - a).cross(c - a))
+        });
+        let radius = order
+            .iter()
+            .flat_map(|&i| self.corners[i as usize])
+            .map(|v| (v - center).length())
+            .fold(0.0, f64::max);
+        Node {
+            bounds,
+            area_normal,
+            first_moment,
+            area,
+            center,
+            radius,
+            first_or_right: first as u32,
+            count: order.len() as u32,
+        }
+    }
+}
+
+/// An internal node over two children, `right_offset` nodes before the right one.
+fn parent(left: &Node, right: &Node, right_offset: usize) -> Node {
+    let bounds = left.bounds.union(&right.bounds);
+    let area = left.area + right.area;
+    let center = if area > 0.0 {
+        (left.center * left.area + right.center * right.area) / area
+    } else {
+        bounds.center()
+    };
+    // Two upper bounds on the extent from `center`: through the children's spheres,
+    // and the farthest corner of the box; keep the smaller.
+    let through_children =
+        ((left.center - center).length() + left.radius).max((right.center - center).length() + right.radius);
+    let box_corner = (bounds.max - center).abs().max((bounds.min - center).abs()).length();
+    Node {
+        bounds,
+        area_normal: left.area_normal + right.area_normal,
+        // Moments move to the new centre: Σ(x − c)Nᵀ = Σ(x − c_child)Nᵀ + (c_child − c)N_childᵀ.
+        first_moment: left.first_moment
+            + outer(left.center - center, left.area_normal)
+            + right.first_moment
+            + outer(right.center - center, right.area_normal),
+        area,
+        center,
+        radius: through_children.min(box_corner),
+        first_or_right: right_offset as u32,
+        count: 0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_mesh() {
+        let bvh = Bvh::build(&TriMesh::default());
+        assert_eq!(bvh.closest(DVec3::ZERO), None);
+        assert_eq!(bvh.winding_number(DVec3::ZERO), 0.0);
+        let mut out = vec![7];
+        bvh.triangles_overlapping(&Aabb::new(DVec3::ZERO, DVec3::ONE), &mut out);
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn cube_queries() {
+        let cube = TriMesh::from_aabb(&Aabb::new(DVec3::ZERO, DVec3::ONE));
+        let bvh = Bvh::build(&cube);
+        let c = bvh.closest(DVec3::new(0.5, 0.5, 3.0)).unwrap();
+        assert_eq!(c.distance, 2.0);
+        assert_eq!(c.point, DVec3::new(0.5, 0.5, 1.0));
+        assert!(bvh.closest_within(DVec3::new(0.5, 0.5, 3.0), 1.9).is_none());
+        assert!(bvh.closest_within(DVec3::new(0.5, 0.5, 3.0), 2.0).is_some());
+        let c = bvh.closest(DVec3::splat(2.0)).unwrap();
+        assert_eq!((c.point, c.distance), (DVec3::ONE, 3f64.sqrt()));
+        assert!(matches!(c.feature, Feature::Vertex(_)));
+        assert!((bvh.winding_number(DVec3::splat(0.5)) - 1.0).abs() < 1e-12);
+        assert!(bvh.winding_number(DVec3::splat(5.0)).abs() < 1e-3);
+        let mut out = Vec::new();
+        bvh.triangles_overlapping(&Aabb::new(DVec3::splat(0.25), DVec3::splat(0.75)), &mut out);
+        assert!(out.is_empty());
+        bvh.triangles_overlapping(
+            &Aabb::new(DVec3::new(0.25, 0.25, 0.9), DVec3::new(0.75, 0.75, 1.0)),
+            &mut out,
+        );
+        assert_eq!(out, vec![2, 3]); // the z = 1 face, touched from inside
+    }
+}

@@ -1,0 +1,150 @@
+//! Triangle–box overlap by the separating axis theorem.
+
+use glam::DVec3;
+use volga_core::Aabb;
+
+/// Whether the closed triangle and the closed box share a point; touching counts.
+///
+/// Separating axis test of Akenine-Möller, "Fast 3D Triangle-Box Overlap Testing"
+/// (JGT 2001): the two convex sets are disjoint iff their projections are disjoint on
+/// one of 13 axes — the 3 box normals, the triangle normal, and the 9 cross products
+/// of a box axis with a triangle edge. An axis separates only if the projected
+/// intervals are *strictly* apart, so boundary contact is overlap.
+///
+/// Precision choices:
+/// * The box-normal axes compare vertex coordinates with the box bounds directly, with
+///   no arithmetic, so a triangle lying exactly on a box face (or touching it with a
+///   vertex) always overlaps, at any coordinate magnitude.
+/// * The other axes work relative to `aabb.min` (not the centre: `min + (max−min)/2`
+///   rounds), so a vertex coordinate equal to a bound still maps to exactly the box's
+///   own `0` or `max − min`, keeping those ties exact, and far coordinates (1e6) keep
+///   the precision of the box's size.
+///
+/// Degenerate triangles need no special case: a zero normal or a zero edge gives a
+/// zero axis, on which nothing separates, and the remaining axes are exactly those of
+/// the segment–box (box normals and segment × box axes) or point–box test. An empty
+/// box overlaps nothing.
+pub fn triangle_box_overlap(triangle: [DVec3; 3], aabb: &Aabb) -> bool {
+    if aabb.is_empty() {
+        return false;
+    }
+    let lo = triangle[0].min(triangle[1]).min(triangle[2]);
+    let hi = triangle[0].max(triangle[1]).max(triangle[2]);
+    if lo.cmpgt(aabb.max).any() || hi.cmplt(aabb.min).any() {
+        return false;
+    }
+    let extent = aabb.max - aabb.min;
+    let v = triangle.map(|p| p - aabb.min);
+    let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
+    if separates(edges[0].cross(edges[1]), &v, extent) {
+        return false;
+    }
+    for edge in edges {
+        // Unit axis × edge, written out so the zero components are exact zeros.
+        let axes = [
+            DVec3::new(0.0, -edge.z, edge.y),
+            DVec3::new(edge.z, 0.0, -edge.x),
+            DVec3::new(-edge.y, edge.x, 0.0),
+        ];
+        if axes.into_iter().any(|axis| separates(axis, &v, extent)) {
+            return false;
+        }
+    }
+    true
+}
+
+/// Whether `axis` strictly separates the triangle `v` from the box `[0, extent]`.
+#[inline]
+fn separates(axis: DVec3, v: &[DVec3; 3], extent: DVec3) -> bool {
+    let p = v.map(|x| axis.dot(x));
+    let (tri_lo, tri_hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+    let corner = axis * extent;
+    let box_lo = corner.min(DVec3::ZERO).element_sum();
+    let box_hi = corner.max(DVec3::ZERO).element_sum();
+    tri_lo > box_hi || tri_hi < box_lo
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit() -> Aabb {
+        Aabb::new(DVec3::ZERO, DVec3::ONE)
+    }
+
+    #[test]
+    fn clear_cases() {
+        let t = [
+            DVec3::new(0.5, 0.5, 0.5),
+            DVec3::new(3.0, 0.5, 0.5),
+            DVec3::new(0.5, 3.0, 0.5),
+        ];
+        assert!(triangle_box_overlap(t, &unit()));
+        // Large triangle cutting through the box with all vertices outside.
+        let big = [
+            DVec3::new(-10.0, -10.0, 0.5),
+            DVec3::new(10.0, -10.0, 0.5),
+            DVec3::new(0.0, 10.0, 0.5),
+        ];
+        assert!(triangle_box_overlap(big, &unit()));
+        // Triangle near the corner, separated only by its own normal.
+        let corner = [
+            DVec3::new(1.6, 0.0, 0.0),
+            DVec3::new(0.0, 1.6, 0.0),
+            DVec3::new(0.0, 0.0, 1.6),
+        ]
+        .map(|p| p + DVec3::splat(1.0));
+        assert!(!triangle_box_overlap(corner, &unit()));
+        // Separated only by an edge cross product.
+        // (x + z ≥ 2.2 on the triangle, ≤ 2 on the box: the axis is Y × edge.)
+        let skew = [
+            DVec3::new(-1.0, 0.5, 3.2),
+            DVec3::new(3.2, 0.5, -1.0),
+            DVec3::new(3.0, 3.0, 3.0),
+        ];
+        assert!(!triangle_box_overlap(skew, &unit()));
+    }
+
+    #[test]
+    fn touching_counts() {
+        let b = Aabb::new(DVec3::splat(0.1), DVec3::splat(0.7));
+        // Lying exactly on the top face (0.7 is not representable; ties stay exact).
+        let on_face = [
+            DVec3::new(0.2, 0.2, 0.7),
+            DVec3::new(0.9, 0.2, 0.7),
+            DVec3::new(0.2, 0.9, 0.7),
+        ];
+        assert!(triangle_box_overlap(on_face, &b));
+        let above = on_face.map(|p| p + DVec3::Z * 1e-12);
+        assert!(!triangle_box_overlap(above, &b));
+        // A single vertex touching a corner.
+        let at_corner = [DVec3::splat(0.7), DVec3::new(2.0, 0.7, 0.7), DVec3::new(2.0, 2.0, 0.7)];
+        assert!(triangle_box_overlap(at_corner, &b));
+    }
+
+    #[test]
+    fn degenerate_triangles() {
+        let point_in = [DVec3::splat(0.5); 3];
+        assert!(triangle_box_overlap(point_in, &unit()));
+        assert!(!triangle_box_overlap([DVec3::splat(1.5); 3], &unit()));
+        // A segment passing diagonally near a box edge: misses, then hits.
+        let miss = [
+            DVec3::new(1.2, -0.5, 0.5),
+            DVec3::new(1.6, 0.2, 0.5),
+            DVec3::new(1.2, -0.5, 0.5),
+        ];
+        assert!(!triangle_box_overlap(miss, &unit()));
+        let hit = [
+            DVec3::new(1.2, 0.5, 0.5),
+            DVec3::new(0.5, 1.2, 0.5),
+            DVec3::new(0.85, 0.85, 0.5),
+        ];
+        assert!(triangle_box_overlap(hit, &unit()));
+        let beside = [
+            DVec3::new(1.5, 0.6, 0.5),
+            DVec3::new(0.6, 1.5, 0.5),
+            DVec3::new(1.05, 1.05, 0.5),
+        ];
+        assert!(!triangle_box_overlap(beside, &unit()));
+    }
+}

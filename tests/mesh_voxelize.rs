@@ -1,0 +1,150 @@
+//! Mesh voxelization against exact references: narrow-band distances equal a brute-force
+//! point–triangle minimum, signs equal the exact generalized winding number (≥ ½ inside),
+//! on a closed mesh (spot), an open scan (the Stanford bunny) and random small meshes.
+
+use glam::{DVec3, UVec3};
+use proptest::prelude::*;
+use volga::voxelize::{MeshVoxelizer, SurfaceMode};
+use volga::{Aabb, Grid, NoProgress, Transform};
+use volga_mesh::{point_triangle_distance_squared, Bvh, TriMesh};
+
+fn shared(name: &str) -> Option<TriMesh> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data")
+        .join(name);
+    if !path.exists() {
+        eprintln!("skipping: {} not found", path.display());
+        return None;
+    }
+    Some(volga_mesh::load_obj(&path).unwrap())
+}
+
+/// A grid with `n` voxels along the mesh's longest side, padded by 4 voxels.
+fn grid_for(bounds: Aabb, n: u32) -> Grid {
+    let h = bounds.size().max_element() / n as f64;
+    let dims = (bounds.size() / h).ceil().as_uvec3() + UVec3::splat(8);
+    Grid::new(
+        Transform::new(bounds.min - 4.0 * h + 0.5 * h, glam::DVec3::splat(h)).unwrap(),
+        dims,
+    )
+    .unwrap()
+}
+
+fn brute_distance(mesh: &TriMesh, p: DVec3) -> f64 {
+    (0..mesh.triangles.len())
+        .map(|i| point_triangle_distance_squared(p, mesh.triangle(i)))
+        .fold(f64::INFINITY, f64::min)
+        .sqrt()
+}
+
+/// Checks band voxels (every `stride`-th, at most 1500) against brute force, and every
+/// other voxel against the BVH's exact nearest distance. Returns (checked, wrong signs,
+/// max |distance error| in voxels).
+fn check(mesh: &TriMesh, n: u32, stride: usize) -> (usize, usize, f64) {
+    let grid = grid_for(mesh.bounds(), n);
+    let h = grid.transform.spacing().x;
+    let vox = MeshVoxelizer::new(mesh);
+    let v = vox.voxelize(
+        &grid,
+        SurfaceMode::Distance {
+            half_width_voxels: 3.0,
+            signed: true,
+        },
+        &NoProgress,
+    );
+    let bvh = Bvh::build(mesh);
+    let band = 3.0 * h;
+    let (mut checked, mut wrong, mut worst, mut seen) = (0, 0, 0.0f64, 0usize);
+    for ijk in grid.index_box().iter() {
+        let p = grid.transform.voxel_center(ijk);
+        let value = v.density.get(ijk) as f64;
+        let nearest = bvh.closest(p).unwrap().distance;
+        if nearest >= band * 0.999 {
+            assert!(
+                value.abs() >= band * 0.999 - 1e-6,
+                "{ijk}: {value} inside the band but nearest {nearest}"
+            );
+            continue;
+        }
+        seen += 1;
+        if seen % stride != 0 || checked >= 1500 {
+            continue;
+        }
+        checked += 1;
+        let exact = brute_distance(mesh, p);
+        worst = worst.max((value.abs() - exact).abs() / h);
+        let w = bvh.winding_number_exact(p);
+        // On the surface (distance 0) either sign is right.
+        if exact > 0.0 && (w - 0.5).abs() > 0.01 && ((w >= 0.5) != (value < 0.0)) {
+            eprintln!("wrong sign at {ijk}: value {value}, exact distance {exact}, w {w}");
+            wrong += 1;
+        }
+    }
+    (checked, wrong, worst)
+}
+
+#[test]
+fn closed_mesh_band_is_exact() {
+    let Some(spot) = shared("spot.obj") else { return };
+    let (checked, wrong, worst) = check(&spot, 40, 2);
+    assert!(checked >= 1000, "{checked}");
+    assert_eq!(wrong, 0);
+    // f32 payload: distances to a few ulps.
+    assert!(worst < 1e-5, "{worst}");
+}
+
+#[test]
+fn open_bunny_band_signs_follow_the_winding_number() {
+    let Some(bunny) = shared("stanford-bunny.obj") else {
+        return;
+    };
+    let vox = MeshVoxelizer::new(&bunny);
+    assert_eq!(vox.boundary_edge_count(), 223);
+    let (checked, wrong, worst) = check(&bunny, 32, 2);
+    assert!(checked >= 1000, "{checked}");
+    assert_eq!(wrong, 0, "{wrong} of {checked} band voxels have the wrong sign");
+    assert!(worst < 1e-5, "{worst}");
+}
+
+fn tetra() -> impl Strategy<Value = TriMesh> {
+    let p = (-4.0f64..4.0, -4.0f64..4.0, -4.0f64..4.0).prop_map(|(x, y, z)| DVec3::new(x, y, z));
+    (p.clone(), p.clone(), p.clone(), p).prop_filter_map("flat", |(a, b, c, d)| {
+        let vol = (b - a).cross(c - a).dot(d - a);
+        if vol.abs() < 1.0 {
+            return None;
+        }
+        // Outward orientation.
+        let (b, c) = if vol > 0.0 { (c, b) } else { (b, c) };
+        TriMesh::new(vec![a, b, c, d], vec![[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]]).ok()
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+    #[test]
+    fn random_tetrahedra_distance_and_sign(mesh in tetra(), offset in prop_oneof![Just(0.0), Just(1e6)]) {
+        let mesh = mesh.translated(DVec3::splat(offset));
+        let (checked, wrong, worst) = check(&mesh, 12, 1);
+        prop_assert!(checked > 0);
+        prop_assert_eq!(wrong, 0);
+        // Far from the origin the f32 payload still resolves the distance (the world
+        // coordinates are f64; distances are small numbers).
+        prop_assert!(worst < 1e-4, "{}", worst);
+    }
+}
+
+#[test]
+fn anti_aliased_solid_of_closed_mesh_has_its_volume() {
+    let Some(spot) = shared("spot.obj") else { return };
+    // Exact volume by the divergence theorem.
+    let exact: f64 = (0..spot.triangles.len())
+        .map(|i| {
+            let [a, b, c] = spot.triangle(i);
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum();
+    let grid = grid_for(spot.bounds(), 96);
+    let v = MeshVoxelizer::new(&spot).voxelize(&grid, SurfaceMode::Solid, &NoProgress);
+    let rel = volga::voxelize::measure::occupied_volume(&v) / exact - 1.0;
+    assert!(rel.abs() < 1e-2, "{rel}");
+}
