@@ -1,8 +1,9 @@
-//! `volga`: build scene files, and (later) voxelize meshes and validate voxel models.
+//! `volga`: build scene files and voxelize meshes.
 //!
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
 
 mod progress;
+mod voxelize;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -34,6 +35,9 @@ enum Command {
         #[arg(long, value_parser = parse_size)]
         memory_limit: Option<u64>,
     },
+    /// Voxelize a mesh: binary surface or solid with 6/18/26 separability, anti-aliased
+    /// surface or solid, or narrow-band signed distance.
+    Voxelize(voxelize::VoxelizeArgs),
     /// Validate a scene and print its plan (channels, effects, memory estimate) without building.
     Plan {
         /// Scene file (.ron or .json).
@@ -44,7 +48,7 @@ enum Command {
 }
 
 /// Parses `123`, `64K`, `512M`, `8G`, `1T` (binary units).
-fn parse_size(s: &str) -> Result<u64, String> {
+pub(crate) fn parse_size(s: &str) -> Result<u64, String> {
     let t = s.trim();
     let (num, mul) = match t.char_indices().last() {
         Some((i, c)) if c.is_ascii_alphabetic() => {
@@ -106,6 +110,16 @@ fn main() -> ExitCode {
                 Err(e) => {
                     eprintln!("error: {e}");
                     ExitCode::from(if e.is_bad_input() { 2 } else { 1 })
+                }
+            }
+        }
+        Command::Voxelize(args) => {
+            let progress = progress::BarProgress::new();
+            match voxelize::run(args, &progress) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(f) => {
+                    eprintln!("error: {}", f.message);
+                    ExitCode::from(f.code)
                 }
             }
         }

@@ -28,5 +28,5 @@ pub use build::{build, load_scene, BuildOptions, GridReport, ImageReport, Report
 pub use error::{BuildError, SceneError};
 pub use load::{parse_file, parse_json, parse_ron};
 pub use plan::{Decision, MemoryEstimate, Plan};
-pub use stages::{peak_rss_bytes, StageReport};
+pub use stages::{peak_rss_bytes, StageReport, Stages};
 pub use validate::{content_bounds, validate, ImageJob, Scene};

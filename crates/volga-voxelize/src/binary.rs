@@ -128,7 +128,9 @@ struct Axis {
 /// A triangle in index space prepared for the voxel test.
 #[derive(Debug, Clone)]
 struct PreparedTriangle {
-    axes: Vec<Axis>,
+    /// At most 4 + 7 polytope faces + 6·3 edge crossings; `axis_count` are used.
+    axes: [Axis; 26],
+    axis_count: u8,
     /// Canonically oriented normal and its half-open slab `lo ≤ n·v < hi`, or `None` for
     /// a degenerate triangle.
     plane: Option<Axis>,
@@ -141,16 +143,22 @@ impl PreparedTriangle {
     fn new(tri: [DVec3; 3], sep: Separability) -> Self {
         let [a, b, c] = tri;
         let edges = [b - a, c - b, a - c];
-        let mut axes = Vec::with_capacity(27);
+        let mut axes = [Axis {
+            dir: DVec3::ZERO,
+            lo: 0.0,
+            hi: 0.0,
+        }; 26];
+        let mut axis_count = 0usize;
         let mut push = |dir: DVec3| {
             if dir != DVec3::ZERO {
                 let p = [dir.dot(a), dir.dot(b), dir.dot(c)];
                 let h = sep.support(dir);
-                axes.push(Axis {
+                axes[axis_count] = Axis {
                     dir,
                     lo: p[0].min(p[1]).min(p[2]) - h,
                     hi: p[0].max(p[1]).max(p[2]) + h,
-                });
+                };
+                axis_count += 1;
             }
         };
         let (faces, kedges) = sep.polytope();
@@ -177,6 +185,7 @@ impl PreparedTriangle {
         let hi = a.max(b).max(c) + 0.5;
         PreparedTriangle {
             axes,
+            axis_count: axis_count as u8,
             plane,
             min: clamp_i(lo.ceil()),
             max: clamp_i(hi.floor()),
@@ -191,7 +200,7 @@ impl PreparedTriangle {
                 return false;
             }
         }
-        self.axes.iter().all(|ax| {
+        self.axes[..self.axis_count as usize].iter().all(|ax| {
             let s = ax.dir.dot(v);
             ax.lo <= s && s <= ax.hi
         })

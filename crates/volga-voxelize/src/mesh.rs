@@ -63,6 +63,111 @@ pub struct MeshVoxelizer {
 /// How far from ½ a block's winding number must be to classify its 2×2×2 bricks at once.
 const REFINE_MARGIN: f64 = 0.3;
 
+/// Welded positions, indexed by welded vertex.
+fn welded_positions(mesh: &TriMesh, welded: &[u32], count: usize) -> Vec<DVec3> {
+    let mut out = vec![DVec3::ZERO; count];
+    for (i, &w) in welded.iter().enumerate() {
+        out[w as usize] = mesh.positions[i];
+    }
+    out
+}
+
+/// The winding number's principal value at each triangle's centroid, `w̄_t`.
+///
+/// * Closed, consistently oriented: `w̄ = ±½` exactly (the sign of the enclosed volume).
+/// * Open with simple boundary loops: each loop is closed by a fan cap `C` oriented so
+///   that `M ∪ C` is closed and consistent; then `w̄_M = ±½ − w_C(centroid)`, and `w_C`
+///   is a fast winding query over the few cap triangles instead of the whole mesh.
+/// * Otherwise (non-manifold edges, branching boundaries): `w_M` just off the centroid
+///   on the normal side plus ½ — crossing a sheet along its normal lowers `w` by exactly
+///   1 (at the centroid itself the triangle's own solid angle is ±2π, not 0).
+fn principal_winding(
+    triangles: &[[DVec3; 3]],
+    face_normal: &[DVec3],
+    bvh: &Bvh,
+    welded_pos: &[DVec3],
+    corner: impl Fn(usize, usize) -> u32,
+    edges: &FxHashMap<(u32, u32), (DVec3, u32)>,
+) -> Vec<f64> {
+    let centroid = |[a, b, c]: &[DVec3; 3]| (*a + *b + *c) / 3.0;
+    let direct = || -> Vec<f64> {
+        triangles
+            .par_iter()
+            .zip(face_normal)
+            .map(|(t, n)| {
+                let [a, b, c] = t;
+                let eps = 1e-6 * (*b - *a).length().max((*c - *a).length()).max(f64::MIN_POSITIVE);
+                bvh.winding_number(centroid(t) + *n * eps) + 0.5
+            })
+            .collect()
+    };
+    if edges.values().any(|e| e.1 > 2) {
+        return direct();
+    }
+    // Boundary edges i → j as their triangle lists them; the cap runs j → i.
+    let mut next: FxHashMap<u32, u32> = FxHashMap::default();
+    for t in 0..triangles.len() {
+        for k in 0..3 {
+            let (i, j) = (corner(t, k), corner(t, (k + 1) % 3));
+            if i != j && edges.get(&(i.min(j), i.max(j))).is_some_and(|e| e.1 == 1) && next.insert(j, i).is_some() {
+                return direct(); // two boundary edges leave j: not a simple loop
+            }
+        }
+    }
+    let mut caps: Vec<[DVec3; 3]> = Vec::new();
+    let mut starts: Vec<u32> = next.keys().copied().collect();
+    starts.sort_unstable();
+    let mut visited = rustc_hash::FxHashSet::default();
+    for start in starts {
+        if visited.contains(&start) {
+            continue;
+        }
+        let mut ring = vec![start];
+        visited.insert(start);
+        let mut v = start;
+        loop {
+            let Some(&n) = next.get(&v) else { return direct() };
+            if n == start {
+                break;
+            }
+            if !visited.insert(n) {
+                return direct();
+            }
+            ring.push(n);
+            v = n;
+        }
+        let c = ring.iter().map(|&i| welded_pos[i as usize]).sum::<DVec3>() / ring.len() as f64;
+        for k in 0..ring.len() {
+            let (p, q) = (
+                welded_pos[ring[k] as usize],
+                welded_pos[ring[(k + 1) % ring.len()] as usize],
+            );
+            caps.push([c, p, q]);
+        }
+    }
+    // Orientation of the closed M ∪ C from its enclosed volume, measured from the
+    // centroid so that coordinates far from the origin (1e6) do not cancel.
+    let o = triangles.iter().flatten().sum::<DVec3>() / (3 * triangles.len().max(1)) as f64;
+    let volume: f64 = triangles
+        .iter()
+        .chain(&caps)
+        .map(|[a, b, c]| (*a - o).dot((*b - o).cross(*c - o)))
+        .sum();
+    let half = if volume >= 0.0 { 0.5 } else { -0.5 };
+    if caps.is_empty() {
+        return vec![half; triangles.len()];
+    }
+    let cap_mesh = TriMesh {
+        positions: caps.iter().flatten().copied().collect(),
+        triangles: (0..caps.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
+    };
+    let cap_bvh = Bvh::build(&cap_mesh);
+    triangles
+        .par_iter()
+        .map(|t| half - cap_bvh.winding_number(centroid(t)))
+        .collect()
+}
+
 /// Margin around ½ inside which the per-triangle estimate is not trusted.
 const SIGN_MARGIN: f64 = 0.3;
 
@@ -145,19 +250,14 @@ impl MeshVoxelizer {
             vertex_ambiguous.push([0, 1, 2].map(|k| vambiguous[corner(t, k) as usize]));
         }
 
-        // The principal value on the surface. Crossing a sheet along its normal lowers
-        // w by exactly 1, so just off the centroid on the normal side w = w̄ − ½ (at the
-        // centroid itself the triangle's own solid angle is ±2π, not 0).
-        let w_bar: Vec<f64> = triangles
-            .par_iter()
-            .zip(&face_normal)
-            .map(|([a, b, c], n)| {
-                let centroid = (*a + *b + *c) / 3.0;
-                let eps = 1e-6 * (*b - *a).length().max((*c - *a).length()).max(f64::MIN_POSITIVE);
-                bvh.winding_number(centroid + *n * eps) + 0.5
-            })
-            .collect();
-
+        let w_bar = principal_winding(
+            &triangles,
+            &face_normal,
+            &bvh,
+            &welded_positions(mesh, &welded, weld.len()),
+            |t, k| corner(t, k),
+            &edges,
+        );
         let distance = triangles.iter().map(|t| TriDistance::new(*t)).collect();
         MeshVoxelizer {
             triangles,

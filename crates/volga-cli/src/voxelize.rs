@@ -1,0 +1,414 @@
+//! `volga voxelize`: one mesh to one voxel file, with a report shaped like
+//! `volga build`'s (a `stages` list with the voxelization in a stage named `voxelize`).
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use glam::{DVec3, UVec3};
+use serde::Serialize;
+use volga_core::memory::{self, Bytes};
+use volga_core::{Grid, Progress, SparseVolume, Transform, BRICK_DIM};
+use volga_scene::{StageReport, Stages};
+use volga_voxelize::{voxelize_triangles, MeshVoxelizer, Separability, SurfaceMode};
+
+#[derive(Args)]
+pub struct VoxelizeArgs {
+    /// Mesh file: .obj, .gltf or .glb.
+    mesh: PathBuf,
+    /// Voxels along the longest side of the mesh's bounding box.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    resolution: u32,
+    /// Binary surface with this separability (6, 18 or 26).
+    #[arg(long, value_parser = parse_separability, group = "mode")]
+    separability: Option<Separability>,
+    /// Anti-aliased (oriented box filter) surface of `--thickness`, or solid with `--solid`.
+    #[arg(long, group = "mode")]
+    anti_aliased: bool,
+    /// Narrow-band signed distance field of this half-width (voxels); world units in the file.
+    #[arg(long, value_name = "HALFWIDTH", group = "mode")]
+    distance: Option<f64>,
+    /// Fill the inside (generalized winding number ≥ ½): a solid instead of a surface.
+    #[arg(long)]
+    solid: bool,
+    /// Unsigned distances (with `--distance`).
+    #[arg(long)]
+    unsigned: bool,
+    /// Thickness of an anti-aliased surface, in voxels.
+    #[arg(long, default_value_t = 1.0)]
+    thickness: f64,
+    /// Output: .binvox (binary modes) or .nrrd (+ .raw beside it).
+    #[arg(long)]
+    out: PathBuf,
+    /// Write a JSON report here.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Refuse runs estimated to need more memory than this (e.g. 8G).
+    #[arg(long, value_parser = crate::parse_size)]
+    memory_limit: Option<u64>,
+}
+
+fn parse_separability(s: &str) -> Result<Separability, String> {
+    s.parse::<u32>()
+        .ok()
+        .and_then(Separability::from_number)
+        .ok_or_else(|| format!("`{s}`: separability must be 6, 18 or 26"))
+}
+
+/// A failure with the exit code it maps to (1: the run failed, 2: bad input).
+pub struct Failure {
+    pub code: u8,
+    pub message: String,
+}
+
+fn bad_input(message: impl Into<String>) -> Failure {
+    Failure {
+        code: 2,
+        message: message.into(),
+    }
+}
+
+fn failed(message: impl Into<String>) -> Failure {
+    Failure {
+        code: 1,
+        message: message.into(),
+    }
+}
+
+#[derive(Serialize)]
+struct Report {
+    mesh: PathBuf,
+    triangles: usize,
+    boundary_edges: usize,
+    closed: bool,
+    mode: String,
+    threads: usize,
+    grid: GridReport,
+    stages: Vec<StageReport>,
+    voxels: VoxelCounts,
+    estimated_memory_bytes: u64,
+    warnings: Vec<String>,
+    outputs: Vec<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct GridReport {
+    dims: [u32; 3],
+    voxel_size: f64,
+    origin: [f64; 3],
+}
+
+#[derive(Serialize)]
+struct VoxelCounts {
+    /// Voxels that differ from the background: black voxels of binary modes, non-zero
+    /// density, or distances inside the band.
+    active: u64,
+    /// Distance modes: voxels strictly inside the band (|d| < half-width), the figure
+    /// comparable to a level set's active voxels.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    band: Option<u64>,
+    bricks: usize,
+    dense_bricks: usize,
+}
+
+enum Format {
+    Binvox,
+    Nrrd,
+}
+
+pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
+    let format = match args
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("binvox") => Format::Binvox,
+        Some("nrrd") => Format::Nrrd,
+        _ => {
+            return Err(bad_input(format!(
+                "{}: output must end in .binvox or .nrrd",
+                args.out.display()
+            )))
+        }
+    };
+    let binary = args.separability.is_some();
+    if matches!(format, Format::Binvox) && !binary {
+        return Err(bad_input(format!(
+            "{}: .binvox holds binary voxels; use --separability, or write .nrrd",
+            args.out.display()
+        )));
+    }
+    if !(args.thickness.is_finite() && args.thickness > 0.0) {
+        return Err(bad_input(format!(
+            "--thickness must be finite and > 0, got {}",
+            args.thickness
+        )));
+    }
+    if let Some(hw) = args.distance {
+        if !(hw.is_finite() && hw > 0.0 && hw <= 1000.0) {
+            return Err(bad_input(format!("--distance must lie in (0, 1000] voxels, got {hw}")));
+        }
+    }
+    if !binary && !args.anti_aliased && args.distance.is_none() {
+        return Err(bad_input(
+            "choose a mode: --separability 6|18|26, --anti-aliased or --distance HALFWIDTH",
+        ));
+    }
+
+    let mut stages = Stages::default();
+    let mesh = stages
+        .run("read_mesh", || volga_mesh::load_mesh(&args.mesh))
+        .map_err(|e| bad_input(e.to_string()))?;
+
+    let bounds = mesh.bounds();
+    let h = bounds.size().max_element() / args.resolution as f64;
+    if !(h.is_finite() && h > 0.0) {
+        return Err(bad_input(format!(
+            "{}: the mesh has no extent to voxelize",
+            args.mesh.display()
+        )));
+    }
+    let band_voxels = match (args.distance, args.anti_aliased) {
+        (Some(hw), _) => hw,
+        (None, true) => 0.5 * args.thickness + 3f64.sqrt(),
+        _ => 1.0,
+    };
+    let pad = band_voxels.ceil() + 1.0;
+    let dims_f = (bounds.size() / h).ceil() + 2.0 * pad;
+    let dims = UVec3::new(dims_f.x as u32, dims_f.y as u32, dims_f.z as u32).max(UVec3::ONE);
+    let origin = bounds.min - DVec3::splat(pad * h) + DVec3::splat(0.5 * h);
+    let grid = Transform::new(origin, DVec3::splat(h))
+        .and_then(|t| Grid::new(t, dims))
+        .map_err(|e| bad_input(format!("--resolution {}: {e}", args.resolution)))?;
+
+    // Memory: every brick a triangle's band can touch (an upper bound), plus one value
+    // per brick of the grid for filled interiors.
+    let per_triangle: u64 = (0..mesh.triangles.len())
+        .map(|i| {
+            let tri = mesh.triangle(i);
+            let lo = tri[0].min(tri[1]).min(tri[2]);
+            let hi = tri[0].max(tri[1]).max(tri[2]);
+            let span = ((hi - lo) / h + 2.0 * band_voxels) / BRICK_DIM as f64 + 2.0;
+            span.x.floor() as u64 * span.y.floor() as u64 * span.z.floor() as u64
+        })
+        .sum();
+    let grid_bricks = volga_core::brick_extent(dims).as_u64vec3().element_product();
+    let estimate = per_triangle.min(grid_bricks) * (2048 + 64) + grid_bricks * 48 + mesh.triangles.len() as u64 * 400;
+    let limit = args.memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX);
+    if estimate > limit {
+        return Err(bad_input(format!(
+            "{}: voxelizing at --resolution {} ({}×{}×{} voxels) needs an estimated {}, more than the {} available",
+            args.mesh.display(),
+            args.resolution,
+            dims.x,
+            dims.y,
+            dims.z,
+            Bytes(estimate as u128),
+            Bytes(limit as u128)
+        )));
+    }
+
+    let mut warnings = Vec::new();
+    let needs_inside = args.solid || (args.distance.is_some() && !args.unsigned);
+    let (volume, boundary_edges, mode) = stages.run("voxelize", || {
+        let voxelizer = (needs_inside || !binary).then(|| MeshVoxelizer::new(&mesh));
+        let boundary_edges = voxelizer
+            .as_ref()
+            .map_or_else(|| mesh.boundary_edge_count(), |v| v.boundary_edge_count());
+        let (volume, mode) = match (args.separability, args.distance) {
+            (Some(sep), _) => {
+                let tris: Vec<_> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
+                let mut surface = voxelize_triangles(&grid, &tris, sep, progress);
+                if args.solid {
+                    let inside = voxelizer.as_ref().expect("built for --solid").voxelize(
+                        &grid,
+                        SurfaceMode::Distance {
+                            half_width_voxels: 2.0,
+                            signed: true,
+                        },
+                        progress,
+                    );
+                    fill_inside(&mut surface, &inside);
+                }
+                (
+                    surface,
+                    format!(
+                        "binary {}-separating {}",
+                        sep.number(),
+                        if args.solid { "solid" } else { "surface" }
+                    ),
+                )
+            }
+            (None, Some(hw)) => (
+                voxelizer.as_ref().expect("built").voxelize(
+                    &grid,
+                    SurfaceMode::Distance {
+                        half_width_voxels: hw,
+                        signed: !args.unsigned,
+                    },
+                    progress,
+                ),
+                format!(
+                    "{} distance, half-width {hw} voxels",
+                    if args.unsigned { "unsigned" } else { "signed" }
+                ),
+            ),
+            (None, None) => {
+                let mode = if args.solid {
+                    SurfaceMode::Solid
+                } else {
+                    SurfaceMode::Shell {
+                        thickness: args.thickness * h,
+                    }
+                };
+                (
+                    voxelizer.as_ref().expect("built").voxelize(&grid, mode, progress),
+                    if args.solid {
+                        "anti-aliased solid".to_string()
+                    } else {
+                        format!("anti-aliased surface, thickness {} voxels", args.thickness)
+                    },
+                )
+            }
+        };
+        (volume, boundary_edges, mode)
+    });
+    if needs_inside && boundary_edges > 0 {
+        let w = format!(
+            "{} is not closed ({boundary_edges} boundary edges): inside means generalized winding number ≥ ½",
+            args.mesh.display()
+        );
+        eprintln!("warning: {w}");
+        warnings.push(w);
+    }
+
+    let outputs = stages
+        .run("write", || write(&args.out, &format, &volume))
+        .map_err(|e| failed(e.to_string()))?;
+
+    let report = Report {
+        mesh: args.mesh.clone(),
+        triangles: mesh.triangles.len(),
+        boundary_edges,
+        closed: boundary_edges == 0,
+        mode,
+        threads: rayon::current_num_threads(),
+        grid: GridReport {
+            dims: dims.to_array(),
+            voxel_size: h,
+            origin: origin.to_array(),
+        },
+        stages: stages.list,
+        voxels: VoxelCounts {
+            active: volume.active_voxel_count(),
+            band: args.distance.map(|_| band_voxel_count(&volume)),
+            bricks: volume.density.brick_count(),
+            dense_bricks: volume.density.dense_brick_count(),
+        },
+        estimated_memory_bytes: estimate,
+        warnings,
+        outputs,
+    };
+    if let Some(path) = &args.report {
+        let json = serde_json::to_vec_pretty(&report).expect("report serializes");
+        volga_io::write_atomic(path, |w| w.write_all(&json)).map_err(|e| failed(e.to_string()))?;
+    }
+    println!(
+        "{}: {} → {} ({} {}, {:.3} s voxelizing)",
+        args.mesh.display(),
+        report.mode,
+        args.out.display(),
+        report.voxels.band.unwrap_or(report.voxels.active),
+        if report.voxels.band.is_some() {
+            "band voxels"
+        } else {
+            "active voxels"
+        },
+        report
+            .stages
+            .iter()
+            .find(|s| s.name == "voxelize")
+            .map_or(0.0, |s| s.wall_s)
+    );
+    Ok(())
+}
+
+/// Voxels whose distance lies strictly inside the band (|d| < background).
+fn band_voxel_count(volume: &SparseVolume) -> u64 {
+    let bg = volume.density.background().abs();
+    let grid_box = volume.grid.index_box();
+    volume
+        .density
+        .sorted_bricks()
+        .iter()
+        .map(|&b| {
+            volga_core::brick_index_box(b)
+                .intersection(&grid_box)
+                .iter()
+                .filter(|ijk| volume.density.get(*ijk).abs() < bg)
+                .count() as u64
+        })
+        .sum()
+}
+
+/// Marks every voxel whose signed distance is ≤ 0 as black.
+fn fill_inside(surface: &mut SparseVolume, inside: &SparseVolume) {
+    for b in inside.density.sorted_bricks() {
+        let brick = volga_core::brick_index_box(b).intersection(&inside.grid.index_box());
+        for ijk in brick.iter() {
+            if inside.density.get(ijk) <= 0.0 {
+                surface.density.set(ijk, 1.0);
+            }
+        }
+    }
+    surface.density.prune();
+}
+
+fn write(out: &Path, format: &Format, volume: &SparseVolume) -> Result<Vec<PathBuf>, volga_io::IoError> {
+    match format {
+        Format::Binvox => {
+            let g = &volume.grid;
+            let h = g.transform.spacing().x;
+            let dims = g.dims();
+            let filled = volume.density.sorted_bricks().into_iter().flat_map(|b| {
+                volga_core::brick_index_box(b)
+                    .intersection(&g.index_box())
+                    .iter()
+                    .filter(|ijk| volume.density.get(*ijk) > 0.5)
+                    .map(|ijk| ijk.as_uvec3())
+                    .collect::<Vec<_>>()
+            });
+            let model = volga_io::Binvox::from_filled(
+                dims,
+                g.transform.origin() - DVec3::splat(0.5 * h),
+                h * dims.max_element() as f64,
+                filled,
+            )
+            .map_err(|e| volga_io::IoError::Format {
+                path: out.to_owned(),
+                line: None,
+                message: e.to_string(),
+            })?;
+            volga_io::write_binvox(out, &model)?;
+            Ok(vec![out.to_owned()])
+        }
+        Format::Nrrd => {
+            let dir = out
+                .parent()
+                .filter(|p| !p.as_os_str().is_empty())
+                .unwrap_or(Path::new("."));
+            let stem = out
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .ok_or_else(|| volga_io::IoError::Format {
+                    path: out.to_owned(),
+                    line: None,
+                    message: "the output name is not valid UTF-8".into(),
+                })?;
+            let mut staged = volga_io::StagedOutputs::new();
+            volga_io::write_nrrd(dir, stem, volume, &mut staged)?;
+            staged.commit()
+        }
+    }
+}

@@ -1,0 +1,157 @@
+//! `volga voxelize` as a user runs it: outputs, the report's shape, the open-mesh
+//! warning, exit codes for bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn volga(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_volga"))
+        .args(args)
+        .output()
+        .expect("volga runs")
+}
+
+fn shared(name: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data")
+        .join(name);
+    p.exists().then_some(p).or_else(|| {
+        eprintln!("skipping: {name} not found beside the repository");
+        None
+    })
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn binary_and_distance_outputs_with_report() {
+    let Some(spot) = shared("spot.obj") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let binvox = dir.path().join("spot.binvox");
+    let report = dir.path().join("r.json");
+    let o = volga(&[
+        "voxelize",
+        spot.to_str().unwrap(),
+        "--resolution",
+        "32",
+        "--separability",
+        "26",
+        "--out",
+        binvox.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let model = volga_io::read_binvox(&binvox).unwrap();
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_eq!(r["voxels"]["active"].as_u64().unwrap(), model.filled_count());
+    let stages: Vec<&str> = r["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(stages, ["read_mesh", "voxelize", "write"]);
+    assert_eq!(r["closed"], true);
+    // The longest side has the requested resolution plus padding on both sides.
+    assert_eq!(
+        r["grid"]["dims"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|d| d.as_u64().unwrap())
+            .max(),
+        Some(32 + 4)
+    );
+
+    let nrrd = dir.path().join("spot.nrrd");
+    let o = volga(&[
+        "voxelize",
+        spot.to_str().unwrap(),
+        "--resolution",
+        "32",
+        "--distance",
+        "3",
+        "--out",
+        nrrd.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v = volga_io::read_nrrd(&nrrd).unwrap();
+    let h = v.grid.transform.spacing().x as f32;
+    let values = v.density.as_slice();
+    assert!(values.iter().all(|d| d.abs() <= 3.0 * h * 1.0001));
+    assert!(values.iter().any(|d| *d < -2.9 * h), "the inside is marked negative");
+}
+
+#[test]
+fn open_mesh_solid_warns_about_boundary_edges() {
+    let Some(bunny) = shared("stanford-bunny.obj") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b.binvox");
+    let o = volga(&[
+        "voxelize",
+        bunny.to_str().unwrap(),
+        "--resolution",
+        "24",
+        "--separability",
+        "6",
+        "--solid",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("223 boundary edges") && stderr(&o).contains("winding number"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn bad_input_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.obj");
+    std::fs::write(&bad, "v 0 0 0\nv 1 0\nf 1 2 3\n").unwrap();
+    let out = dir.path().join("x.nrrd");
+    let o = volga(&[
+        "voxelize",
+        bad.to_str().unwrap(),
+        "--resolution",
+        "8",
+        "--distance",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("bad.obj:2"), "{}", stderr(&o));
+    assert!(!out.exists());
+
+    let Some(spot) = shared("spot.obj") else { return };
+    for args in [
+        vec!["--resolution", "8", "--anti-aliased", "--out", "x.binvox"],
+        vec!["--resolution", "8", "--out", "x.nrrd"],
+        vec!["--resolution", "0", "--distance", "2", "--out", "x.nrrd"],
+        vec!["--resolution", "8", "--separability", "7", "--out", "x.binvox"],
+        vec!["--resolution", "8", "--distance", "2", "--out", "x.png"],
+        vec![
+            "--resolution",
+            "60000",
+            "--distance",
+            "2",
+            "--memory-limit",
+            "1M",
+            "--out",
+            "x.nrrd",
+        ],
+    ] {
+        let mut all = vec!["voxelize", spot.to_str().unwrap()];
+        all.extend(args.iter());
+        let o = volga(&all);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    }
+}
