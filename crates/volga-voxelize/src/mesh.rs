@@ -255,7 +255,7 @@ impl MeshVoxelizer {
             &face_normal,
             &bvh,
             &welded_positions(mesh, &welded, weld.len()),
-            |t, k| corner(t, k),
+            corner,
             &edges,
         );
         let distance = triangles.iter().map(|t| TriDistance::new(*t)).collect();
