@@ -7,7 +7,7 @@ use clap::Args;
 use glam::{DVec3, UVec3};
 use serde::Serialize;
 use volga_core::memory::{self, Bytes};
-use volga_core::{Grid, Progress, SparseVolume, Transform, BRICK_DIM};
+use volga_core::{Grid, Progress, SparseVolume, Transform};
 use volga_scene::{StageReport, Stages};
 use volga_voxelize::{voxelize_triangles, MeshVoxelizer, Separability, SurfaceMode};
 
@@ -182,19 +182,10 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         .and_then(|t| Grid::new(t, dims))
         .map_err(|e| bad_input(format!("--resolution {}: {e}", args.resolution)))?;
 
-    // Memory: every brick a triangle's band can touch (an upper bound), plus one value
-    // per brick of the grid for filled interiors.
-    let per_triangle: u64 = (0..mesh.triangles.len())
-        .map(|i| {
-            let tri = mesh.triangle(i);
-            let lo = tri[0].min(tri[1]).min(tri[2]);
-            let hi = tri[0].max(tri[1]).max(tri[2]);
-            let span = ((hi - lo) / h + 2.0 * band_voxels) / BRICK_DIM as f64 + 2.0;
-            span.x.floor() as u64 * span.y.floor() as u64 * span.z.floor() as u64
-        })
-        .sum();
-    let grid_bricks = volga_core::brick_extent(dims).as_u64vec3().element_product();
-    let estimate = per_triangle.min(grid_bricks) * (2048 + 64) + grid_bricks * 48 + mesh.triangles.len() as u64 * 400;
+    // Memory: every brick a triangle's band can touch (dense), plus one value per
+    // brick of the grid for filled interiors, plus the BVH and per-triangle data.
+    let (band_bricks, grid_bricks) = MeshVoxelizer::estimate_bricks(&mesh, &grid, band_voxels * h);
+    let estimate = band_bricks * (2048 + 64) + grid_bricks * 48 + mesh.triangles.len() as u64 * 400;
     let limit = args.memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX);
     if estimate > limit {
         return Err(bad_input(format!(

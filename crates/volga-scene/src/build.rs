@@ -7,7 +7,7 @@ use serde::Serialize;
 use volga_core::{Progress, Sampled, SparseVolume};
 use volga_io::StagedOutputs;
 use volga_render::{render, RenderStats};
-use volga_voxelize::voxelize_solids;
+use volga_voxelize::{merge_max, voxelize_solids, MeshVoxelizer, SurfaceMode};
 
 use crate::plan::{plan, Plan};
 use crate::stages::{StageReport, Stages};
@@ -85,7 +85,13 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
     let plan = stages.run("plan", || plan(&scene, options.memory_limit))?;
 
     let mut volume = stages.run("voxelize", || {
-        voxelize_solids(&scene.grid, &scene.solids, plan.colour_channel, progress)
+        let mut volume = voxelize_solids(&scene.grid, &scene.solids, plan.colour_channel, progress);
+        // Meshes join the fuzzy union after the analytic solids, in scene order.
+        for m in &scene.meshes {
+            let solid = MeshVoxelizer::new(&m.mesh).voxelize(&scene.grid, SurfaceMode::Solid, progress);
+            merge_max(&mut volume, &solid, m.colour);
+        }
+        volume
     });
     let voxels = voxel_report(&volume);
 

@@ -78,6 +78,57 @@ pub enum ShapeSpec {
         half_extents: V3,
         rotation_deg: V3,
     },
+    Ellipsoid {
+        center: V3,
+        radii: V3,
+        #[serde(default)]
+        rotation_deg: V3,
+    },
+    /// Circular cylinder around `axis` through `center`; infinite without `half_length`
+    /// (then clipped by the grid).
+    Cylinder {
+        center: V3,
+        axis: V3,
+        radius: f64,
+        #[serde(default)]
+        half_length: Option<f64>,
+    },
+    /// Solid cone with its apex at `apex`, opening along `axis`; capped at `height` or
+    /// infinite.
+    Cone {
+        apex: V3,
+        axis: V3,
+        half_angle_deg: f64,
+        #[serde(default)]
+        height: Option<f64>,
+    },
+    /// The general quadric solid xᵀAx + bᵀx + c ≤ 0, clipped by `clip`; `a` lists the
+    /// rows of A.
+    Quadric {
+        a: [V3; 3],
+        b: V3,
+        c: f64,
+        clip: BoundsSpec,
+    },
+    /// A line segment drawn as a tube of `radius` (an anti-aliased 3D line).
+    Capsule {
+        a: V3,
+        b: V3,
+        radius: f64,
+    },
+    /// A triangle mesh (.obj, .gltf, .glb; path relative to the scene file), as a solid:
+    /// inside where its generalized winding number is ≥ ½.
+    Mesh {
+        path: String,
+        #[serde(default)]
+        translate: V3,
+        #[serde(default = "unit_scale")]
+        scale: f64,
+    },
+}
+
+fn unit_scale() -> f64 {
+    1.0
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

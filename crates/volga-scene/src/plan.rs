@@ -136,7 +136,18 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
 }
 
 fn estimate(scene: &Scene, colour: bool) -> MemoryEstimate {
-    let bricks = estimate_solid_bricks(&scene.grid, &scene.solids);
+    let filter_band = scene.grid.transform.spacing().length();
+    let mesh_bricks: u64 = scene
+        .meshes
+        .iter()
+        .map(|m| {
+            let (band, all) = volga_voxelize::MeshVoxelizer::estimate_bricks(&m.mesh, &scene.grid, filter_band);
+            // Each mesh is voxelized into its own volume (band plus uniform inside) and
+            // merged; the BVH and per-triangle data cost ~400 bytes a triangle.
+            band + all / 40 + m.mesh.triangles.len() as u64 / 5
+        })
+        .fold(0, u64::saturating_add);
+    let bricks = estimate_solid_bricks(&scene.grid, &scene.solids).saturating_add(mesh_bricks);
     let per_brick = BRICK_VOXELS as u64 * (4 + if colour { 12 } else { 0 }) + BRICK_OVERHEAD_BYTES + 12; // the voxelizer's list of candidate brick coordinates
     let volume_bytes = bricks.saturating_mul(per_brick);
     let image_bytes = scene

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::{DQuat, DVec3, EulerRot, UVec3, Vec3, Vec4};
 use volga_core::{Aabb, Filter, Grid, Transform};
 use volga_render::{Camera, Light, Material, Mode, Projection, RenderSettings, SurfaceColour, TransferFunction};
-use volga_voxelize::shapes::{AxisBox, OrientedBox, Sphere};
+use volga_voxelize::shapes::{AxisBox, Capsule, Cone, Cylinder, Ellipsoid, OrientedBox, Quadric, Sphere};
 use volga_voxelize::{Shape, Solid};
 
 use crate::model::*;
@@ -18,10 +18,21 @@ use crate::SceneError;
 pub struct Scene {
     pub source: PathBuf,
     pub grid: Grid,
+    /// Analytic solids (shapes and quadrics).
     pub solids: Vec<Solid>,
+    /// Mesh solids, merged after the analytic ones.
+    pub meshes: Vec<MeshObject>,
     pub object_names: Vec<String>,
     pub images: Vec<ImageJob>,
     pub volumes: Vec<VolumeOutputSpec>,
+}
+
+/// A mesh object of the scene, loaded and placed in world space.
+#[derive(Debug, Clone)]
+pub struct MeshObject {
+    pub name: String,
+    pub mesh: volga_mesh::TriMesh,
+    pub colour: volga_core::Rgb,
 }
 
 /// One image output: a camera, a mode and the render settings for it.
@@ -104,10 +115,10 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
         return Err(cx.err("objects", "the scene has no objects"));
     }
     let mut solids = Vec::new();
+    let mut meshes = Vec::new();
     let mut object_names = Vec::new();
     for (i, o) in file.objects.iter().enumerate() {
         let f = format!("objects[{i}]");
-        let shape = validate_shape(&cx, &format!("{f}.shape"), &o.shape)?;
         let colour = match o.colour {
             Some(c) => {
                 cx.unit_interval(&format!("{f}.colour"), &c)?;
@@ -115,8 +126,33 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
             }
             None => [1.0; 3],
         };
-        solids.push(Solid::new(shape, colour));
-        object_names.push(o.name.clone().unwrap_or_else(|| format!("object{i}")));
+        let name = o.name.clone().unwrap_or_else(|| format!("object{i}"));
+        if let ShapeSpec::Mesh {
+            path: mesh_path,
+            translate,
+            scale,
+        } = &o.shape
+        {
+            let f = format!("{f}.shape");
+            let offset = cx.finite3(&format!("{f}.translate"), *translate)?;
+            let scale = cx.positive(&format!("{f}.scale"), *scale)?;
+            let resolved = path.parent().unwrap_or(Path::new(".")).join(mesh_path);
+            let mesh = volga_mesh::load_mesh(&resolved).map_err(|e| cx.err(format!("{f}.path"), e.to_string()))?;
+            let placed = mesh.transformed(&glam::DAffine3::from_scale_rotation_translation(
+                DVec3::splat(scale),
+                DQuat::IDENTITY,
+                offset,
+            ));
+            meshes.push(MeshObject {
+                name: name.clone(),
+                mesh: placed,
+                colour,
+            });
+        } else {
+            let shape = validate_shape(&cx, &format!("{f}.shape"), &o.shape)?;
+            solids.push(Solid::new(shape, colour));
+        }
+        object_names.push(name);
     }
 
     let transfer = validate_transfer(&cx, file.transfer_function.as_deref())?;
@@ -212,6 +248,7 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
         source: path.to_owned(),
         grid,
         solids,
+        meshes,
         object_names,
         images,
         volumes: file.outputs.volumes.clone(),
@@ -262,6 +299,14 @@ fn validate_grid(cx: &Ctx, g: &GridSpec) -> Result<Grid, SceneError> {
     Grid::new(transform, dims).map_err(|e| cx.err("grid", e.to_string()))
 }
 
+fn nonzero(cx: &Ctx, field: &str, v: V3) -> Result<DVec3, SceneError> {
+    let d = cx.finite3(field, v)?;
+    if d == DVec3::ZERO {
+        return Err(cx.err(field, "must not be the zero vector"));
+    }
+    Ok(d)
+}
+
 fn validate_shape(cx: &Ctx, f: &str, s: &ShapeSpec) -> Result<Shape, SceneError> {
     Ok(match s {
         ShapeSpec::Sphere { center, radius } => {
@@ -288,6 +333,72 @@ fn validate_shape(cx: &Ctx, f: &str, s: &ShapeSpec) -> Result<Shape, SceneError>
             let q = DQuat::from_euler(EulerRot::XYZ, r.x.to_radians(), r.y.to_radians(), r.z.to_radians());
             Shape::OrientedBox(OrientedBox::new(c, h, q).map_err(|e| cx.err(f, e.to_string()))?)
         }
+        ShapeSpec::Ellipsoid {
+            center,
+            radii,
+            rotation_deg,
+        } => {
+            let c = cx.finite3(&format!("{f}.center"), *center)?;
+            let r = cx.finite3(&format!("{f}.radii"), *radii)?;
+            for a in 0..3 {
+                cx.positive(&format!("{f}.radii[{a}]"), r[a])?;
+            }
+            let e = cx.finite3(&format!("{f}.rotation_deg"), *rotation_deg)?;
+            let q = DQuat::from_euler(EulerRot::XYZ, e.x.to_radians(), e.y.to_radians(), e.z.to_radians());
+            Shape::Ellipsoid(Ellipsoid::new(c, r, q).map_err(|e| cx.err(f, e.to_string()))?)
+        }
+        ShapeSpec::Cylinder {
+            center,
+            axis,
+            radius,
+            half_length,
+        } => {
+            let c = cx.finite3(&format!("{f}.center"), *center)?;
+            let a = nonzero(cx, &format!("{f}.axis"), *axis)?;
+            let r = cx.positive(&format!("{f}.radius"), *radius)?;
+            let l = half_length
+                .map(|l| cx.positive(&format!("{f}.half_length"), l))
+                .transpose()?;
+            Shape::Cylinder(Cylinder::new(c, a, r, l).map_err(|e| cx.err(f, e.to_string()))?)
+        }
+        ShapeSpec::Cone {
+            apex,
+            axis,
+            half_angle_deg,
+            height,
+        } => {
+            let p = cx.finite3(&format!("{f}.apex"), *apex)?;
+            let a = nonzero(cx, &format!("{f}.axis"), *axis)?;
+            if !(half_angle_deg.is_finite() && *half_angle_deg > 0.0 && *half_angle_deg < 90.0) {
+                return Err(cx.err(
+                    format!("{f}.half_angle_deg"),
+                    format!("must lie in (0, 90), got {half_angle_deg}"),
+                ));
+            }
+            let h = height.map(|h| cx.positive(&format!("{f}.height"), h)).transpose()?;
+            Shape::Cone(Cone::new(p, a, half_angle_deg.to_radians(), h).map_err(|e| cx.err(f, e.to_string()))?)
+        }
+        ShapeSpec::Quadric { a, b, c, clip } => {
+            let rows: Vec<DVec3> = (0..3)
+                .map(|r| cx.finite3(&format!("{f}.a[{r}]"), a[r]))
+                .collect::<Result<_, _>>()?;
+            let bv = cx.finite3(&format!("{f}.b"), *b)?;
+            if !c.is_finite() {
+                return Err(cx.err(format!("{f}.c"), format!("must be finite, got {c}")));
+            }
+            let lo = cx.finite3(&format!("{f}.clip.min"), clip.min)?;
+            let hi = cx.finite3(&format!("{f}.clip.max"), clip.max)?;
+            let clip_box = AxisBox::new(lo, hi).map_err(|e| cx.err(format!("{f}.clip"), e.to_string()))?;
+            let m = glam::DMat3::from_cols(rows[0], rows[1], rows[2]).transpose();
+            Shape::Quadric(Quadric::new(m, bv, *c, clip_box).map_err(|e| cx.err(f, e.to_string()))?)
+        }
+        ShapeSpec::Capsule { a, b, radius } => {
+            let pa = cx.finite3(&format!("{f}.a"), *a)?;
+            let pb = cx.finite3(&format!("{f}.b"), *b)?;
+            let r = cx.positive(&format!("{f}.radius"), *radius)?;
+            Shape::Capsule(Capsule::new(pa, pb, r).map_err(|e| cx.err(f, e.to_string()))?)
+        }
+        ShapeSpec::Mesh { .. } => unreachable!("meshes are loaded by the caller"),
     })
 }
 
@@ -412,8 +523,14 @@ fn validate_image(
     })
 }
 
-/// World bounds of all solids (for tools that frame a camera).
+/// World bounds of all objects (for tools that frame a camera); unbounded quadrics
+/// count as the grid's bounds.
 pub fn content_bounds(scene: &Scene) -> Aabb {
     use volga_voxelize::SignedDistance;
-    scene.solids.iter().fold(Aabb::EMPTY, |b, s| b.union(&s.shape.bounds()))
+    let grid = scene.grid.world_bounds();
+    let solids = scene
+        .solids
+        .iter()
+        .fold(Aabb::EMPTY, |b, s| b.union(&s.shape.bounds().intersection(&grid)));
+    scene.meshes.iter().fold(solids, |b, m| b.union(&m.mesh.bounds()))
 }

@@ -40,5 +40,5 @@ pub use filter::OrientedBoxFilter;
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity};
 pub use mesh::MeshVoxelizer;
 pub use shapes::{Shape, SignedDistance};
-pub use solids::{estimate_solid_bricks, voxelize_solids, Solid};
+pub use solids::{estimate_solid_bricks, merge_max, voxelize_solids, Solid};
 pub use surfaces::{voxelize_shapes, SurfaceMode};

@@ -21,7 +21,9 @@
 //! Where that estimate is within 0.3 of the ½ threshold (near holes), where the nearest
 //! feature lies on a boundary or non-manifold edge, or where the side is undecided, `w(p)`
 //! itself is evaluated with the BVH's fast winding number (Barill et al. 2018).
-//! Voxels away from the surface take the sign of their brick. For a closed mesh `w` is
+//! Voxels beyond the band but inside a brick the band reaches take their sign by flood
+//! fill from the band voxels (a 6-step is shorter than the band, so it cannot cross the
+//! surface). Bricks the band does not reach take the sign of their centre. For a closed mesh `w` is
 //! constant off the surface, so face-connected bricks beyond the band share one answer
 //! (one query per component). For an open mesh `w` varies smoothly through the holes: it
 //! is evaluated per block of 2×2×2 bricks and refined per brick near ½; the level set
@@ -274,6 +276,25 @@ impl MeshVoxelizer {
         }
     }
 
+    /// Upper bound on the bricks [`MeshVoxelizer::voxelize`] stores for a band of
+    /// `band_world` on `grid`, plus the grid's brick count when the inside is filled
+    /// (uniform bricks), computed from the triangles without allocating.
+    pub fn estimate_bricks(mesh: &TriMesh, grid: &Grid, band_world: f64) -> (u64, u64) {
+        let h = grid.transform.spacing().min_element();
+        let band = band_world / h;
+        let per_triangle: u64 = (0..mesh.triangles.len())
+            .map(|i| {
+                let tri = mesh.triangle(i);
+                let lo = tri[0].min(tri[1]).min(tri[2]);
+                let hi = tri[0].max(tri[1]).max(tri[2]);
+                let span = ((hi - lo) / h + 2.0 * band) / BRICK_DIM as f64 + 2.0;
+                span.x.floor() as u64 * span.y.floor() as u64 * span.z.floor() as u64
+            })
+            .fold(0u64, u64::saturating_add);
+        let grid_bricks = volga_core::brick_extent(grid.dims()).as_u64vec3().element_product();
+        (per_triangle.min(grid_bricks), grid_bricks)
+    }
+
     /// Edges used by exactly one triangle (after welding): 0 for a closed mesh.
     pub fn boundary_edge_count(&self) -> usize {
         self.boundary_edges
@@ -299,6 +320,35 @@ impl MeshVoxelizer {
             }
         }
         self.bvh.winding_number(p) >= 0.5
+    }
+
+    /// Propagates known signs (±1) to the unknown (0) voxels of one brick region through
+    /// 6-neighbours; remaining pockets get the winding number at their first voxel.
+    fn flood_signs(&self, region: &IndexBox, sign: &mut [i8; BRICK_VOXELS], grid: &Grid) {
+        const STEPS: [IVec3; 6] = [IVec3::X, IVec3::NEG_X, IVec3::Y, IVec3::NEG_Y, IVec3::Z, IVec3::NEG_Z];
+        let mut stack: Vec<IVec3> = region
+            .iter()
+            .filter(|v| sign[Brick::<f32>::local_offset(*v)] != 0)
+            .collect();
+        loop {
+            while let Some(v) = stack.pop() {
+                let s = sign[Brick::<f32>::local_offset(v)];
+                for step in STEPS {
+                    let n = v + step;
+                    if region.contains(n) && sign[Brick::<f32>::local_offset(n)] == 0 {
+                        sign[Brick::<f32>::local_offset(n)] = s;
+                        stack.push(n);
+                    }
+                }
+            }
+            // A pocket with no band voxel: seed it from the winding number.
+            let Some(seed) = region.iter().find(|v| sign[Brick::<f32>::local_offset(*v)] == 0) else {
+                break;
+            };
+            let inside = self.bvh.winding_number(grid.transform.voxel_center(seed)) >= 0.5;
+            sign[Brick::<f32>::local_offset(seed)] = if inside { 1 } else { -1 };
+            stack.push(seed);
+        }
     }
 
     /// Open meshes: `w` varies smoothly away from the surface (through the holes), so
@@ -464,29 +514,29 @@ impl MeshVoxelizer {
                         }
                     });
                 }
-                // Sign per band voxel; voxels beyond the band take the brick's sign.
-                let needs_brick_sign = signed
-                    && region.iter().any(|ijk| {
-                        best_tri[Brick::<f32>::local_offset(ijk)] == u32::MAX
-                            || best_d2[Brick::<f32>::local_offset(ijk)] > band2
-                    });
-                let brick_inside = needs_brick_sign
-                    && self
-                        .bvh
-                        .winding_number(t.index_to_world((brick * BRICK_DIM).as_dvec3() + 3.5))
-                        >= 0.5;
+                // Band voxels: exact distance and sign. Voxels beyond the band: their sign
+                // flows from band voxels through 6-neighbours (a 6-step is shorter than the
+                // band, so it cannot cross the surface); a pocket no band voxel reaches asks
+                // the winding number once.
+                let in_band = |o: usize| best_tri[o] != u32::MAX && best_d2[o] <= band2;
+                let mut sign = [0i8; BRICK_VOXELS]; // 1 inside, -1 outside, 0 unknown
                 let mut data = Box::new([background; BRICK_VOXELS]);
                 for ijk in region.iter() {
                     let o = Brick::<f32>::local_offset(ijk);
-                    data[o] = if best_tri[o] != u32::MAX && best_d2[o] <= band2 {
-                        let p = t.voxel_center(ijk);
-                        let inside = signed && self.inside(p, best_tri[o] as usize);
-                        value(best_d2[o].sqrt(), inside)
-                    } else if brick_inside {
-                        inside_value
-                    } else {
-                        background
-                    };
+                    if in_band(o) {
+                        let inside = signed && self.inside(t.voxel_center(ijk), best_tri[o] as usize);
+                        sign[o] = if inside { 1 } else { -1 };
+                        data[o] = value(best_d2[o].sqrt(), inside);
+                    }
+                }
+                if signed {
+                    self.flood_signs(&region, &mut sign, grid);
+                    for ijk in region.iter() {
+                        let o = Brick::<f32>::local_offset(ijk);
+                        if !in_band(o) && sign[o] > 0 {
+                            data[o] = inside_value;
+                        }
+                    }
                 }
                 progress.inc(1);
                 (brick, Brick::Dense(data).collapsed())

@@ -179,6 +179,7 @@ pub enum Shape {
     Cylinder(Cylinder),
     Cone(Cone),
     Quadric(Quadric),
+    Capsule(Capsule),
 }
 
 impl SignedDistance for Shape {
@@ -192,6 +193,7 @@ impl SignedDistance for Shape {
             Shape::Cylinder(s) => s.signed_distance(p),
             Shape::Cone(s) => s.signed_distance(p),
             Shape::Quadric(s) => s.signed_distance(p),
+            Shape::Capsule(s) => s.signed_distance(p),
         }
     }
     fn bounds(&self) -> Aabb {
@@ -203,6 +205,7 @@ impl SignedDistance for Shape {
             Shape::Cylinder(s) => s.bounds(),
             Shape::Cone(s) => s.bounds(),
             Shape::Quadric(s) => s.bounds(),
+            Shape::Capsule(s) => s.bounds(),
         }
     }
     fn is_exact(&self) -> bool {
@@ -217,6 +220,7 @@ impl SignedDistance for Shape {
             Shape::Cylinder(s) => s.gradient(p),
             Shape::Cone(s) => s.gradient(p),
             Shape::Quadric(s) => s.gradient(p),
+            Shape::Capsule(s) => s.gradient(p),
         }
     }
 }
@@ -536,6 +540,42 @@ impl SignedDistance for Cone {
                 Aabb::new(self.apex.min(cap - disk), self.apex.max(cap + disk))
             }
         }
+    }
+}
+
+/// A tube of `radius` around the segment `a b` (a capsule): the anti-aliased line of
+/// survey §17.4. Exact distance; `a = b` gives a sphere (zero-length segments are fine).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Capsule {
+    a: DVec3,
+    b: DVec3,
+    radius: f64,
+}
+
+impl Capsule {
+    pub fn new(a: DVec3, b: DVec3, radius: f64) -> Result<Self, InvalidShape> {
+        finite(a, "a must be finite")?;
+        finite(b, "b must be finite")?;
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(InvalidShape("radius must be finite and > 0"));
+        }
+        Ok(Capsule { a, b, radius })
+    }
+}
+
+impl SignedDistance for Capsule {
+    fn signed_distance(&self, p: DVec3) -> f64 {
+        let ab = self.b - self.a;
+        let l = ab.length_squared();
+        let t = if l > 0.0 {
+            ((p - self.a).dot(ab) / l).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (p - (self.a + ab * t)).length() - self.radius
+    }
+    fn bounds(&self) -> Aabb {
+        Aabb::new(self.a.min(self.b) - self.radius, self.a.max(self.b) + self.radius)
     }
 }
 

@@ -115,6 +115,28 @@ pub fn voxelize_solids(grid: &Grid, solids: &[Solid], with_colour: bool, progres
     volume
 }
 
+/// Fuzzy union (max, survey eq. 17) of `src`'s density into `dst` (same grid), giving
+/// `colour` to the voxels where `src` is strictly denser. Bricks in sorted order:
+/// deterministic.
+pub fn merge_max(dst: &mut SparseVolume, src: &SparseVolume, colour: Rgb) {
+    let grid_box = dst.grid.index_box();
+    for b in src.density.sorted_bricks() {
+        for ijk in volga_core::brick_index_box(b).intersection(&grid_box).iter() {
+            let v = src.density.get(ijk);
+            if v > dst.density.get(ijk) {
+                dst.density.set(ijk, v);
+                if let Some(c) = dst.colour.as_mut() {
+                    c.set(ijk, colour);
+                }
+            }
+        }
+    }
+    dst.density.prune();
+    if let Some(c) = dst.colour.as_mut() {
+        c.prune();
+    }
+}
+
 type BrickPair = (Brick<f32>, Option<Brick<Rgb>>);
 
 fn sample_brick(
