@@ -181,14 +181,13 @@ impl PreparedTriangle {
                 hi: d + h,
             }
         });
-        let lo = a.min(b).min(c) - 0.5;
-        let hi = a.max(b).max(c) + 0.5;
+        let (min, max) = voxel_range(a, b, c);
         PreparedTriangle {
             axes,
             axis_count: axis_count as u8,
             plane,
-            min: clamp_i(lo.ceil()),
-            max: clamp_i(hi.floor()),
+            min,
+            max,
         }
     }
 
@@ -248,6 +247,12 @@ impl PreparedTriangle {
     }
 }
 
+/// Inclusive voxel range a triangle's neighbourhood test can pass: its bounding box grown
+/// by ½ (every `K_N` fits in the cube `[−½, ½]³`).
+fn voxel_range(a: DVec3, b: DVec3, c: DVec3) -> (IVec3, IVec3) {
+    (clamp_i((a.min(b).min(c) - 0.5).ceil()), clamp_i((a.max(b).max(c) + 0.5).floor()))
+}
+
 /// The axis of the largest-magnitude component, the lowest axis among equals.
 fn dominant_axis(n: DVec3) -> usize {
     let a = n.abs();
@@ -295,20 +300,22 @@ pub fn voxelize_triangles(
     progress: &dyn Progress,
 ) -> SparseVolume {
     let t = &grid.transform;
-    let prepared: Vec<PreparedTriangle> = triangles
+    // Triangles in index space; each is prepared (its separating axes) on the stack in
+    // every brick that uses it, which costs less than storing ~1 KB of axes per triangle.
+    let index_triangles: Vec<[DVec3; 3]> = triangles
         .par_iter()
         .filter(|tri| tri.iter().all(|p| p.is_finite()))
-        .map(|tri| PreparedTriangle::new(tri.map(|p| t.world_to_index(p)), separability))
+        .map(|tri| tri.map(|p| t.world_to_index(p)))
         .collect();
 
     // (brick, triangle) pairs for every brick a triangle's voxel range touches.
     let grid_box = grid.index_box();
-    let mut pairs: Vec<(IVec3, u32)> = prepared
+    let mut pairs: Vec<(IVec3, u32)> = index_triangles
         .par_iter()
         .enumerate()
-        .flat_map_iter(|(i, p)| {
-            let lo = p.min.max(grid_box.min);
-            let hi = p.max.min(grid_box.max - IVec3::ONE);
+        .flat_map_iter(|(i, [a, b, c])| {
+            let (lo, hi) = voxel_range(*a, *b, *c);
+            let (lo, hi) = (lo.max(grid_box.min), hi.min(grid_box.max - IVec3::ONE));
             let bricks = if lo.cmpgt(hi).any() {
                 IndexBox::new(IVec3::ZERO, IVec3::ZERO)
             } else {
@@ -332,7 +339,7 @@ pub fn voxelize_triangles(
             let mut data = Box::new([0.0f32; BRICK_VOXELS]);
             let mut any = false;
             for &(_, i) in group.iter() {
-                prepared[i as usize].for_each_voxel(&region, |ijk| {
+                PreparedTriangle::new(index_triangles[i as usize], separability).for_each_voxel(&region, |ijk| {
                     data[Brick::<f32>::local_offset(ijk)] = 1.0;
                     any = true;
                 });
