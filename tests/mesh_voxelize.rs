@@ -148,3 +148,33 @@ fn anti_aliased_solid_of_closed_mesh_has_its_volume() {
     let rel = volga::voxelize::measure::occupied_volume(&v) / exact - 1.0;
     assert!(rel.abs() < 1e-2, "{rel}");
 }
+
+#[test]
+fn mesh_voxelization_is_deterministic_and_finite() {
+    let Some(bunny) = shared("stanford-bunny.obj") else {
+        return;
+    };
+    let grid = grid_for(bunny.bounds(), 48);
+    let vox = MeshVoxelizer::new(&bunny);
+    for mode in [
+        SurfaceMode::Solid,
+        SurfaceMode::Shell {
+            thickness: grid.transform.spacing().x,
+        },
+        SurfaceMode::Distance {
+            half_width_voxels: 2.5,
+            signed: true,
+        },
+    ] {
+        let run = |n| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .unwrap()
+                .install(|| vox.voxelize(&grid, mode, &NoProgress).to_dense().unwrap())
+        };
+        let one = run(1);
+        assert!(one.density.as_slice().iter().all(|v| v.is_finite()), "{mode:?}");
+        assert_eq!(one, run(2), "{mode:?}");
+    }
+}

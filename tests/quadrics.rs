@@ -274,3 +274,29 @@ fn quadric_sphere_matches_exact_sphere() {
     // filter slope 1/(2√3): 0.052 in density.
     assert!(worst < 0.053, "{worst}");
 }
+
+#[test]
+fn binary_quadric_solids_are_exactly_the_inside() {
+    let g = grid(30, 1.0, DVec3::ZERO);
+    let shapes = [
+        Shape::Ellipsoid(
+            Ellipsoid::new(
+                DVec3::splat(14.5),
+                DVec3::new(11.0, 7.0, 5.0),
+                DQuat::from_rotation_z(0.4),
+            )
+            .unwrap(),
+        ),
+        Shape::Cone(Cone::new(DVec3::new(15.0, 15.0, 2.0), DVec3::Z, 0.5, Some(20.0)).unwrap()),
+        Shape::Cylinder(Cylinder::new(DVec3::splat(15.0), DVec3::new(1.0, 1.0, 0.0), 4.0, None).unwrap()),
+    ];
+    for shape in shapes {
+        let v = voxelize_shapes(&g, &[shape], SurfaceMode::Inside, &NoProgress)
+            .to_dense()
+            .unwrap();
+        for ijk in g.index_box().iter() {
+            let inside = shape.signed_distance(g.transform.voxel_center(ijk)) <= 0.0;
+            assert_eq!(v.density.get(ijk) == 1.0, inside, "{shape:?} at {ijk}");
+        }
+    }
+}

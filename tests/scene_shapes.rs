@@ -92,3 +92,23 @@ fn bad_quadric_parameters_name_their_field() {
     );
     expect_field(&SHAPES.replace("scale: 0.8", "scale: -0.8"), "objects[0].shape.scale");
 }
+
+#[test]
+fn inline_triangles_are_a_solid_and_bad_indices_name_the_field() {
+    // A closed tetrahedron given inline, outward oriented.
+    let tetra = r#"(name: "tetra", shape: Triangles(vertices: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)],
+        triangles: [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]), colour: (1.0, 0.0, 0.0)),"#;
+    let text = SHAPES.replace(
+        "        (name: \"spot\"",
+        &format!("        {tetra}\n        (name: \"spot\""),
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load_scene(&scene_in(dir.path(), &text)).unwrap();
+    assert_eq!(scene.meshes.len(), 2);
+    assert!(scene.meshes[0].mesh.is_closed());
+    expect_field(&text.replace("(1, 2, 3)]", "(1, 2, 9)]"), "objects[0].shape.triangles");
+    expect_field(
+        &text.replace("(0.0, 0.0, 1.0)]", "(0.0, 0.0, NaN)]"),
+        "objects[0].shape.vertices[3]",
+    );
+}

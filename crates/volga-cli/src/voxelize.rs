@@ -212,15 +212,8 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
                 let tris: Vec<_> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
                 let mut surface = voxelize_triangles(&grid, &tris, sep, progress);
                 if args.solid {
-                    let inside = voxelizer.as_ref().expect("built for --solid").voxelize(
-                        &grid,
-                        SurfaceMode::Distance {
-                            half_width_voxels: 2.0,
-                            signed: true,
-                        },
-                        progress,
-                    );
-                    fill_inside(&mut surface, &inside);
+                    let inside = voxelizer.as_ref().expect("built for --solid").voxelize(&grid, SurfaceMode::Inside, progress);
+                    volga_voxelize::merge_max(&mut surface, &inside, [1.0; 3]);
                 }
                 (
                     surface,
@@ -341,19 +334,6 @@ fn band_voxel_count(volume: &SparseVolume) -> u64 {
                 .count() as u64
         })
         .sum()
-}
-
-/// Marks every voxel whose signed distance is ≤ 0 as black.
-fn fill_inside(surface: &mut SparseVolume, inside: &SparseVolume) {
-    for b in inside.density.sorted_bricks() {
-        let brick = volga_core::brick_index_box(b).intersection(&inside.grid.index_box());
-        for ijk in brick.iter() {
-            if inside.density.get(ijk) <= 0.0 {
-                surface.density.set(ijk, 1.0);
-            }
-        }
-    }
-    surface.density.prune();
 }
 
 fn write(out: &Path, format: &Format, volume: &SparseVolume) -> Result<Vec<PathBuf>, volga_io::IoError> {

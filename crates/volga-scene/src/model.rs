@@ -116,6 +116,12 @@ pub enum ShapeSpec {
         b: V3,
         radius: f64,
     },
+    /// A triangle mesh given inline: corner positions and index triples (0-based), as a
+    /// solid like `Mesh`.
+    Triangles {
+        vertices: Vec<V3>,
+        triangles: Vec<[u32; 3]>,
+    },
     /// A triangle mesh (.obj, .gltf, .glb; path relative to the scene file), as a solid:
     /// inside where its generalized winding number is ≥ ½.
     Mesh {

@@ -148,6 +148,23 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
                 mesh: placed,
                 colour,
             });
+        } else if let ShapeSpec::Triangles { vertices, triangles } = &o.shape {
+            let f = format!("{f}.shape");
+            let positions = vertices
+                .iter()
+                .enumerate()
+                .map(|(k, v)| cx.finite3(&format!("{f}.vertices[{k}]"), *v))
+                .collect::<Result<Vec<_>, _>>()?;
+            if triangles.is_empty() {
+                return Err(cx.err(format!("{f}.triangles"), "needs at least one triangle"));
+            }
+            let mesh = volga_mesh::TriMesh::new(positions, triangles.clone())
+                .map_err(|e| cx.err(format!("{f}.triangles"), e.to_string()))?;
+            meshes.push(MeshObject {
+                name: name.clone(),
+                mesh,
+                colour,
+            });
         } else {
             let shape = validate_shape(&cx, &format!("{f}.shape"), &o.shape)?;
             solids.push(Solid::new(shape, colour));
@@ -398,7 +415,7 @@ fn validate_shape(cx: &Ctx, f: &str, s: &ShapeSpec) -> Result<Shape, SceneError>
             let r = cx.positive(&format!("{f}.radius"), *radius)?;
             Shape::Capsule(Capsule::new(pa, pb, r).map_err(|e| cx.err(f, e.to_string()))?)
         }
-        ShapeSpec::Mesh { .. } => unreachable!("meshes are loaded by the caller"),
+        ShapeSpec::Mesh { .. } | ShapeSpec::Triangles { .. } => unreachable!("meshes are loaded by the caller"),
     })
 }
 

@@ -250,7 +250,10 @@ impl PreparedTriangle {
 /// Inclusive voxel range a triangle's neighbourhood test can pass: its bounding box grown
 /// by ½ (every `K_N` fits in the cube `[−½, ½]³`).
 fn voxel_range(a: DVec3, b: DVec3, c: DVec3) -> (IVec3, IVec3) {
-    (clamp_i((a.min(b).min(c) - 0.5).ceil()), clamp_i((a.max(b).max(c) + 0.5).floor()))
+    (
+        clamp_i((a.min(b).min(c) - 0.5).ceil()),
+        clamp_i((a.max(b).max(c) + 0.5).floor()),
+    )
 }
 
 /// The axis of the largest-magnitude component, the lowest axis among equals.

@@ -440,11 +440,13 @@ impl MeshVoxelizer {
                 half_width_voxels,
                 signed,
             } => (half_width_voxels * spacing.max_element(), signed),
+            // Binary inside: the distance band of one voxel decides the sign near the surface.
+            SurfaceMode::Inside => (spacing.max_element(), true),
             SurfaceMode::Binary(_) => panic!("binary mesh surfaces are voxelize_triangles' job"),
         };
         let background = mode.background(grid);
         let inside_value = match mode {
-            SurfaceMode::Solid => 1.0,
+            SurfaceMode::Solid | SurfaceMode::Inside => 1.0,
             SurfaceMode::Distance { .. } => -band as f32,
             _ => background,
         };
@@ -456,6 +458,7 @@ impl MeshVoxelizer {
                     let d = if signed && inside { -d_unsigned } else { d_unsigned };
                     d.clamp(-band, band) as f32
                 }
+                SurfaceMode::Inside => inside as u8 as f32,
                 SurfaceMode::Binary(_) => unreachable!(),
             }
         };

@@ -37,6 +37,9 @@ pub enum SurfaceMode {
     /// `N`-adjacent pair straddles the surface: the result is `N`-separating by
     /// construction, and equals the slab wherever the slab already separates.
     Binary(Separability),
+    /// Binary solid: 1 where the signed distance is ≤ 0 (the closed solid; a voxel centre
+    /// exactly on the surface is inside).
+    Inside,
 }
 
 impl SurfaceMode {
@@ -66,6 +69,7 @@ pub fn voxelize_shapes<S: SignedDistance + Sync>(
         SurfaceMode::Solid => filter.half_width(),
         SurfaceMode::Shell { thickness } => 0.5 * thickness + filter.half_width(),
         SurfaceMode::Distance { half_width_voxels, .. } => half_width_voxels * h_max,
+        SurfaceMode::Inside => 0.0,
         // Slab voxels lie within half a voxel diagonal; repair voxels within one
         // N-step (a voxel diagonal) of the surface.
         SurfaceMode::Binary(_) => spacing.length(),
@@ -141,6 +145,7 @@ fn voxel_value<S: SignedDistance>(
             d.clamp(-band, band)
         }
         SurfaceMode::Binary(sep) => in_slab(s, sep, band, p, d, spacing) as u8 as f64,
+        SurfaceMode::Inside => (d <= 0.0) as u8 as f64,
     }
 }
 
@@ -268,14 +273,14 @@ fn sample_brick<S: SignedDistance>(
         let inside_far = d + radius < -band;
         let outside_far = d.abs() - radius > band;
         match mode {
-            SurfaceMode::Solid if inside_far => filled = true,
+            SurfaceMode::Solid | SurfaceMode::Inside if inside_far => filled = true,
             SurfaceMode::Distance { signed: true, .. } if inside_far => filled = true,
             _ if outside_far => {}
             _ => relevant.push(s),
         }
     }
     let far_inside = match mode {
-        SurfaceMode::Solid => 1.0,
+        SurfaceMode::Solid | SurfaceMode::Inside => 1.0,
         SurfaceMode::Distance { .. } => -(band as f32),
         _ => 0.0,
     };
