@@ -5,7 +5,10 @@
 //!
 //! * [`core`] (`volga-core`): grid transform, dense and sparse bricked volumes, the
 //!   [`Field`] sampling trait, reconstruction filters;
-//! * [`voxelize`] (`volga-voxelize`): volume-sampled solids with the oriented box filter;
+//! * [`mesh`] (`volga-mesh`): triangle meshes, OBJ/glTF loading, exact predicates, BVH;
+//! * [`voxelize`] (`volga-voxelize`): binary (6/18/26-separating) and anti-aliased
+//!   voxelization of triangles, meshes, lines, quadrics and solids; distance fields;
+//! * [`topology`] (`volga-topology`): discrete topology and the voxelization validator;
 //! * [`render`] (`volga-render`): cameras, transfer functions, iso-surface and volume
 //!   rendering over any [`Field`];
 //! * [`io`] (`volga-io`): PNG and NRRD files, atomic writes;
@@ -28,8 +31,10 @@
 
 pub use volga_core as core;
 pub use volga_io as io;
+pub use volga_mesh as mesh;
 pub use volga_render as render;
 pub use volga_scene as scene;
+pub use volga_topology as topology;
 pub use volga_voxelize as voxelize;
 
 pub use volga_core::{

@@ -4,9 +4,9 @@
 
 use glam::{DVec3, UVec3};
 use proptest::prelude::*;
+use volga::mesh::{point_triangle_distance_squared, Bvh, TriMesh};
 use volga::voxelize::{MeshVoxelizer, SurfaceMode};
 use volga::{Aabb, Grid, NoProgress, Transform};
-use volga_mesh::{point_triangle_distance_squared, Bvh, TriMesh};
 
 fn shared(name: &str) -> Option<TriMesh> {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -16,7 +16,7 @@ fn shared(name: &str) -> Option<TriMesh> {
         eprintln!("skipping: {} not found", path.display());
         return None;
     }
-    Some(volga_mesh::load_obj(&path).unwrap())
+    Some(volga::mesh::load_obj(&path).unwrap())
 }
 
 /// A grid with `n` voxels along the mesh's longest side, padded by 4 voxels.

@@ -3,6 +3,7 @@
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
 
 mod progress;
+mod validate;
 mod voxelize;
 
 use std::path::PathBuf;
@@ -38,6 +39,9 @@ enum Command {
     /// Voxelize a mesh: binary surface or solid with 6/18/26 separability, anti-aliased
     /// surface or solid, or narrow-band signed distance.
     Voxelize(voxelize::VoxelizeArgs),
+    /// Validate a voxel model (.binvox, .nrrd) as a discrete surface: components, N-separability,
+    /// simple voxels, Euler characteristic; with --mesh, tunnels through it and cover.
+    Validate(validate::ValidateArgs),
     /// Validate a scene and print its plan (channels, effects, memory estimate) without building.
     Plan {
         /// Scene file (.ron or .json).
@@ -123,6 +127,14 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Command::Validate(args) => match validate::run(args) {
+            Ok(true) => ExitCode::SUCCESS,
+            Ok(false) => ExitCode::from(1),
+            Err(f) => {
+                eprintln!("error: {}", f.message);
+                ExitCode::from(f.code)
+            }
+        },
         Command::Plan { scene, memory_limit } => {
             let result = load_scene(&scene).and_then(|s| plan(&s, memory_limit));
             match result {

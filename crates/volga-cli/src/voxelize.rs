@@ -212,7 +212,11 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
                 let tris: Vec<_> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
                 let mut surface = voxelize_triangles(&grid, &tris, sep, progress);
                 if args.solid {
-                    let inside = voxelizer.as_ref().expect("built for --solid").voxelize(&grid, SurfaceMode::Inside, progress);
+                    let inside =
+                        voxelizer
+                            .as_ref()
+                            .expect("built for --solid")
+                            .voxelize(&grid, SurfaceMode::Inside, progress);
                     volga_voxelize::merge_max(&mut surface, &inside, [1.0; 3]);
                 }
                 (

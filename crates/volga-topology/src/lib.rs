@@ -37,7 +37,13 @@
 //! * `S` is **N-minimal** if it is N-separating and has no N-simple voxel
 //!   ([`is_minimal`]).
 //! * An **N-tunnel** through a continuous surface is a pair of N-adjacent white
-//!   voxels whose connecting segment crosses the surface ([`tunnels`]).
+//!   voxels whose connecting segment crosses the surface ([`tunnels`] for any surface
+//!   given as a crossing predicate, [`mesh_tunnels`] for a triangle mesh). With a
+//!   reference surface, `S` is **N-separating with respect to it** when there is no
+//!   N-tunnel: the definition for open surfaces, whose white set need not split.
+//! * `S` **covers** a surface when every point of it lies in a black voxel's closed
+//!   cell; the cover is **minimal** when removing any one black voxel uncovers a point
+//!   ([`cover`]).
 //!
 //! ## Exact and local simplicity
 //! [`is_simple`] / [`simple_voxels`] are **exact**: with the global white labels, `p`
@@ -57,6 +63,19 @@
 //! with no other part of itself within the 3×3×3 window of `p`, whose local pieces
 //! are its two sides, inside and outside. The test
 //! `local_and_exact_simplicity_differ_on_a_fin` shows a voxel where they differ.
+//!
+//! ## Checks against a reference mesh
+//! [`SurfaceMesh`] holds triangles in the set's index space (converted from world space
+//! with the grid's transform, the arithmetic volga's voxelizers use) and the transform
+//! for reporting world positions. [`analyze_with_mesh`] adds a [`MeshReport`] to the
+//! report: N-tunnels with their location (both voxels, the triangle, the crossing point
+//! in index and world space), cover, uncovered triangles, black voxels the surface does
+//! not touch, redundant voxels and minimal cover. Segment–triangle and closed
+//! triangle–box tests are `volga-mesh`'s ([`volga_mesh::segment_crosses_triangle`],
+//! touching counts; [`volga_mesh::triangle_box_overlap`]); the open-box test that
+//! decides cover exactly is [`triangle_meets_open_box`]. The cover test and why it is
+//! exact are documented on [`cover`]. Each triangle visits only the voxels near it, so
+//! the cost follows the surface.
 //!
 //! ## Euler characteristic, cavities and handles
 //! [`euler_characteristic`] counts `χ = V − E + F − C` over the distinct vertices,
@@ -93,13 +112,20 @@ mod report;
 mod runs;
 mod set;
 mod simple;
+mod surface;
 mod tunnel;
 
 pub use components::{black_components, white_components, Component, Components};
 pub use connectivity::Connectivity;
 pub use error::TopologyError;
 pub use euler::{betti_numbers, euler_characteristic, Betti};
-pub use report::{analyze, analyze_with, AnalyzeOptions, Check, Region, TopologyReport, WhiteComponent};
+pub use report::{
+    analyze, analyze_with, analyze_with_mesh, AnalyzeOptions, Check, Region, TopologyReport, WhiteComponent,
+};
 pub use set::VoxelSet;
 pub use simple::{is_minimal, is_simple, is_simple_local, leaks_if_removed, simple_voxels, simple_voxels_with, Leak};
+pub use surface::{
+    check_mesh, cover, mesh_tunnels, triangle_meets_open_box, Cover, MeshReport, MeshTunnel, SurfaceMesh,
+    UncoveredTriangle,
+};
 pub use tunnel::{tunnels, Tunnel};

@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use crate::euler::betti_from;
 use crate::simple::count_simple_voxels;
+use crate::surface::{check_mesh, MeshReport, SurfaceMesh};
 use crate::{black_components, euler_characteristic, white_components, Component, Components, Connectivity, VoxelSet};
 
 /// Where a white component lies relative to the grid.
@@ -49,7 +50,10 @@ fn optional_ivec3<S: serde::Serializer>(v: &Option<IVec3>, serializer: S) -> Res
 /// for N = 6, 6 for N = 18 or 26). The Euler characteristic, cavities and handles are
 /// those of the black voxels as a union of closed cubes, which is the (26, 6) pair
 /// whatever N is.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+///
+/// `mesh` holds the checks against a reference surface ([`analyze_with_mesh`]) and is
+/// `None` (`null` in JSON) without one.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TopologyReport {
     #[serde(serialize_with = "uvec3")]
     pub dims: UVec3,
@@ -80,6 +84,8 @@ pub struct TopologyReport {
     /// `b1 = b0 + b2 − χ` with `b0` the black 26-components.
     pub handles: u64,
     pub checks: Vec<Check>,
+    /// Tunnels, cover and minimal cover against a reference mesh.
+    pub mesh: Option<MeshReport>,
 }
 
 fn uvec3<S: serde::Serializer>(v: &UVec3, serializer: S) -> Result<S::Ok, S::Error> {
@@ -179,7 +185,66 @@ pub fn analyze_with(set: &VoxelSet, connectivity: Connectivity, options: &Analyz
         cavities: betti.b2,
         handles: betti.b1,
         checks,
+        mesh: None,
     }
+}
+
+/// [`analyze_with`] plus the checks against a reference surface ([`check_mesh`]):
+/// N-tunnels through it, cover and minimal cover. Three checks join the list:
+/// `tunnels`, `cover` and `minimal_cover`.
+pub fn analyze_with_mesh(
+    set: &VoxelSet,
+    connectivity: Connectivity,
+    mesh: &SurfaceMesh,
+    options: &AnalyzeOptions,
+) -> TopologyReport {
+    let mut report = analyze_with(set, connectivity, options);
+    let m = check_mesh(set, connectivity, mesh, options.listed);
+    let n = connectivity;
+    report.checks.push(Check {
+        name: "tunnels",
+        passed: m.separating,
+        message: if m.separating {
+            format!("no {n}-tunnels through the mesh: {n}-separating with respect to it")
+        } else {
+            format!(
+                "{} {n}-tunnels through the mesh (white {n}-adjacent pairs whose segment meets it); the first starts at the voxel given",
+                m.tunnel_count
+            )
+        },
+        voxel: m.tunnels.first().map(|t| t.a),
+    });
+    report.checks.push(Check {
+        name: "cover",
+        passed: m.covers,
+        message: if m.covers {
+            format!(
+                "every point of the mesh lies in a black voxel; {} black voxels untouched by it",
+                m.untouched_voxel_count
+            )
+        } else {
+            format!(
+                "{} triangles have points in no black voxel; the first such white voxel is given",
+                m.uncovered_triangle_count
+            )
+        },
+        voxel: m.uncovered.first().map(|u| u.voxel),
+    });
+    report.checks.push(Check {
+        name: "minimal_cover",
+        passed: m.minimal_cover == Some(true),
+        message: match m.minimal_cover {
+            None => "not a cover, so not a minimal cover".to_string(),
+            Some(true) => "every black voxel is the only black voxel for some point of the mesh".to_string(),
+            Some(false) => format!(
+                "{} black voxels can each be removed with the mesh still covered; the first is given",
+                m.redundant_voxel_count
+            ),
+        },
+        voxel: m.redundant_voxels.first().copied(),
+    });
+    report.mesh = Some(m);
+    report
 }
 
 fn check_non_empty(set: &VoxelSet) -> Check {

@@ -206,6 +206,16 @@ impl VoxelSet {
         self.in_grid(ijk) && self.row(ijk.y, ijk.z).binary_search(&(ijk.x as u32)).is_ok()
     }
 
+    /// Row `(y, z)` as [`VoxelSet::row`] and the position of its first voxel in
+    /// [`VoxelSet::iter`] order (0 and empty outside the grid).
+    pub(crate) fn row_with_start(&self, y: i32, z: i32) -> (usize, &[u32]) {
+        if y < 0 || z < 0 || y as u32 >= self.dims.y || z as u32 >= self.dims.z {
+            return (0, &[]);
+        }
+        let r = y as usize + self.dims.y as usize * z as usize;
+        (self.row_offsets[r] as usize, self.row_at(r))
+    }
+
     /// The black voxels in (z, y, x) lexicographic order.
     pub fn iter(&self) -> impl Iterator<Item = IVec3> + '_ {
         let ny = self.dims.y as usize;

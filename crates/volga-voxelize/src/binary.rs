@@ -21,6 +21,11 @@
 //! vertex spheres of radius `max |K_N|` (the circumscribed ball); the exact sum is
 //! contained in theirs, so it is never thicker and equally separating.
 //!
+//! *Rounding.* The arguments above assume exact arithmetic. Every closed interval is
+//! widened by a relative ε (64 ulps of the coordinates' magnitude) and the half-open window
+//! is shifted by −ε, so rounded near-ties err towards separating and covering; inputs on a
+//! dyadic lattice never come within ε of a threshold and are decided exactly.
+//!
 //! *Ties.* A plane lying exactly on voxel faces touches two layers of closed
 //! neighbourhoods. We use one half-open rule: orient the normal so its largest component
 //! (lowest axis among equals) is positive, and keep `−h ≤ n·(v − a) < h`. An axis-aligned
@@ -143,6 +148,14 @@ impl PreparedTriangle {
     fn new(tri: [DVec3; 3], sep: Separability) -> Self {
         let [a, b, c] = tri;
         let edges = [b - a, c - b, a - c];
+        // Rounding guard: the separation and cover arguments assume exact arithmetic. On
+        // inputs that are not on a dyadic lattice (a non-dyadic grid origin, say) a near-tie
+        // can be decided either way by rounding, so every closed interval is widened by a
+        // relative ε, and the half-open normal window is shifted by −ε (one layer at face
+        // ties still). Dyadic inputs never come within ε of a threshold, so for them the
+        // decisions stay exact.
+        let scale = a.abs().max(b.abs()).max(c.abs()).max_element() + 1.0;
+        let eps_of = |dir: DVec3| 64.0 * f64::EPSILON * scale * (dir.x.abs() + dir.y.abs() + dir.z.abs());
         let mut axes = [Axis {
             dir: DVec3::ZERO,
             lo: 0.0,
@@ -153,10 +166,11 @@ impl PreparedTriangle {
             if dir != DVec3::ZERO {
                 let p = [dir.dot(a), dir.dot(b), dir.dot(c)];
                 let h = sep.support(dir);
+                let eps = eps_of(dir);
                 axes[axis_count] = Axis {
                     dir,
-                    lo: p[0].min(p[1]).min(p[2]) - h,
-                    hi: p[0].max(p[1]).max(p[2]) + h,
+                    lo: p[0].min(p[1]).min(p[2]) - h - eps,
+                    hi: p[0].max(p[1]).max(p[2]) + h + eps,
                 };
                 axis_count += 1;
             }
@@ -175,10 +189,11 @@ impl PreparedTriangle {
             let n = canonical(n);
             let h = sep.support(n);
             let d = n.dot(a);
+            let eps = eps_of(n);
             Axis {
                 dir: n,
-                lo: d - h,
-                hi: d + h,
+                lo: d - h - eps,
+                hi: d + h - eps,
             }
         });
         let (min, max) = voxel_range(a, b, c);

@@ -506,14 +506,35 @@ impl MeshVoxelizer {
                 // Start at the band: farther candidates are never needed.
                 let mut best_d2 = [band2 * (1.0 + 1e-9); BRICK_VOXELS];
                 let mut best_tri = [u32::MAX; BRICK_VOXELS];
-                for &(_, i) in group.iter() {
+                // Nearest triangles first, so each voxel's best distance shrinks early and
+                // the plane-distance bound rejects most of the rest; ties by index keep the
+                // order (and so the result) independent of threads.
+                let centre = t.index_to_world((brick * BRICK_DIM).as_dvec3() + 3.5);
+                let mut order: Vec<(f64, u32)> = group
+                    .iter()
+                    .map(|&(_, i)| {
+                        let [a, b, c] = self.triangles[i as usize];
+                        (((a + b + c) / 3.0 - centre).length_squared(), i)
+                    })
+                    .collect();
+                order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+                for &(_, i) in &order {
                     let dist = &self.distance[i as usize];
                     let tri_index = self.triangles[i as usize].map(|p| t.world_to_index(p));
-                    TriDistance::for_each_candidate(tri_index, band_index, &region, |ijk| {
-                        let o = Brick::<f32>::local_offset(ijk);
-                        if let Some(d2) = dist.distance_squared_below(t.voxel_center(ijk), best_d2[o]) {
-                            best_d2[o] = d2;
-                            best_tri[o] = i;
+                    TriDistance::for_each_column(tri_index, band_index, &region, |start, axis, count| {
+                        // Walk the column with a fixed offset stride; the centre is the
+                        // transform's own (origin + ijk·spacing) along the column axis.
+                        let stride = [1usize, BRICK_DIM as usize, (BRICK_DIM * BRICK_DIM) as usize][axis];
+                        let mut o = Brick::<f32>::local_offset(start);
+                        let mut p = t.voxel_center(start);
+                        let (origin, h) = (t.origin()[axis], spacing[axis]);
+                        for k in 0..count {
+                            p[axis] = origin + (start[axis] + k) as f64 * h;
+                            if let Some(d2) = dist.distance_squared_below(p, best_d2[o]) {
+                                best_d2[o] = d2;
+                                best_tri[o] = i;
+                            }
+                            o += stride;
                         }
                     });
                 }

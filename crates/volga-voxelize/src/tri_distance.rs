@@ -16,6 +16,9 @@ pub(crate) struct TriDistance {
     /// Unit normal (zero when degenerate) and `n̂·a`.
     unit_normal: DVec3,
     plane: f64,
+    /// Bounding box, for a second lower bound.
+    lo: DVec3,
+    hi: DVec3,
     degenerate: bool,
 }
 
@@ -51,14 +54,22 @@ impl TriDistance {
             ac,
             unit_normal,
             plane: unit_normal.dot(a),
+            lo: a.min(b).min(c),
+            hi: a.max(b).max(c),
             degenerate,
         }
     }
 
-    /// Squared distance if it is below `best`, else `None`; the plane distance (a lower
-    /// bound) rejects most losers with one dot product.
+    /// Squared distance if it is below `best`, else `None`. Two cheap lower bounds reject
+    /// most losers first: the distance to the triangle's bounding box (neighbours on a
+    /// smooth surface are nearly coplanar, so the plane alone rarely rejects them) and
+    /// the distance to its plane.
     #[inline]
     pub(crate) fn distance_squared_below(&self, p: DVec3, best: f64) -> Option<f64> {
+        let outside = (self.lo - p).max(p - self.hi).max(DVec3::ZERO);
+        if outside.length_squared() >= best {
+            return None;
+        }
         let h = self.unit_normal.dot(p) - self.plane;
         if h * h >= best {
             return None;
@@ -112,16 +123,17 @@ impl TriDistance {
         (ap - ab * v - ac * w).length_squared()
     }
 
-    /// Calls `f(ijk)` for the voxels of `region` that may lie within `band_index` (index
-    /// units, on a grid whose world → index map is `to_index`) of the triangle: columns
-    /// along the normal's dominant index axis, limited to the slab |n·(v − a)| ≤ band.
-    /// A superset of the true band (callers test the distance); exact for isotropic
-    /// grids' slab bound, conservative otherwise.
-    pub(crate) fn for_each_candidate(
+    /// Calls `f(first_ijk, axis, count)` for runs of voxels of `region` along `axis`
+    /// that may lie within `band_index` (index units) of the triangle given in index
+    /// space: columns along the normal's dominant axis, limited to the slab
+    /// |n̂·(v − a)| ≤ band and skipped when their 2D distance to the projected triangle
+    /// exceeds the band (projection never increases distances). A superset of the band
+    /// (callers test the distance), never missing a voxel of it.
+    pub(crate) fn for_each_column(
         tri_index: [DVec3; 3],
         band_index: f64,
         region: &IndexBox,
-        mut f: impl FnMut(IVec3),
+        mut f: impl FnMut(IVec3, usize, i32),
     ) {
         let [a, b, c] = tri_index;
         let lo = ((a.min(b).min(c)) - band_index).ceil();
@@ -141,16 +153,23 @@ impl TriDistance {
         } else {
             2
         };
+        let (u, w) = ((d + 1) % 3, (d + 2) % 3);
         if len.is_nan() || len <= 0.0 || na[d] < 1e-3 * len {
-            IndexBox::new(lo, hi + IVec3::ONE).iter().for_each(f);
+            // Degenerate or nearly edge-on: whole columns of the box.
+            for cu in lo[u]..=hi[u] {
+                for cw in lo[w]..=hi[w] {
+                    let mut start = IVec3::ZERO;
+                    start[d] = lo[d];
+                    start[u] = cu;
+                    start[w] = cw;
+                    f(start, d, hi[d] - lo[d] + 1);
+                }
+            }
             return;
         }
-        let (u, w) = ((d + 1) % 3, (d + 2) % 3);
         // |n̂·(v − a)| ≤ band  ⇔  n_d v_d ∈ n·a − r ± band·|n|, r = n_u v_u + n_w v_w.
         let slack = band_index * len;
         let na_dot = n.dot(a);
-        // The projection onto the (u, w) plane never increases distances, so a column
-        // whose point is farther than the band from the projected triangle is skipped.
         let project = |p: DVec3| glam::DVec2::new(p[u], p[w]);
         let (pa, pb, pc) = (project(a), project(b), project(c));
         let band2 = band_index * band_index;
@@ -161,14 +180,15 @@ impl TriDistance {
                     continue;
                 }
                 let r = n[u] * cu as f64 + n[w] * cw as f64;
-                let (z0, z1) = ((na_dot - r - slack) / n[d], (na_dot - r + slack) / n[d]);
-                let (z0, z1) = (z0.min(z1).ceil() as i64, z0.max(z1).floor() as i64);
-                for cd in z0.max(lo[d] as i64)..=z1.min(hi[d] as i64) {
-                    let mut ijk = IVec3::ZERO;
-                    ijk[d] = cd as i32;
-                    ijk[u] = cu;
-                    ijk[w] = cw;
-                    f(ijk);
+                let (fa, fb) = ((na_dot - r - slack) / n[d], (na_dot - r + slack) / n[d]);
+                let z0 = fa.min(fb).ceil().max(lo[d] as f64) as i32;
+                let z1 = fa.max(fb).floor().min(hi[d] as f64) as i32;
+                if z1 >= z0 {
+                    let mut start = IVec3::ZERO;
+                    start[d] = z0;
+                    start[u] = cu;
+                    start[w] = cw;
+                    f(start, d, z1 - z0 + 1);
                 }
             }
         }
