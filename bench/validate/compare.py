@@ -89,7 +89,7 @@ def main():
         trimesh_binvox(verts, tris, h, out)
         models["trimesh voxelized"] = out
         for tool, model in models.items():
-            r6, r26 = validate(model, path, 6), validate(model, path, 26)
+            r6, r26 = validate(model, path, 6)["report"], validate(model, path, 26)["report"]
             m6, m26 = r6["mesh"], r26["mesh"]
             rows.append({
                 "mesh": name, "tool": tool, "voxels": r26["voxels"],
