@@ -2,6 +2,7 @@
 //!
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
 
+mod failure;
 mod progress;
 mod validate;
 mod voxelize;

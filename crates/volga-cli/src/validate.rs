@@ -5,6 +5,7 @@
 //! Every property that can be computed is reported; the exit code follows only the
 //! required ones: 0 all hold, 1 one fails, 2 bad input.
 
+use crate::failure::{bad_input, Failure};
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
@@ -57,19 +58,6 @@ fn parse_connectivity(s: &str) -> Result<Connectivity, String> {
         .ok()
         .and_then(Connectivity::from_number)
         .ok_or_else(|| format!("`{s}`: connectivity must be 6, 18 or 26"))
-}
-
-/// A failure with the exit code it maps to (1: a requirement failed, 2: bad input).
-pub struct Failure {
-    pub code: u8,
-    pub message: String,
-}
-
-fn bad_input(message: impl Into<String>) -> Failure {
-    Failure {
-        code: 2,
-        message: message.into(),
-    }
 }
 
 #[derive(Serialize)]

@@ -4,6 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+
+use crate::failure::{bad_input, failed, Failure};
 use glam::{DVec3, UVec3};
 use serde::Serialize;
 use volga_core::memory::{self, Bytes};
@@ -52,26 +54,6 @@ fn parse_separability(s: &str) -> Result<Separability, String> {
         .ok()
         .and_then(Separability::from_number)
         .ok_or_else(|| format!("`{s}`: separability must be 6, 18 or 26"))
-}
-
-/// A failure with the exit code it maps to (1: the run failed, 2: bad input).
-pub struct Failure {
-    pub code: u8,
-    pub message: String,
-}
-
-fn bad_input(message: impl Into<String>) -> Failure {
-    Failure {
-        code: 2,
-        message: message.into(),
-    }
-}
-
-fn failed(message: impl Into<String>) -> Failure {
-    Failure {
-        code: 1,
-        message: message.into(),
-    }
 }
 
 #[derive(Serialize)]

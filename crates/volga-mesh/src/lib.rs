@@ -56,7 +56,7 @@ pub use closest::{closest_point_on_segment, closest_point_on_triangle, point_tri
 pub use error::{InvalidMesh, MeshError};
 pub use load::{load_gltf, load_mesh, load_obj, read_gltf, read_obj};
 pub use mesh::{EdgeStats, TriMesh};
-pub use overlap::triangle_box_overlap;
+pub use overlap::{triangle_box_overlap, triangle_meets_open_box};
 pub use segment::segment_crosses_triangle;
 pub use signed::{signed_distance, signed_distance_within};
 pub use winding::{solid_angle, winding_number};

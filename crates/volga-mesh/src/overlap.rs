@@ -28,15 +28,38 @@ pub fn triangle_box_overlap(triangle: [DVec3; 3], aabb: &Aabb) -> bool {
     if aabb.is_empty() {
         return false;
     }
+    separating_axes(triangle, aabb.min, aabb.max, Contact::Overlaps)
+}
+
+/// Whether the closed triangle meets the **open** box `(min, max)` (a point strictly
+/// inside): the same separating-axis test with contact allowed on a separating plane
+/// (`tri_hi ≤ box_lo` or `tri_lo ≥ box_hi`), so a triangle that only touches the box's
+/// boundary misses it. Same precision choices as [`triangle_box_overlap`].
+pub fn triangle_meets_open_box(triangle: [DVec3; 3], min: DVec3, max: DVec3) -> bool {
+    separating_axes(triangle, min, max, Contact::Separates)
+}
+
+/// Whether boundary contact counts as overlap (closed box) or separation (open box).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Contact {
+    Overlaps,
+    Separates,
+}
+
+fn separating_axes(triangle: [DVec3; 3], min: DVec3, max: DVec3, contact: Contact) -> bool {
     let lo = triangle[0].min(triangle[1]).min(triangle[2]);
     let hi = triangle[0].max(triangle[1]).max(triangle[2]);
-    if lo.cmpgt(aabb.max).any() || hi.cmplt(aabb.min).any() {
+    let apart = match contact {
+        Contact::Overlaps => lo.cmpgt(max).any() || hi.cmplt(min).any(),
+        Contact::Separates => lo.cmpge(max).any() || hi.cmple(min).any(),
+    };
+    if apart {
         return false;
     }
-    let extent = aabb.max - aabb.min;
-    let v = triangle.map(|p| p - aabb.min);
+    let extent = max - min;
+    let v = triangle.map(|p| p - min);
     let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
-    if separates(edges[0].cross(edges[1]), &v, extent) {
+    if separates(edges[0].cross(edges[1]), &v, extent, contact) {
         return false;
     }
     for edge in edges {
@@ -46,22 +69,30 @@ pub fn triangle_box_overlap(triangle: [DVec3; 3], aabb: &Aabb) -> bool {
             DVec3::new(edge.z, 0.0, -edge.x),
             DVec3::new(-edge.y, edge.x, 0.0),
         ];
-        if axes.into_iter().any(|axis| separates(axis, &v, extent)) {
+        if axes.into_iter().any(|axis| separates(axis, &v, extent, contact)) {
             return false;
         }
     }
     true
 }
 
-/// Whether `axis` strictly separates the triangle `v` from the box `[0, extent]`.
+/// Whether `axis` separates the triangle `v` from the box `[0, extent]`: strictly apart
+/// for closed boxes, touching allowed for open ones. A zero axis (of a degenerate
+/// triangle) separates nothing.
 #[inline]
-fn separates(axis: DVec3, v: &[DVec3; 3], extent: DVec3) -> bool {
+fn separates(axis: DVec3, v: &[DVec3; 3], extent: DVec3, contact: Contact) -> bool {
+    if axis == DVec3::ZERO {
+        return false;
+    }
     let p = v.map(|x| axis.dot(x));
     let (tri_lo, tri_hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
     let corner = axis * extent;
     let box_lo = corner.min(DVec3::ZERO).element_sum();
     let box_hi = corner.max(DVec3::ZERO).element_sum();
-    tri_lo > box_hi || tri_hi < box_lo
+    match contact {
+        Contact::Overlaps => tri_lo > box_hi || tri_hi < box_lo,
+        Contact::Separates => tri_lo >= box_hi || tri_hi <= box_lo,
+    }
 }
 
 #[cfg(test)]

@@ -373,53 +373,7 @@ fn blocks(tri: &[DVec3; 3], n: DVec3, w: f64, r: f64, lo: IVec3, hi: IVec3, f: &
     }
 }
 
-/// Whether the closed triangle meets the **open** box `(min, max)` (a point strictly
-/// inside), by the separating axis test with weak inequalities.
-///
-/// The triangle misses the open box iff some plane separates them with contact
-/// allowed; as for closed boxes (Akenine-Möller 2001) the candidate normals are the 3
-/// box axes, the triangle normal and the 9 cross products of box axes and triangle
-/// edges, here with projections that may touch (`tri_hi ≤ box_lo` or
-/// `tri_lo ≥ box_hi`). Zero axes (of degenerate triangles) are skipped: they separate
-/// nothing. Arithmetic mirrors [`triangle_box_overlap`]: box axes compare coordinates
-/// with no rounding, the others work relative to `min`.
-pub fn triangle_meets_open_box(triangle: [DVec3; 3], min: DVec3, max: DVec3) -> bool {
-    let lo = triangle[0].min(triangle[1]).min(triangle[2]);
-    let hi = triangle[0].max(triangle[1]).max(triangle[2]);
-    if lo.cmpge(max).any() || hi.cmple(min).any() {
-        return false;
-    }
-    let extent = max - min;
-    let v = triangle.map(|p| p - min);
-    let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
-    if weakly_separates(edges[0].cross(edges[1]), &v, extent) {
-        return false;
-    }
-    for edge in edges {
-        let axes = [
-            DVec3::new(0.0, -edge.z, edge.y),
-            DVec3::new(edge.z, 0.0, -edge.x),
-            DVec3::new(-edge.y, edge.x, 0.0),
-        ];
-        if axes.into_iter().any(|axis| weakly_separates(axis, &v, extent)) {
-            return false;
-        }
-    }
-    true
-}
-
-#[inline]
-fn weakly_separates(axis: DVec3, v: &[DVec3; 3], extent: DVec3) -> bool {
-    if axis == DVec3::ZERO {
-        return false;
-    }
-    let p = v.map(|x| axis.dot(x));
-    let (tri_lo, tri_hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
-    let corner = axis * extent;
-    let box_lo = corner.min(DVec3::ZERO).element_sum();
-    let box_hi = corner.max(DVec3::ZERO).element_sum();
-    tri_lo >= box_hi || tri_hi <= box_lo
-}
+pub use volga_mesh::triangle_meets_open_box;
 
 /// If the triangle has area and lies in a cell-face plane `x_k = m + ½`: `(k, m)`.
 fn face_plane(tri: &[DVec3; 3]) -> Option<(usize, i32)> {
