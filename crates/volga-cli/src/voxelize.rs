@@ -336,8 +336,10 @@ fn write(out: &Path, format: &Format, volume: &SparseVolume) -> Result<Vec<PathB
                     .map(|ijk| ijk.as_uvec3())
                     .collect::<Vec<_>>()
             });
+            // binvox grids are cubes (`dim D D D`); other tools assume it, so the grid is
+            // padded with empty voxels to its largest extent (voxel 0 stays where it is).
             let model = volga_io::Binvox::from_filled(
-                dims,
+                UVec3::splat(dims.max_element()),
                 g.transform.origin() - DVec3::splat(0.5 * h),
                 h * dims.max_element() as f64,
                 filled,
