@@ -277,7 +277,8 @@ fn nrrd_models_and_padding() {
 
 #[test]
 fn volga_voxelization_of_spot_is_separating_and_covers() {
-    let spot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/spot.obj");
+    // The repository's own copy (scenes/assets), so the test needs nothing beside the clone.
+    let spot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/assets/spot.obj");
     assert!(spot.is_file(), "{} missing", spot.display());
     let dir = tempfile::tempdir().unwrap();
     for (sep, requires) in [("26", "separating,cover"), ("6", "separating")] {
