@@ -173,16 +173,23 @@ impl TriDistance {
         let project = |p: DVec3| glam::DVec2::new(p[u], p[w]);
         let (pa, pb, pc) = (project(a), project(b), project(c));
         let band2 = band_index * band_index;
+        // The triangle's extent along the column axis.
+        let (tri_lo_d, tri_hi_d) = (a[d].min(b[d]).min(c[d]), a[d].max(b[d]).max(c[d]));
         for cu in lo[u]..=hi[u] {
             for cw in lo[w]..=hi[w] {
                 let q = glam::DVec2::new(cu as f64, cw as f64);
-                if triangle_distance_squared_2d(q, pa, pb, pc) > band2 {
+                let lateral2 = triangle_distance_squared_2d(q, pa, pb, pc);
+                if lateral2 > band2 {
                     continue;
                 }
+                // A voxel at lateral distance L lies within the band only if its offset
+                // along the column from the triangle's extent is at most √(band² − L²):
+                // the candidates of a column shrink to the ball-shaped band.
+                let reach = (band2 - lateral2).sqrt();
                 let r = n[u] * cu as f64 + n[w] * cw as f64;
                 let (fa, fb) = ((na_dot - r - slack) / n[d], (na_dot - r + slack) / n[d]);
-                let z0 = fa.min(fb).ceil().max(lo[d] as f64) as i32;
-                let z1 = fa.max(fb).floor().min(hi[d] as f64) as i32;
+                let z0 = fa.min(fb).max(tri_lo_d - reach).ceil().max(lo[d] as f64) as i32;
+                let z1 = fa.max(fb).min(tri_hi_d + reach).floor().min(hi[d] as f64) as i32;
                 if z1 >= z0 {
                     let mut start = IVec3::ZERO;
                     start[d] = z0;
