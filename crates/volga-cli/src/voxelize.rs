@@ -184,11 +184,9 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
 
     let mut warnings = Vec::new();
     let needs_inside = args.solid || (args.distance.is_some() && !args.unsigned);
-    let (volume, boundary_edges, mode) = stages.run("voxelize", || {
+    let (volume, voxelizer_edges, mode) = stages.run("voxelize", || {
         let voxelizer = (needs_inside || !binary).then(|| MeshVoxelizer::new(&mesh));
-        let boundary_edges = voxelizer
-            .as_ref()
-            .map_or_else(|| mesh.boundary_edge_count(), |v| v.boundary_edge_count());
+        let boundary_edges = voxelizer.as_ref().map(|v| v.boundary_edge_count());
         let (volume, mode) = match (args.separability, args.distance) {
             (Some(sep), _) => {
                 let tris: Vec<_> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
@@ -244,6 +242,9 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         };
         (volume, boundary_edges, mode)
     });
+    // Binary surfaces need no topology of the mesh: count its boundary for the report
+    // outside the timed stage.
+    let boundary_edges = voxelizer_edges.unwrap_or_else(|| mesh.boundary_edge_count());
     if needs_inside && boundary_edges > 0 {
         let w = format!(
             "{} is not closed ({boundary_edges} boundary edges): inside means generalized winding number ≥ ½",

@@ -29,6 +29,7 @@ mod filter;
 pub mod lines;
 pub mod measure;
 pub mod mesh;
+mod pairs;
 pub mod shapes;
 mod solids;
 pub mod surfaces;

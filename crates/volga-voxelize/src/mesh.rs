@@ -491,7 +491,7 @@ impl MeshVoxelizer {
                 bricks.iter().map(move |b| (b, i as u32)).collect::<Vec<_>>()
             })
             .collect();
-        pairs.par_sort_unstable_by_key(|(b, i)| (b.z, b.y, b.x, *i));
+        crate::pairs::sort_brick_pairs(&mut pairs);
         let groups: Vec<&[(IVec3, u32)]> = pairs.chunk_by(|a, b| a.0 == b.0).collect();
 
         progress.start("voxelize", groups.len() as u64);
