@@ -272,7 +272,7 @@ fn voxel_range(a: DVec3, b: DVec3, c: DVec3) -> (IVec3, IVec3) {
 }
 
 /// The axis of the largest-magnitude component, the lowest axis among equals.
-fn dominant_axis(n: DVec3) -> usize {
+pub(crate) fn dominant_axis(n: DVec3) -> usize {
     let a = n.abs();
     if a.x >= a.y && a.x >= a.z {
         0

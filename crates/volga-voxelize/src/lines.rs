@@ -106,14 +106,7 @@ fn supercover(p: DVec3, q: DVec3) -> Vec<IVec3> {
     let (lo, hi) = (clamp_i(lo), clamp_i(hi));
     // Walk the slabs of the dominant axis; in each, test the (few) cells of the other
     // two axes that the slab's piece of the segment can reach.
-    let a = delta.abs();
-    let d = if a.x >= a.y && a.x >= a.z {
-        0
-    } else if a.y >= a.z {
-        1
-    } else {
-        2
-    };
+    let d = crate::binary::dominant_axis(delta);
     let (u, w) = ((d + 1) % 3, (d + 2) % 3);
     let mut out: Vec<(f64, IVec3)> = Vec::new();
     for k in lo[d]..=hi[d] {

@@ -13,7 +13,7 @@ use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
 
-use crate::binary::Separability;
+use crate::binary::{dominant_axis, Separability};
 use crate::{OrientedBoxFilter, SignedDistance};
 
 /// What each voxel of the band receives.
@@ -221,17 +221,6 @@ fn binary_voxel<S: SignedDistance>(
         let (du, slab_u) = eval(ijk + o);
         du > 0.0 && !slab_u
     })
-}
-
-fn dominant_axis(n: DVec3) -> usize {
-    let a = n.abs();
-    if a.x >= a.y && a.x >= a.z {
-        0
-    } else if a.y >= a.z {
-        1
-    } else {
-        2
-    }
 }
 
 /// Union of two values in this mode.

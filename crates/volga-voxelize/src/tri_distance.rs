@@ -146,13 +146,7 @@ impl TriDistance {
         let n = (b - a).cross(c - a);
         let len = n.length();
         let na = n.abs();
-        let d = if na.x >= na.y && na.x >= na.z {
-            0
-        } else if na.y >= na.z {
-            1
-        } else {
-            2
-        };
+        let d = crate::binary::dominant_axis(n);
         let (u, w) = ((d + 1) % 3, (d + 2) % 3);
         if len.is_nan() || len <= 0.0 || na[d] < 1e-3 * len {
             // Degenerate or nearly edge-on: whole columns of the box.
