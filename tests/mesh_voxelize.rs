@@ -178,3 +178,42 @@ fn mesh_voxelization_is_deterministic_and_finite() {
         assert_eq!(one, run(2), "{mode:?}");
     }
 }
+
+/// Beyond the band the sign must still be the winding number's, also round the rim of
+/// an open mesh, where the region beyond the band joins the inside and the outside
+/// without crossing the surface (a flood fill from band voxels alone would let either
+/// side leak through the opening). A box without its top face: every brick of the grid
+/// is reached by some wall's band, so every voxel is decided brick by brick.
+#[test]
+fn open_box_signs_beyond_the_band_follow_the_winding_number() {
+    let closed = TriMesh::from_aabb(&Aabb::new(DVec3::splat(6.0), DVec3::splat(26.0)));
+    let mut open = closed.clone();
+    open.triangles.drain(2..4); // the z = hi face
+    let grid = Grid::new(Transform::new(DVec3::ZERO, DVec3::ONE).unwrap(), glam::UVec3::splat(32)).unwrap();
+    let v = MeshVoxelizer::new(&open).voxelize(
+        &grid,
+        SurfaceMode::Distance {
+            half_width_voxels: 3.0,
+            signed: true,
+        },
+        &NoProgress,
+    );
+    let bvh = Bvh::build(&open);
+    let (mut checked, mut wrong) = (0, 0);
+    for ijk in grid.index_box().iter() {
+        let p = grid.transform.voxel_center(ijk);
+        let w = bvh.winding_number_exact(p);
+        if (w - 0.5).abs() < 0.05 || bvh.closest(p).unwrap().distance < 3.0 {
+            continue;
+        }
+        checked += 1;
+        if (w >= 0.5) != (v.density.get(ijk) < 0.0) {
+            wrong += 1;
+        }
+    }
+    assert!(checked > 20_000, "{checked}");
+    assert_eq!(
+        wrong, 0,
+        "{wrong} of {checked} voxels beyond the band have the wrong sign"
+    );
+}

@@ -3,9 +3,11 @@
 //!
 //! ## Distance
 //! Exact point–triangle distances (Ericson's closest point): triangles are binned into
-//! 8³ bricks with their band, and each voxel keeps its nearest triangle (the lowest index
-//! among equals, so the result is independent of thread count). Work is proportional to
-//! the surface: about (triangle area + band) voxels per triangle.
+//! 8³ bricks with their band, and each voxel keeps its nearest triangle (the first in a
+//! fixed order among equals, so the result is independent of thread count). Work is
+//! proportional to the surface: about (triangle area + band) voxels per triangle.
+//! Per-triangle data is stored in the BVH's tree order, so the triangles of one brick
+//! are neighbours in memory too.
 //!
 //! ## Sign: inside means generalized winding number ≥ ½
 //! The documented answer for every mesh, closed or not, is the generalized winding
@@ -23,7 +25,9 @@
 //! itself is evaluated with the BVH's fast winding number (Barill et al. 2018).
 //! Voxels beyond the band but inside a brick the band reaches take their sign by flood
 //! fill from the band voxels (a 6-step is shorter than the band, so it cannot cross the
-//! surface). Bricks the band does not reach take the sign of their centre. For a closed mesh `w` is
+//! surface), one 6-connected component at a time on 512-bit brick masks. A component
+//! that touches band voxels of both signs goes round the rim of a hole, where `w`
+//! passes ½ beyond the band; its voxels ask `w` one by one. Bricks the band does not reach take the sign of their centre. For a closed mesh `w` is
 //! constant off the surface, so face-connected bricks beyond the band share one answer
 //! (one query per component). For an open mesh `w` varies smoothly through the holes: it
 //! is evaluated per block of 2×2×2 bricks and refined per brick near ½; the level set
@@ -35,7 +39,8 @@ use rustc_hash::FxHashMap;
 use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
 use volga_mesh::{closest_point_on_triangle, Bvh, Feature, TriMesh};
 
-use crate::tri_distance::TriDistance;
+use crate::mask::BrickMask;
+use crate::tri_distance::{BandColumns, Nearest, TriDistance};
 use crate::{OrientedBoxFilter, SurfaceMode};
 
 /// A mesh prepared for distance voxelization: BVH, pseudo-normals, boundary flags and
@@ -175,8 +180,15 @@ const SIGN_MARGIN: f64 = 0.3;
 
 impl MeshVoxelizer {
     pub fn new(mesh: &TriMesh) -> Self {
-        let triangles: Vec<[DVec3; 3]> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
         let bvh = Bvh::build(mesh);
+        // Per-triangle data in the BVH's tree order: the triangles a brick gathers then
+        // sit close together in memory (in mesh order they are scattered over the whole
+        // arrays, and cache misses dominated the band loop).
+        let mesh = &TriMesh {
+            positions: mesh.positions.clone(),
+            triangles: bvh.tree_order().iter().map(|&i| mesh.triangles[i as usize]).collect(),
+        };
+        let triangles: Vec<[DVec3; 3]> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
 
         // Weld exactly equal positions (loaders split vertices at texture seams).
         let mut weld: FxHashMap<[u64; 3], u32> = FxHashMap::default();
@@ -322,33 +334,56 @@ impl MeshVoxelizer {
         self.bvh.winding_number(p) >= 0.5
     }
 
-    /// Propagates known signs (±1) to the unknown (0) voxels of one brick region through
-    /// 6-neighbours; remaining pockets get the winding number at their first voxel.
-    fn flood_signs(&self, region: &IndexBox, sign: &mut [i8; BRICK_VOXELS], grid: &Grid) {
-        const STEPS: [IVec3; 6] = [IVec3::X, IVec3::NEG_X, IVec3::Y, IVec3::NEG_Y, IVec3::Z, IVec3::NEG_Z];
-        let mut stack: Vec<IVec3> = region
-            .iter()
-            .filter(|v| sign[Brick::<f32>::local_offset(*v)] != 0)
-            .collect();
-        loop {
-            while let Some(v) = stack.pop() {
-                let s = sign[Brick::<f32>::local_offset(v)];
-                for step in STEPS {
-                    let n = v + step;
-                    if region.contains(n) && sign[Brick::<f32>::local_offset(n)] == 0 {
-                        sign[Brick::<f32>::local_offset(n)] = s;
-                        stack.push(n);
+    /// The inside voxels of one brick. Band voxels come with their sign; each
+    /// 6-connected component of the voxels beyond the band (`unknown`) takes the sign
+    /// of the band voxels it touches (a 6-step is shorter than the band, so it cannot
+    /// cross the surface). A component touching both signs goes round a hole of an
+    /// open mesh, where `w` passes ½ beyond the band: each of its voxels asks the
+    /// winding number. A component touching no band voxel asks it once, at its first
+    /// voxel.
+    fn flood_signs(
+        &self,
+        brick: IVec3,
+        inside_band: BrickMask,
+        outside_band: BrickMask,
+        unknown: BrickMask,
+        grid: &Grid,
+    ) -> BrickMask {
+        let (touches_inside, touches_outside) = (inside_band.dilate6(), outside_band.dilate6());
+        let centre = |o: usize| {
+            let ijk = brick * BRICK_DIM + IVec3::new(o as i32 % 8, o as i32 / 8 % 8, o as i32 / 64);
+            grid.transform.voxel_center(ijk)
+        };
+        let mut inside = inside_band;
+        let mut rest = unknown;
+        while let Some(first) = rest.first() {
+            let mut component = BrickMask::EMPTY;
+            component.insert(first);
+            component = component.flood(&rest);
+            rest = rest.and_not(&component);
+            match (
+                !component.and(&touches_inside).is_empty(),
+                !component.and(&touches_outside).is_empty(),
+            ) {
+                (true, false) => inside = inside.or(&component),
+                (false, true) => {}
+                (false, false) => {
+                    if self.bvh.winding_number(centre(first)) >= 0.5 {
+                        inside = inside.or(&component);
+                    }
+                }
+                (true, true) => {
+                    let mut left = component;
+                    while let Some(o) = left.first() {
+                        left.remove(o);
+                        if self.bvh.winding_number(centre(o)) >= 0.5 {
+                            inside.insert(o);
+                        }
                     }
                 }
             }
-            // A pocket with no band voxel: seed it from the winding number.
-            let Some(seed) = region.iter().find(|v| sign[Brick::<f32>::local_offset(*v)] == 0) else {
-                break;
-            };
-            let inside = self.bvh.winding_number(grid.transform.voxel_center(seed)) >= 0.5;
-            sign[Brick::<f32>::local_offset(seed)] = if inside { 1 } else { -1 };
-            stack.push(seed);
         }
+        inside
     }
 
     /// Open meshes: `w` varies smoothly away from the surface (through the holes), so
@@ -498,17 +533,24 @@ impl MeshVoxelizer {
         let band2 = band * band;
         // The band in index units on the finest axis (a superset on anisotropic grids).
         let band_index = band / spacing.min_element();
+        let columns: Vec<BandColumns> = self
+            .triangles
+            .par_iter()
+            .map(|tri| BandColumns::new(tri.map(|p| t.world_to_index(p)), band_index))
+            .collect();
         let band_bricks: Vec<(IVec3, Brick<f32>)> = groups
             .par_iter()
             .map(|group| {
                 let brick = group[0].0;
                 let region = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
                 // Start at the band: farther candidates are never needed.
-                let mut best_d2 = [band2 * (1.0 + 1e-9); BRICK_VOXELS];
-                let mut best_tri = [u32::MAX; BRICK_VOXELS];
+                let mut best = Nearest {
+                    d2: [band2 * (1.0 + 1e-9); BRICK_VOXELS],
+                    id: [u32::MAX; BRICK_VOXELS],
+                };
                 // Nearest triangles first, so each voxel's best distance shrinks early and
-                // the plane-distance bound rejects most of the rest; ties by index keep the
-                // order (and so the result) independent of threads.
+                // the lower bounds reject most of the rest; ties by index keep the order
+                // (and so the result) independent of threads.
                 let centre = t.index_to_world((brick * BRICK_DIM).as_dvec3() + 3.5);
                 let mut order: Vec<(f64, u32)> = group
                     .iter()
@@ -520,46 +562,44 @@ impl MeshVoxelizer {
                 order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
                 for &(_, i) in &order {
                     let dist = &self.distance[i as usize];
-                    let tri_index = self.triangles[i as usize].map(|p| t.world_to_index(p));
-                    TriDistance::for_each_column(tri_index, band_index, &region, |start, axis, count| {
-                        // Walk the column with a fixed offset stride; the centre is the
-                        // transform's own (origin + ijk·spacing) along the column axis.
-                        let stride = [1usize, BRICK_DIM as usize, (BRICK_DIM * BRICK_DIM) as usize][axis];
-                        let mut o = Brick::<f32>::local_offset(start);
-                        let mut p = t.voxel_center(start);
-                        let (origin, h) = (t.origin()[axis], spacing[axis]);
-                        for k in 0..count {
-                            p[axis] = origin + (start[axis] + k) as f64 * h;
-                            if let Some(d2) = dist.distance_squared_below(p, best_d2[o]) {
-                                best_d2[o] = d2;
-                                best_tri[o] = i;
-                            }
-                            o += stride;
-                        }
+                    columns[i as usize].for_each(&region, |start, axis, count| {
+                        dist.column_min(t, start, axis, count, &mut best, i);
                     });
                 }
+                let (best_d2, best_tri) = (&best.d2, &best.id);
                 // Band voxels: exact distance and sign. Voxels beyond the band: their sign
                 // flows from band voxels through 6-neighbours (a 6-step is shorter than the
                 // band, so it cannot cross the surface); a pocket no band voxel reaches asks
                 // the winding number once.
                 let in_band = |o: usize| best_tri[o] != u32::MAX && best_d2[o] <= band2;
-                let mut sign = [0i8; BRICK_VOXELS]; // 1 inside, -1 outside, 0 unknown
                 let mut data = Box::new([background; BRICK_VOXELS]);
-                for ijk in region.iter() {
-                    let o = Brick::<f32>::local_offset(ijk);
-                    if in_band(o) {
-                        let inside = signed && self.inside(t.voxel_center(ijk), best_tri[o] as usize);
-                        sign[o] = if inside { 1 } else { -1 };
-                        data[o] = value(best_d2[o].sqrt(), inside);
+                let (mut inside_band, mut outside_band) = (BrickMask::EMPTY, BrickMask::EMPTY);
+                for z in region.min.z..region.max.z {
+                    for y in region.min.y..region.max.y {
+                        let row = IVec3::new(region.min.x, y, z);
+                        let first = Brick::<f32>::local_offset(row);
+                        for (o, x) in (first..).zip(region.min.x..region.max.x) {
+                            if in_band(o) {
+                                let p = t.voxel_center(IVec3::new(x, y, z));
+                                let inside = signed && self.inside(p, best_tri[o] as usize);
+                                if inside {
+                                    inside_band.insert(o);
+                                } else {
+                                    outside_band.insert(o);
+                                }
+                                data[o] = value(best_d2[o].sqrt(), inside);
+                            }
+                        }
                     }
                 }
                 if signed {
-                    self.flood_signs(&region, &mut sign, grid);
-                    for ijk in region.iter() {
-                        let o = Brick::<f32>::local_offset(ijk);
-                        if !in_band(o) && sign[o] > 0 {
-                            data[o] = inside_value;
-                        }
+                    let region_mask = BrickMask::of_region(brick, &region);
+                    let unknown = region_mask.and_not(&inside_band.or(&outside_band));
+                    let inside = self.flood_signs(brick, inside_band, outside_band, unknown, grid);
+                    let mut fill = inside.and(&unknown);
+                    while let Some(o) = fill.first() {
+                        data[o] = inside_value;
+                        fill.remove(o);
                     }
                 }
                 progress.inc(1);
