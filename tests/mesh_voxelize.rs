@@ -217,3 +217,52 @@ fn open_box_signs_beyond_the_band_follow_the_winding_number() {
         "{wrong} of {checked} voxels beyond the band have the wrong sign"
     );
 }
+
+/// Triangle soups from a small vertex pool: shared edges and vertices, non-manifold
+/// fans, repeated corners (degenerate triangles), slivers and vertices on voxel centres.
+/// Every band voxel's distance must equal brute force: the feature regions that limit
+/// where each triangle is evaluated must cover every voxel's nearest feature.
+fn soup() -> impl Strategy<Value = TriMesh> {
+    let coord = prop_oneof![(-40i32..40).prop_map(|c| c as f64 * 0.1), -4.0f64..4.0];
+    let p = (coord.clone(), coord.clone(), coord).prop_map(|(x, y, z)| DVec3::new(x, y, z));
+    (
+        prop::collection::vec(p, 3..7),
+        prop::collection::vec((0u32..7, 0u32..7, 0u32..7), 1..10),
+        0.0f64..1e-9,
+    )
+        .prop_filter_map("indices", |(mut pool, tris, sliver)| {
+            // A sliver: the last vertex nudged off the midpoint of the first two.
+            let n = pool.len();
+            pool.push((pool[0] + pool[1]) * 0.5 + DVec3::splat(sliver));
+            let tris: Vec<[u32; 3]> = tris
+                .into_iter()
+                .map(|(a, b, c)| [a % (n as u32 + 1), b % (n as u32 + 1), c % (n as u32 + 1)])
+                .collect();
+            TriMesh::new(pool, tris).ok()
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    #[test]
+    fn triangle_soup_distances_are_exact(mesh in soup(), offset in prop_oneof![Just(0.0), Just(1e6)]) {
+        let mesh = mesh.translated(DVec3::splat(offset));
+        let grid = grid_for(mesh.bounds(), 14);
+        let h = grid.transform.spacing().x;
+        let v = MeshVoxelizer::new(&mesh).voxelize(
+            &grid,
+            SurfaceMode::Distance { half_width_voxels: 2.5, signed: false },
+            &NoProgress,
+        );
+        let band = 2.5 * h;
+        for ijk in grid.index_box().iter() {
+            let exact = brute_distance(&mesh, grid.transform.voxel_center(ijk));
+            let value = v.density.get(ijk) as f64;
+            if exact < band * 0.999 {
+                prop_assert!((value - exact).abs() <= 1e-5 * h, "{}: {} vs exact {}", ijk, value, exact);
+            } else {
+                prop_assert!(value >= band * 0.999 - 1e-6 * h, "{}: {} outside the band (exact {})", ijk, value, exact);
+            }
+        }
+    }
+}

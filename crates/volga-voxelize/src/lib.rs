@@ -31,6 +31,7 @@ mod mask;
 pub mod measure;
 mod mesh;
 mod pairs;
+mod regions;
 pub mod shapes;
 mod solids;
 pub mod surfaces;

@@ -40,6 +40,7 @@ use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK
 use volga_mesh::{closest_point_on_triangle, Bvh, Feature, TriMesh};
 
 use crate::mask::BrickMask;
+use crate::regions::FeatureRegions;
 use crate::tri_distance::{BandColumns, Nearest, TriDistance};
 use crate::{OrientedBoxFilter, SurfaceMode};
 
@@ -65,6 +66,8 @@ pub struct MeshVoxelizer {
     /// No boundary or non-manifold edges.
     closed: bool,
     distance: Vec<TriDistance>,
+    /// Face, edge and vertex regions that bound where each triangle can be nearest.
+    regions: FeatureRegions,
 }
 
 /// How far from ½ a block's winding number must be to classify its 2×2×2 bricks at once.
@@ -264,14 +267,9 @@ impl MeshVoxelizer {
             vertex_ambiguous.push([0, 1, 2].map(|k| vambiguous[corner(t, k) as usize]));
         }
 
-        let w_bar = principal_winding(
-            &triangles,
-            &face_normal,
-            &bvh,
-            &welded_positions(mesh, &welded, weld.len()),
-            corner,
-            &edges,
-        );
+        let welded_pos = welded_positions(mesh, &welded, weld.len());
+        let w_bar = principal_winding(&triangles, &face_normal, &bvh, &welded_pos, corner, &edges);
+        let regions = FeatureRegions::build(&triangles, corner, &welded_pos, &vnormal);
         let distance = triangles.iter().map(|t| TriDistance::new(*t)).collect();
         MeshVoxelizer {
             triangles,
@@ -285,6 +283,7 @@ impl MeshVoxelizer {
             boundary_edges,
             closed,
             distance,
+            regions,
         }
     }
 
@@ -533,11 +532,7 @@ impl MeshVoxelizer {
         let band2 = band * band;
         // The band in index units on the finest axis (a superset on anisotropic grids).
         let band_index = band / spacing.min_element();
-        let columns: Vec<BandColumns> = self
-            .triangles
-            .par_iter()
-            .map(|tri| BandColumns::new(tri.map(|p| t.world_to_index(p)), band_index))
-            .collect();
+        let prepared = self.regions.prepare(t, &grid_box, band);
         let band_bricks: Vec<(IVec3, Brick<f32>)> = groups
             .par_iter()
             .map(|group| {
@@ -562,9 +557,13 @@ impl MeshVoxelizer {
                 order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
                 for &(_, i) in &order {
                     let dist = &self.distance[i as usize];
-                    columns[i as usize].for_each(&region, |start, axis, count| {
-                        dist.column_min(t, start, axis, count, &mut best, i);
-                    });
+                    let mut update = |start, axis, count| dist.column_min(t, start, axis, count, &mut best, i);
+                    if self.regions.is_fallback(i as usize) {
+                        let tri_index = self.triangles[i as usize].map(|p| t.world_to_index(p));
+                        BandColumns::new(tri_index, band_index).for_each(&region, update);
+                    } else {
+                        prepared.for_each_run(i as usize, &region, &mut update);
+                    }
                 }
                 let (best_d2, best_tri) = (&best.d2, &best.id);
                 // Band voxels: exact distance and sign. Voxels beyond the band: their sign

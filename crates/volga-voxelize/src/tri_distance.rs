@@ -184,14 +184,14 @@ impl TriDistance {
 /// `ceil(x)` as an integer for finite `x` well inside `i32` (callers clamp first):
 /// without SSE4.1 `f64::ceil` is a libm call, and it sat on the hot path.
 #[inline]
-fn ceil_i32(x: f64) -> i32 {
+pub(crate) fn ceil_i32(x: f64) -> i32 {
     let i = x as i32;
     i + ((i as f64) < x) as i32
 }
 
 /// `floor(x)` as an integer, under the same conditions as [`ceil_i32`].
 #[inline]
-fn floor_i32(x: f64) -> i32 {
+pub(crate) fn floor_i32(x: f64) -> i32 {
     let i = x as i32;
     i - ((i as f64) > x) as i32
 }

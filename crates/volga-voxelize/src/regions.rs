@@ -1,0 +1,409 @@
+//! Feature regions for exact narrow-band distances (the characteristic/scan-conversion
+//! idea of Mauch, "A fast algorithm for computing the closest point and distance
+//! transform", 2000): each point of a mesh lies in the relative interior of exactly one
+//! feature (a face, an edge or a vertex), and a voxel's nearest mesh point can only be
+//! on a feature whose region contains the voxel:
+//!
+//! * **face** `T` (unit normal `n`): the prism over `T` — the voxel projects into `T` and
+//!   `|n·(p − a)| ≤ band`. If the projection fell outside `T`, a point of `T`'s
+//!   boundary would be nearer than any interior point.
+//! * **edge** `ab` (interior): `(p − a)·(b − a) ≥ 0`, `(p − b)·(a − b) ≥ 0` (else an end
+//!   point is nearer), and for every non-degenerate face `F` on the edge,
+//!   `m_F·(p − a) ≥ 0` with `m_F` the outward normal of the edge in `F`'s plane (else
+//!   stepping from the edge into `F` gets nearer: the derivative of the squared
+//!   distance along `−m_F` is `2 m_F·(p − a) < 0`).
+//! * **vertex** `v`: `(p − v)·(w − v) ≤ 0` for every edge `vw` (else stepping along the
+//!   edge gets nearer).
+//!
+//! These are necessary conditions, so each region is a superset of the feature's
+//! Voronoi region, and the regions of all features cover the band. Evaluating every
+//! triangle only on its face region and on the regions of the edges and vertices it
+//! owns (the lowest-index triangle using them) therefore still finds the exact
+//! minimum; each band voxel is evaluated about twice instead of once per triangle
+//! within the band (≈ 20 at 256 voxels on the bunny). On a smooth surface the edge and
+//! vertex regions are thin wedges and cones.
+//!
+//! Regions are convex (intersections of half-spaces) and are scan-converted column by
+//! column: along a column every half-space is an interval. Each half-space is widened
+//! by a slack of about 10⁻⁶ voxel (plus the rounding of far-off coordinates), so a
+//! voxel on a region's boundary is never lost to rounding; extra voxels only cost an
+//! evaluation. Triangles too thin for a trustworthy normal (|ab × ac| < 10⁻⁶ of the
+//! squared longest edge) take the conservative path instead: every voxel within the
+//! band of their bounding box.
+//!
+//! Geometry is f64 (world units, relative to the mesh's centre for precision far from
+//! the origin).
+
+use glam::{DVec3, IVec3};
+use volga_core::{IndexBox, Transform};
+
+use crate::tri_distance::{ceil_i32, floor_i32};
+
+/// A half-space `m·(p − centre) ≤ offset + band_coeff·band` (unit `m`, world units).
+#[derive(Debug, Clone, Copy)]
+struct Plane {
+    m: DVec3,
+    offset: f64,
+    band_coeff: f64,
+}
+
+/// One feature's region, owned by one triangle.
+#[derive(Debug, Clone, Copy)]
+struct Region {
+    /// Column axis: the direction in which the region is thinnest, roughly.
+    axis: u8,
+    /// The feature's box (relative to the centre) and how far the band widens it per
+    /// axis (|n| for faces, 1 for edges and vertices).
+    lo: DVec3,
+    hi: DVec3,
+    pad: DVec3,
+    first_plane: u32,
+    planes: u32,
+}
+
+/// Feature regions of a mesh, grouped by owning triangle.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct FeatureRegions {
+    centre: DVec3,
+    /// Size of the mesh's box plus the centre's magnitude: the scale of rounding errors.
+    scale: f64,
+    regions: Vec<Region>,
+    planes: Vec<Plane>,
+    /// Regions of triangle `t`: `by_triangle[t]..by_triangle[t + 1]`.
+    by_triangle: Vec<u32>,
+    /// Triangles handled conservatively (degenerate or too thin).
+    fallback: Vec<bool>,
+}
+
+fn dominant_axis(v: DVec3) -> u8 {
+    crate::binary::dominant_axis(v) as u8
+}
+
+impl FeatureRegions {
+    /// `triangles` with welded corner ids `corner(t, k)`, welded positions and
+    /// vertex normals (any vector roughly along the surface normal; zero if unknown).
+    pub(crate) fn build(
+        triangles: &[[DVec3; 3]],
+        corner: impl Fn(usize, usize) -> u32,
+        welded_pos: &[DVec3],
+        vertex_normal: &[DVec3],
+    ) -> FeatureRegions {
+        let n = triangles.len();
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for t in triangles {
+            for p in t {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+        }
+        let centre = if n == 0 { DVec3::ZERO } else { (lo + hi) * 0.5 };
+        let scale = if n == 0 {
+            0.0
+        } else {
+            (hi - lo).max_element() + centre.abs().max_element()
+        };
+        let normal_of = |[a, b, c]: &[DVec3; 3]| {
+            let cross = (*b - *a).cross(*c - *a);
+            let longest = (*b - *a)
+                .length_squared()
+                .max((*c - *a).length_squared())
+                .max((*c - *b).length_squared());
+            let ok = cross.length() > 1e-6 * longest && cross.is_finite();
+            ok.then(|| cross.normalize())
+        };
+        let normals: Vec<Option<DVec3>> = triangles.iter().map(normal_of).collect();
+        let fallback: Vec<bool> = normals.iter().map(|n| n.is_none()).collect();
+
+        let mut regions: Vec<(u32, Region)> = Vec::with_capacity(3 * n);
+        let mut planes: Vec<Plane> = Vec::with_capacity(12 * n);
+        let push_plane = |planes: &mut Vec<Plane>, m: DVec3, through: DVec3, band_coeff: f64| {
+            let m = m.normalize_or_zero();
+            planes.push(Plane {
+                m,
+                offset: m.dot(through - centre),
+                band_coeff,
+            });
+        };
+
+        // Faces: three side planes (they reject columns outside the footprint early),
+        // then the slab.
+        for (t, tri) in triangles.iter().enumerate() {
+            let Some(nrm) = normals[t] else { continue };
+            let first_plane = planes.len() as u32;
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                push_plane(&mut planes, (b - a).cross(nrm), a, 0.0);
+            }
+            push_plane(&mut planes, nrm, tri[0], 1.0);
+            push_plane(&mut planes, -nrm, tri[0], 1.0);
+            regions.push((
+                t as u32,
+                Region {
+                    axis: dominant_axis(nrm),
+                    lo: tri[0].min(tri[1]).min(tri[2]) - centre,
+                    hi: tri[0].max(tri[1]).max(tri[2]) - centre,
+                    pad: nrm.abs(),
+                    first_plane,
+                    planes: 5,
+                },
+            ));
+        }
+
+        // Edges, grouped by welded endpoints; the owner is the lowest triangle index.
+        let mut uses: Vec<(u32, u32, u32, u8)> = Vec::with_capacity(3 * n);
+        for t in 0..n {
+            for k in 0..3 {
+                let (i, j) = (corner(t, k), corner(t, (k + 1) % 3));
+                if i != j {
+                    uses.push((i.min(j), i.max(j), t as u32, k as u8));
+                }
+            }
+        }
+        uses.sort_unstable();
+        let mut neighbours: Vec<(u32, u32)> = Vec::with_capacity(2 * uses.len() / 2 + 1);
+        for group in uses.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
+            let (i, j, owner) = (group[0].0, group[0].1, group[0].2);
+            neighbours.push((i, j));
+            neighbours.push((j, i));
+            if fallback[owner as usize] {
+                continue; // the owner's conservative band covers the edge
+            }
+            let (a, b) = (welded_pos[i as usize], welded_pos[j as usize]);
+            let first_plane = planes.len() as u32;
+            let mut normal_sum = DVec3::ZERO;
+            for &(_, _, t, k) in group {
+                let Some(nrm) = normals[t as usize] else { continue };
+                let tri = &triangles[t as usize];
+                let (p, q) = (tri[k as usize], tri[(k as usize + 1) % 3]);
+                // Outside (or on) the face's side plane through the edge.
+                push_plane(&mut planes, -(q - p).cross(nrm), p, 0.0);
+                normal_sum += nrm;
+            }
+            push_plane(&mut planes, a - b, a, 0.0);
+            push_plane(&mut planes, b - a, b, 0.0);
+            let axis = if normal_sum.length_squared() > 1e-12 {
+                dominant_axis(normal_sum)
+            } else {
+                // Columns across the edge: along its smallest component.
+                let e = (b - a).abs();
+                if e.x <= e.y && e.x <= e.z {
+                    0
+                } else if e.y <= e.z {
+                    1
+                } else {
+                    2
+                }
+            };
+            regions.push((
+                owner,
+                Region {
+                    axis,
+                    lo: a.min(b) - centre,
+                    hi: a.max(b) - centre,
+                    pad: DVec3::ONE,
+                    first_plane,
+                    planes: planes.len() as u32 - first_plane,
+                },
+            ));
+        }
+
+        // Vertices: the owner is the lowest triangle index using the welded vertex.
+        let mut vertex_owner = vec![u32::MAX; welded_pos.len()];
+        for t in 0..n {
+            for k in 0..3 {
+                let v = corner(t, k) as usize;
+                vertex_owner[v] = vertex_owner[v].min(t as u32);
+            }
+        }
+        neighbours.sort_unstable();
+        for group in neighbours.chunk_by(|x, y| x.0 == y.0) {
+            let v = group[0].0 as usize;
+            let owner = vertex_owner[v];
+            if owner == u32::MAX || fallback[owner as usize] {
+                continue;
+            }
+            let p = welded_pos[v];
+            let first_plane = planes.len() as u32;
+            for &(_, w) in group {
+                push_plane(&mut planes, welded_pos[w as usize] - p, p, 0.0);
+            }
+            regions.push((
+                owner,
+                Region {
+                    axis: dominant_axis(vertex_normal.get(v).copied().unwrap_or(DVec3::ZERO)),
+                    lo: p - centre,
+                    hi: p - centre,
+                    pad: DVec3::ONE,
+                    first_plane,
+                    planes: group.len() as u32,
+                },
+            ));
+        }
+
+        // Group by owner (stable: face, edges, vertices).
+        regions.sort_by_key(|(owner, _)| *owner);
+        let mut by_triangle = vec![0u32; n + 1];
+        for (owner, _) in &regions {
+            by_triangle[*owner as usize + 1] += 1;
+        }
+        for t in 0..n {
+            by_triangle[t + 1] += by_triangle[t];
+        }
+        FeatureRegions {
+            centre,
+            scale,
+            regions: regions.into_iter().map(|(_, r)| r).collect(),
+            planes,
+            by_triangle,
+            fallback,
+        }
+    }
+
+    /// Whether triangle `t` needs the conservative path (its whole band).
+    #[inline]
+    pub(crate) fn is_fallback(&self, t: usize) -> bool {
+        self.fallback[t]
+    }
+
+    /// The regions laid out for one grid and band: index boxes, and each half-space as
+    /// a linear function of the column's lateral indices plus its bound along the
+    /// column, so that a column costs two multiply-adds per half-space.
+    pub(crate) fn prepare(&self, transform: &Transform, grid_box: &IndexBox, band: f64) -> PreparedRegions<'_> {
+        let (origin, spacing) = (transform.origin(), transform.spacing());
+        let slack = 1e-6 * spacing.min_element() + 1e-13 * self.scale;
+        // Voxel centres relative to the mesh centre: `base + ijk·spacing`.
+        let base = origin - self.centre;
+        let clip = |v: DVec3| v.clamp(DVec3::splat(-4.0e8), DVec3::splat(4.0e8));
+        let mut regions = Vec::with_capacity(self.regions.len());
+        let mut planes = Vec::with_capacity(self.planes.len());
+        for r in &self.regions {
+            let grow = r.pad * band + slack;
+            let lo = clip(((r.lo - grow - base) / spacing).ceil())
+                .as_ivec3()
+                .max(grid_box.min);
+            let hi = clip(((r.hi + grow - base) / spacing).floor())
+                .as_ivec3()
+                .min(grid_box.max - IVec3::ONE);
+            let d = r.axis as usize;
+            let (u, w) = ((d + 1) % 3, (d + 2) % 3);
+            let first_plane = planes.len() as u32;
+            for plane in &self.planes[r.first_plane as usize..(r.first_plane + r.planes) as usize] {
+                // m·(base + ijk·spacing) ≤ offset + band_coeff·band + slack, i.e.
+                // g0 + i_u·gu + i_w·gw + i_d·slope ≤ 0.
+                let slope = plane.m[d] * spacing[d];
+                planes.push(PreparedPlane {
+                    g0: plane.m.dot(base) - plane.offset - plane.band_coeff * band - slack,
+                    gu: plane.m[u] * spacing[u],
+                    gw: plane.m[w] * spacing[w],
+                    neg_inv: if slope != 0.0 { -1.0 / slope } else { 0.0 },
+                    kind: if slope > 0.0 {
+                        BoundKind::Upper
+                    } else if slope < 0.0 {
+                        BoundKind::Lower
+                    } else {
+                        BoundKind::Constant
+                    },
+                });
+            }
+            regions.push(PreparedRegion {
+                lo,
+                hi,
+                axis: r.axis,
+                first_plane,
+                planes: r.planes,
+            });
+        }
+        PreparedRegions {
+            regions,
+            planes,
+            by_triangle: &self.by_triangle,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+enum BoundKind {
+    /// `i_d ≤ g·neg_inv`.
+    Upper,
+    /// `i_d ≥ g·neg_inv`.
+    Lower,
+    /// `g ≤ 0` along the whole column.
+    Constant,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct PreparedPlane {
+    g0: f64,
+    gu: f64,
+    gw: f64,
+    neg_inv: f64,
+    kind: BoundKind,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct PreparedRegion {
+    /// Index box (inclusive), within the grid.
+    lo: IVec3,
+    hi: IVec3,
+    axis: u8,
+    first_plane: u32,
+    planes: u32,
+}
+
+/// [`FeatureRegions`] prepared for one grid and band.
+pub(crate) struct PreparedRegions<'a> {
+    regions: Vec<PreparedRegion>,
+    planes: Vec<PreparedPlane>,
+    by_triangle: &'a [u32],
+}
+
+impl PreparedRegions<'_> {
+    /// Calls `f(first_ijk, axis, count)` for runs of voxels of `region_box` (index
+    /// space) that lie in the regions triangle `t` owns, within the band of their
+    /// features' boxes. Runs of different regions may overlap.
+    pub(crate) fn for_each_run(&self, t: usize, region_box: &IndexBox, mut f: impl FnMut(IVec3, usize, i32)) {
+        let range = self.by_triangle[t] as usize..self.by_triangle[t + 1] as usize;
+        for r in &self.regions[range] {
+            let lo = r.lo.max(region_box.min);
+            let hi = r.hi.min(region_box.max - IVec3::ONE);
+            if lo.cmpgt(hi).any() {
+                continue;
+            }
+            let d = r.axis as usize;
+            let (u, w) = ((d + 1) % 3, (d + 2) % 3);
+            let planes = &self.planes[r.first_plane as usize..(r.first_plane + r.planes) as usize];
+            let (s_min, s_max) = (lo[d] as f64, hi[d] as f64);
+            for cu in lo[u]..=hi[u] {
+                for cw in lo[w]..=hi[w] {
+                    let (mut s_lo, mut s_hi) = (s_min, s_max);
+                    for plane in planes {
+                        let g = plane.g0 + cu as f64 * plane.gu + cw as f64 * plane.gw;
+                        match plane.kind {
+                            BoundKind::Upper => s_hi = s_hi.min(g * plane.neg_inv),
+                            BoundKind::Lower => s_lo = s_lo.max(g * plane.neg_inv),
+                            BoundKind::Constant => {
+                                if g > 0.0 {
+                                    s_hi = f64::NEG_INFINITY;
+                                }
+                            }
+                        }
+                        if s_lo > s_hi {
+                            break;
+                        }
+                    }
+                    if s_lo <= s_hi {
+                        // s_lo, s_hi lie in the region's (clipped, i32) box.
+                        let (z0, z1) = (ceil_i32(s_lo), floor_i32(s_hi));
+                        if z1 >= z0 {
+                            let mut start = IVec3::ZERO;
+                            start[d] = z0;
+                            start[u] = cu;
+                            start[w] = cw;
+                            f(start, d, z1 - z0 + 1);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
