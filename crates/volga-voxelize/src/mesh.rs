@@ -40,7 +40,7 @@ use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK
 use volga_mesh::{closest_point_on_triangle, Bvh, Feature, TriMesh};
 
 use crate::mask::BrickMask;
-use crate::regions::FeatureRegions;
+use crate::regions::{EdgeUse, FeatureRegions};
 use crate::tri_distance::{BandColumns, Nearest, TriDistance};
 use crate::{OrientedBoxFilter, SurfaceMode};
 
@@ -88,39 +88,26 @@ fn welded_positions(mesh: &TriMesh, welded: &[u32], count: usize) -> Vec<DVec3> 
 /// * Open with simple boundary loops: each loop is closed by a fan cap `C` oriented so
 ///   that `M ∪ C` is closed and consistent; then `w̄_M = ±½ − w_C(centroid)`, and `w_C`
 ///   is a fast winding query over the few cap triangles instead of the whole mesh.
-/// * Otherwise (non-manifold edges, branching boundaries): `w_M` just off the centroid
-///   on the normal side plus ½ — crossing a sheet along its normal lowers `w` by exactly
-///   1 (at the centroid itself the triangle's own solid angle is ±2π, not 0).
-fn principal_winding(
+///
+/// `None` otherwise (non-manifold edges, branching boundaries): then
+/// [`direct_winding`] asks the whole mesh.
+fn cap_winding(
     triangles: &[[DVec3; 3]],
-    face_normal: &[DVec3],
-    bvh: &Bvh,
     welded_pos: &[DVec3],
     corner: impl Fn(usize, usize) -> u32,
-    edges: &FxHashMap<(u32, u32), (DVec3, u32)>,
-) -> Vec<f64> {
-    let centroid = |[a, b, c]: &[DVec3; 3]| (*a + *b + *c) / 3.0;
-    let direct = || -> Vec<f64> {
-        triangles
-            .par_iter()
-            .zip(face_normal)
-            .map(|(t, n)| {
-                let [a, b, c] = t;
-                let eps = 1e-6 * (*b - *a).length().max((*c - *a).length()).max(f64::MIN_POSITIVE);
-                bvh.winding_number(centroid(t) + *n * eps) + 0.5
-            })
-            .collect()
-    };
-    if edges.values().any(|e| e.1 > 2) {
-        return direct();
+    edge_count: &[[u32; 3]],
+) -> Option<Vec<f64>> {
+    if edge_count.iter().flatten().any(|&c| c > 2) {
+        return None;
     }
+    let centroid = |[a, b, c]: &[DVec3; 3]| (*a + *b + *c) / 3.0;
     // Boundary edges i → j as their triangle lists them; the cap runs j → i.
     let mut next: FxHashMap<u32, u32> = FxHashMap::default();
-    for t in 0..triangles.len() {
-        for k in 0..3 {
+    for (t, counts) in edge_count.iter().enumerate() {
+        for (k, &count) in counts.iter().enumerate() {
             let (i, j) = (corner(t, k), corner(t, (k + 1) % 3));
-            if i != j && edges.get(&(i.min(j), i.max(j))).is_some_and(|e| e.1 == 1) && next.insert(j, i).is_some() {
-                return direct(); // two boundary edges leave j: not a simple loop
+            if count == 1 && next.insert(j, i).is_some() {
+                return None; // two boundary edges leave j: not a simple loop
             }
         }
     }
@@ -136,12 +123,12 @@ fn principal_winding(
         visited.insert(start);
         let mut v = start;
         loop {
-            let Some(&n) = next.get(&v) else { return direct() };
+            let &n = next.get(&v)?;
             if n == start {
                 break;
             }
             if !visited.insert(n) {
-                return direct();
+                return None;
             }
             ring.push(n);
             v = n;
@@ -165,17 +152,62 @@ fn principal_winding(
         .sum();
     let half = if volume >= 0.0 { 0.5 } else { -0.5 };
     if caps.is_empty() {
-        return vec![half; triangles.len()];
+        return Some(vec![half; triangles.len()]);
     }
     let cap_mesh = TriMesh {
         positions: caps.iter().flatten().copied().collect(),
         triangles: (0..caps.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
     };
     let cap_bvh = Bvh::build(&cap_mesh);
+    Some(
+        triangles
+            .par_iter()
+            .map(|t| half - cap_bvh.winding_number(centroid(t)))
+            .collect(),
+    )
+}
+
+/// `w̄_t` from the whole mesh: `w_M` just off the centroid on the normal side plus ½ —
+/// crossing a sheet along its normal lowers `w` by exactly 1 (at the centroid itself
+/// the triangle's own solid angle is ±2π, not 0).
+fn direct_winding(triangles: &[[DVec3; 3]], face_normal: &[DVec3], bvh: &Bvh) -> Vec<f64> {
     triangles
         .par_iter()
-        .map(|t| half - cap_bvh.winding_number(centroid(t)))
+        .zip(face_normal)
+        .map(|(t, n)| {
+            let [a, b, c] = t;
+            let eps = 1e-6 * (*b - *a).length().max((*c - *a).length()).max(f64::MIN_POSITIVE);
+            bvh.winding_number((*a + *b + *c) / 3.0 + *n * eps) + 0.5
+        })
         .collect()
+}
+
+/// Triangle order along a Morton (Z-order) curve of their centroids: neighbours in
+/// this order are neighbours in space (ties by index, so the order is unique).
+fn morton_order(mesh: &TriMesh) -> Vec<u32> {
+    let bounds = mesh.bounds();
+    let size = bounds.size().max(DVec3::splat(f64::MIN_POSITIVE));
+    let spread = |v: u64| {
+        // 21 bits → every third bit of 63.
+        let mut x = v & 0x1f_ffff;
+        x = (x | x << 32) & 0x1f00000000ffff;
+        x = (x | x << 16) & 0x1f0000ff0000ff;
+        x = (x | x << 8) & 0x100f00f00f00f00f;
+        x = (x | x << 4) & 0x10c30c30c30c30c3;
+        (x | x << 2) & 0x1249249249249249
+    };
+    let mut keyed: Vec<(u64, u32)> = (0..mesh.triangles.len())
+        .into_par_iter()
+        .map(|i| {
+            let [a, b, c] = mesh.triangle(i);
+            let q =
+                (((a + b + c) / 3.0 - bounds.min) / size * 2_097_151.0).clamp(DVec3::ZERO, DVec3::splat(2_097_151.0));
+            let code = spread(q.x as u64) | spread(q.y as u64) << 1 | spread(q.z as u64) << 2;
+            (code, i as u32)
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 /// Margin around ½ inside which the per-triangle estimate is not trusted.
@@ -183,14 +215,23 @@ const SIGN_MARGIN: f64 = 0.3;
 
 impl MeshVoxelizer {
     pub fn new(mesh: &TriMesh) -> Self {
-        let bvh = Bvh::build(mesh);
-        // Per-triangle data in the BVH's tree order: the triangles a brick gathers then
-        // sit close together in memory (in mesh order they are scattered over the whole
-        // arrays, and cache misses dominated the band loop).
-        let mesh = &TriMesh {
-            positions: mesh.positions.clone(),
-            triangles: bvh.tree_order().iter().map(|&i| mesh.triangles[i as usize]).collect(),
-        };
+        // The BVH (for winding numbers) is built from the mesh as given, alongside the
+        // rest, which works on the triangles in Morton order: the triangles a brick
+        // gathers then sit close together in memory (in mesh order they are scattered
+        // over the whole arrays, and cache misses dominated the band loop).
+        let (bvh, (mesh, order)) = rayon::join(
+            || Bvh::build(mesh),
+            || {
+                let order = morton_order(mesh);
+                let mesh = TriMesh {
+                    positions: mesh.positions.clone(),
+                    triangles: order.iter().map(|&i| mesh.triangles[i as usize]).collect(),
+                };
+                (mesh, order)
+            },
+        );
+        drop(order);
+        let mesh = &mesh;
         let triangles: Vec<[DVec3; 3]> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
 
         // Weld exactly equal positions (loaders split vertices at texture seams).
@@ -205,32 +246,55 @@ impl MeshVoxelizer {
             })
             .collect();
         let corner = |t: usize, k: usize| welded[mesh.triangles[t][k] as usize];
+        let welded_pos = welded_positions(mesh, &welded, weld.len());
 
         let face_normal: Vec<DVec3> = triangles
-            .iter()
+            .par_iter()
             .map(|[a, b, c]| (*b - *a).cross(*c - *a).normalize_or_zero())
             .collect();
 
-        // Edges: sum of adjacent face normals, and how many faces use them.
-        let mut edges: FxHashMap<(u32, u32), (DVec3, u32)> = FxHashMap::default();
-        for (t, normal) in face_normal.iter().enumerate() {
+        // Edges: every use (welded endpoints, triangle, corner), sorted so that the uses
+        // of one edge are adjacent, lowest triangle first.
+        let mut uses: Vec<EdgeUse> = Vec::with_capacity(3 * triangles.len());
+        for t in 0..triangles.len() {
             for k in 0..3 {
                 let (i, j) = (corner(t, k), corner(t, (k + 1) % 3));
-                if i == j {
-                    continue;
+                if i != j {
+                    uses.push(EdgeUse {
+                        key: (i.min(j) as u64) << 32 | i.max(j) as u64,
+                        triangle: t as u32,
+                        corner: k as u8,
+                    });
                 }
-                let e = edges.entry((i.min(j), i.max(j))).or_insert((DVec3::ZERO, 0));
-                e.0 += *normal;
-                e.1 += 1;
             }
         }
-        let boundary_edges = edges.values().filter(|e| e.1 == 1).count();
-        let closed = edges.values().all(|e| e.1 == 2);
+        uses.par_sort_unstable_by_key(|u| (u.key, u.triangle, u.corner));
+
+        // Per triangle edge: how many faces use it, and the sum of their normals.
+        let n_welded = weld.len();
+        let mut edge_count = vec![[0u32; 3]; triangles.len()];
+        let mut edge_normal = vec![[DVec3::ZERO; 3]; triangles.len()];
+        let mut vambiguous = vec![false; n_welded];
+        let (mut boundary_edges, mut closed) = (0, true);
+        for group in uses.chunk_by(|a, b| a.key == b.key) {
+            let count = group.len() as u32;
+            let sum: DVec3 = group.iter().map(|u| face_normal[u.triangle as usize]).sum();
+            for u in group {
+                edge_count[u.triangle as usize][u.corner as usize] = count;
+                edge_normal[u.triangle as usize][u.corner as usize] = sum;
+            }
+            boundary_edges += (count == 1) as usize;
+            if count != 2 {
+                closed = false;
+                vambiguous[(group[0].key >> 32) as usize] = true;
+                vambiguous[(group[0].key & 0xffff_ffff) as usize] = true;
+            }
+        }
+        let edge_ambiguous: Vec<[bool; 3]> = edge_count.iter().map(|c| c.map(|c| c != 2)).collect();
+        // Degenerate corners (i == j) use no edge: ambiguous too, as before.
 
         // Vertices: angle-weighted normals; ambiguous when on a boundary/non-manifold edge.
-        let n_welded = weld.len();
         let mut vnormal = vec![DVec3::ZERO; n_welded];
-        let mut vambiguous = vec![false; n_welded];
         for (t, tri) in triangles.iter().enumerate() {
             for k in 0..3 {
                 let (p, q, r) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
@@ -240,37 +304,21 @@ impl MeshVoxelizer {
                 }
             }
         }
-        for (&(i, j), &(_, count)) in &edges {
-            if count != 2 {
-                vambiguous[i as usize] = true;
-                vambiguous[j as usize] = true;
-            }
-        }
+        let vertex_normal: Vec<[DVec3; 3]> = (0..triangles.len())
+            .map(|t| [0, 1, 2].map(|k| vnormal[corner(t, k) as usize]))
+            .collect();
+        let vertex_ambiguous: Vec<[bool; 3]> = (0..triangles.len())
+            .map(|t| [0, 1, 2].map(|k| vambiguous[corner(t, k) as usize]))
+            .collect();
 
-        let mut edge_normal = Vec::with_capacity(triangles.len());
-        let mut edge_ambiguous = Vec::with_capacity(triangles.len());
-        let mut vertex_normal = Vec::with_capacity(triangles.len());
-        let mut vertex_ambiguous = Vec::with_capacity(triangles.len());
-        for t in 0..triangles.len() {
-            let mut en = [DVec3::ZERO; 3];
-            let mut ea = [true; 3];
-            for k in 0..3 {
-                let (i, j) = (corner(t, k), corner(t, (k + 1) % 3));
-                if let Some(&(n, count)) = edges.get(&(i.min(j), i.max(j))) {
-                    en[k] = n;
-                    ea[k] = count != 2;
-                }
-            }
-            edge_normal.push(en);
-            edge_ambiguous.push(ea);
-            vertex_normal.push([0, 1, 2].map(|k| vnormal[corner(t, k) as usize]));
-            vertex_ambiguous.push([0, 1, 2].map(|k| vambiguous[corner(t, k) as usize]));
-        }
-
-        let welded_pos = welded_positions(mesh, &welded, weld.len());
-        let w_bar = principal_winding(&triangles, &face_normal, &bvh, &welded_pos, corner, &edges);
-        let regions = FeatureRegions::build(&triangles, corner, &welded_pos, &vnormal);
-        let distance = triangles.iter().map(|t| TriDistance::new(*t)).collect();
+        let (w_bar, regions) = rayon::join(
+            || {
+                cap_winding(&triangles, &welded_pos, corner, &edge_count)
+                    .unwrap_or_else(|| direct_winding(&triangles, &face_normal, &bvh))
+            },
+            || FeatureRegions::build(&triangles, &uses, &welded_pos, &vnormal),
+        );
+        let distance = triangles.par_iter().map(|t| TriDistance::new(*t)).collect();
         MeshVoxelizer {
             triangles,
             bvh,

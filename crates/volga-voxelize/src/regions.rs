@@ -35,9 +35,19 @@
 //! the origin).
 
 use glam::{DVec3, IVec3};
+use rayon::prelude::*;
 use volga_core::{IndexBox, Transform};
 
 use crate::tri_distance::{ceil_i32, floor_i32};
+
+/// One use of a mesh edge: welded endpoints packed as `min << 32 | max`, and the
+/// triangle and corner `k` (edge from corner `k` to `k + 1`) that use it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) struct EdgeUse {
+    pub(crate) key: u64,
+    pub(crate) triangle: u32,
+    pub(crate) corner: u8,
+}
 
 /// A half-space `m·(p − centre) ≤ offset + band_coeff·band` (unit `m`, world units).
 #[derive(Debug, Clone, Copy)]
@@ -61,6 +71,21 @@ struct Region {
     planes: u32,
 }
 
+/// Regions and their half-spaces, as one of the three kinds of features builds them.
+struct Part {
+    regions: Vec<(u32, Region)>,
+    planes: Vec<Plane>,
+}
+
+impl Part {
+    fn with_capacity(regions: usize, planes: usize) -> Part {
+        Part {
+            regions: Vec::with_capacity(regions),
+            planes: Vec::with_capacity(planes),
+        }
+    }
+}
+
 /// Feature regions of a mesh, grouped by owning triangle.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct FeatureRegions {
@@ -69,7 +94,9 @@ pub(crate) struct FeatureRegions {
     scale: f64,
     regions: Vec<Region>,
     planes: Vec<Plane>,
-    /// Regions of triangle `t`: `by_triangle[t]..by_triangle[t + 1]`.
+    /// Region indices grouped by owning triangle: those of triangle `t` are
+    /// `order[by_triangle[t]..by_triangle[t + 1]]`.
+    order: Vec<u32>,
     by_triangle: Vec<u32>,
     /// Triangles handled conservatively (degenerate or too thin).
     fallback: Vec<bool>,
@@ -84,7 +111,7 @@ impl FeatureRegions {
     /// vertex normals (any vector roughly along the surface normal; zero if unknown).
     pub(crate) fn build(
         triangles: &[[DVec3; 3]],
-        corner: impl Fn(usize, usize) -> u32,
+        uses: &[EdgeUse],
         welded_pos: &[DVec3],
         vertex_normal: &[DVec3],
     ) -> FeatureRegions {
@@ -114,8 +141,6 @@ impl FeatureRegions {
         let normals: Vec<Option<DVec3>> = triangles.iter().map(normal_of).collect();
         let fallback: Vec<bool> = normals.iter().map(|n| n.is_none()).collect();
 
-        let mut regions: Vec<(u32, Region)> = Vec::with_capacity(3 * n);
-        let mut planes: Vec<Plane> = Vec::with_capacity(12 * n);
         let push_plane = |planes: &mut Vec<Plane>, m: DVec3, through: DVec3, band_coeff: f64| {
             let m = m.normalize_or_zero();
             planes.push(Plane {
@@ -127,121 +152,136 @@ impl FeatureRegions {
 
         // Faces: three side planes (they reject columns outside the footprint early),
         // then the slab.
-        for (t, tri) in triangles.iter().enumerate() {
-            let Some(nrm) = normals[t] else { continue };
-            let first_plane = planes.len() as u32;
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                push_plane(&mut planes, (b - a).cross(nrm), a, 0.0);
+        let faces = || {
+            let mut part = Part::with_capacity(n, 5 * n);
+            for (t, tri) in triangles.iter().enumerate() {
+                let Some(nrm) = normals[t] else { continue };
+                let first_plane = part.planes.len() as u32;
+                for k in 0..3 {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    push_plane(&mut part.planes, (b - a).cross(nrm), a, 0.0);
+                }
+                push_plane(&mut part.planes, nrm, tri[0], 1.0);
+                push_plane(&mut part.planes, -nrm, tri[0], 1.0);
+                part.regions.push((
+                    t as u32,
+                    Region {
+                        axis: dominant_axis(nrm),
+                        lo: tri[0].min(tri[1]).min(tri[2]) - centre,
+                        hi: tri[0].max(tri[1]).max(tri[2]) - centre,
+                        pad: nrm.abs(),
+                        first_plane,
+                        planes: 5,
+                    },
+                ));
             }
-            push_plane(&mut planes, nrm, tri[0], 1.0);
-            push_plane(&mut planes, -nrm, tri[0], 1.0);
-            regions.push((
-                t as u32,
-                Region {
-                    axis: dominant_axis(nrm),
-                    lo: tri[0].min(tri[1]).min(tri[2]) - centre,
-                    hi: tri[0].max(tri[1]).max(tri[2]) - centre,
-                    pad: nrm.abs(),
-                    first_plane,
-                    planes: 5,
-                },
-            ));
-        }
+            part
+        };
 
         // Edges, grouped by welded endpoints; the owner is the lowest triangle index.
-        let mut uses: Vec<(u32, u32, u32, u8)> = Vec::with_capacity(3 * n);
-        for t in 0..n {
-            for k in 0..3 {
-                let (i, j) = (corner(t, k), corner(t, (k + 1) % 3));
-                if i != j {
-                    uses.push((i.min(j), i.max(j), t as u32, k as u8));
+        let edges = || {
+            let mut part = Part::with_capacity(uses.len() / 2, 2 * uses.len());
+            for group in uses.chunk_by(|x, y| x.key == y.key) {
+                let (i, j, owner) = ((group[0].key >> 32) as u32, group[0].key as u32, group[0].triangle);
+                if fallback[owner as usize] {
+                    continue; // the owner's conservative band covers the edge
                 }
-            }
-        }
-        uses.sort_unstable();
-        let mut neighbours: Vec<(u32, u32)> = Vec::with_capacity(2 * uses.len() / 2 + 1);
-        for group in uses.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
-            let (i, j, owner) = (group[0].0, group[0].1, group[0].2);
-            neighbours.push((i, j));
-            neighbours.push((j, i));
-            if fallback[owner as usize] {
-                continue; // the owner's conservative band covers the edge
-            }
-            let (a, b) = (welded_pos[i as usize], welded_pos[j as usize]);
-            let first_plane = planes.len() as u32;
-            let mut normal_sum = DVec3::ZERO;
-            for &(_, _, t, k) in group {
-                let Some(nrm) = normals[t as usize] else { continue };
-                let tri = &triangles[t as usize];
-                let (p, q) = (tri[k as usize], tri[(k as usize + 1) % 3]);
-                // Outside (or on) the face's side plane through the edge.
-                push_plane(&mut planes, -(q - p).cross(nrm), p, 0.0);
-                normal_sum += nrm;
-            }
-            push_plane(&mut planes, a - b, a, 0.0);
-            push_plane(&mut planes, b - a, b, 0.0);
-            let axis = if normal_sum.length_squared() > 1e-12 {
-                dominant_axis(normal_sum)
-            } else {
-                // Columns across the edge: along its smallest component.
-                let e = (b - a).abs();
-                if e.x <= e.y && e.x <= e.z {
-                    0
-                } else if e.y <= e.z {
-                    1
+                let (a, b) = (welded_pos[i as usize], welded_pos[j as usize]);
+                let first_plane = part.planes.len() as u32;
+                let mut normal_sum = DVec3::ZERO;
+                for u in group {
+                    let Some(nrm) = normals[u.triangle as usize] else {
+                        continue;
+                    };
+                    let tri = &triangles[u.triangle as usize];
+                    let (p, q) = (tri[u.corner as usize], tri[(u.corner as usize + 1) % 3]);
+                    // Outside (or on) the face's side plane through the edge.
+                    push_plane(&mut part.planes, -(q - p).cross(nrm), p, 0.0);
+                    normal_sum += nrm;
+                }
+                push_plane(&mut part.planes, a - b, a, 0.0);
+                push_plane(&mut part.planes, b - a, b, 0.0);
+                let axis = if normal_sum.length_squared() > 1e-12 {
+                    dominant_axis(normal_sum)
                 } else {
-                    2
+                    // Columns across the edge: along its smallest component.
+                    let e = (b - a).abs();
+                    if e.x <= e.y && e.x <= e.z {
+                        0
+                    } else if e.y <= e.z {
+                        1
+                    } else {
+                        2
+                    }
+                };
+                part.regions.push((
+                    owner,
+                    Region {
+                        axis,
+                        lo: a.min(b) - centre,
+                        hi: a.max(b) - centre,
+                        pad: DVec3::ONE,
+                        first_plane,
+                        planes: part.planes.len() as u32 - first_plane,
+                    },
+                ));
+            }
+            part
+        };
+
+        // Vertices: the owner is the lowest triangle index with an edge at the vertex.
+        let vertices = || {
+            let mut neighbours: Vec<(u32, u32)> = Vec::with_capacity(uses.len() + 2);
+            let mut vertex_owner = vec![u32::MAX; welded_pos.len()];
+            for group in uses.chunk_by(|x, y| x.key == y.key) {
+                let (i, j, owner) = ((group[0].key >> 32) as u32, group[0].key as u32, group[0].triangle);
+                neighbours.push((i, j));
+                neighbours.push((j, i));
+                vertex_owner[i as usize] = vertex_owner[i as usize].min(owner);
+                vertex_owner[j as usize] = vertex_owner[j as usize].min(owner);
+            }
+            neighbours.sort_unstable();
+            let mut part = Part::with_capacity(welded_pos.len(), neighbours.len());
+            for group in neighbours.chunk_by(|x, y| x.0 == y.0) {
+                let v = group[0].0 as usize;
+                let owner = vertex_owner[v];
+                if owner == u32::MAX || fallback[owner as usize] {
+                    continue;
                 }
-            };
-            regions.push((
-                owner,
-                Region {
-                    axis,
-                    lo: a.min(b) - centre,
-                    hi: a.max(b) - centre,
-                    pad: DVec3::ONE,
-                    first_plane,
-                    planes: planes.len() as u32 - first_plane,
-                },
-            ));
-        }
+                let p = welded_pos[v];
+                let first_plane = part.planes.len() as u32;
+                for &(_, w) in group {
+                    push_plane(&mut part.planes, welded_pos[w as usize] - p, p, 0.0);
+                }
+                part.regions.push((
+                    owner,
+                    Region {
+                        axis: dominant_axis(vertex_normal.get(v).copied().unwrap_or(DVec3::ZERO)),
+                        lo: p - centre,
+                        hi: p - centre,
+                        pad: DVec3::ONE,
+                        first_plane,
+                        planes: group.len() as u32,
+                    },
+                ));
+            }
+            part
+        };
 
-        // Vertices: the owner is the lowest triangle index using the welded vertex.
-        let mut vertex_owner = vec![u32::MAX; welded_pos.len()];
-        for t in 0..n {
-            for k in 0..3 {
-                let v = corner(t, k) as usize;
-                vertex_owner[v] = vertex_owner[v].min(t as u32);
-            }
+        let (faces, (edges, vertices)) = rayon::join(faces, || rayon::join(edges, vertices));
+        // Concatenate (face, edge, vertex regions), shifting plane indices.
+        let mut planes = faces.planes;
+        let mut regions: Vec<(u32, Region)> = faces.regions;
+        for part in [edges, vertices] {
+            let shift = planes.len() as u32;
+            planes.extend(part.planes);
+            regions.extend(part.regions.into_iter().map(|(owner, mut r)| {
+                r.first_plane += shift;
+                (owner, r)
+            }));
         }
-        neighbours.sort_unstable();
-        for group in neighbours.chunk_by(|x, y| x.0 == y.0) {
-            let v = group[0].0 as usize;
-            let owner = vertex_owner[v];
-            if owner == u32::MAX || fallback[owner as usize] {
-                continue;
-            }
-            let p = welded_pos[v];
-            let first_plane = planes.len() as u32;
-            for &(_, w) in group {
-                push_plane(&mut planes, welded_pos[w as usize] - p, p, 0.0);
-            }
-            regions.push((
-                owner,
-                Region {
-                    axis: dominant_axis(vertex_normal.get(v).copied().unwrap_or(DVec3::ZERO)),
-                    lo: p - centre,
-                    hi: p - centre,
-                    pad: DVec3::ONE,
-                    first_plane,
-                    planes: group.len() as u32,
-                },
-            ));
-        }
-
-        // Group by owner (stable: face, edges, vertices).
-        regions.sort_by_key(|(owner, _)| *owner);
+        // Region indices grouped by owner, keeping face, edges, vertices in order (a
+        // counting sort of indices; the regions themselves stay where they are).
         let mut by_triangle = vec![0u32; n + 1];
         for (owner, _) in &regions {
             by_triangle[*owner as usize + 1] += 1;
@@ -249,11 +289,19 @@ impl FeatureRegions {
         for t in 0..n {
             by_triangle[t + 1] += by_triangle[t];
         }
+        let mut slot = by_triangle.clone();
+        let mut order = vec![0u32; regions.len()];
+        for (index, (owner, _)) in regions.iter().enumerate() {
+            order[slot[*owner as usize] as usize] = index as u32;
+            slot[*owner as usize] += 1;
+        }
+        let regions: Vec<Region> = regions.into_iter().map(|(_, r)| r).collect();
         FeatureRegions {
             centre,
             scale,
-            regions: regions.into_iter().map(|(_, r)| r).collect(),
+            regions,
             planes,
+            order,
             by_triangle,
             fallback,
         }
@@ -274,48 +322,58 @@ impl FeatureRegions {
         // Voxel centres relative to the mesh centre: `base + ijk·spacing`.
         let base = origin - self.centre;
         let clip = |v: DVec3| v.clamp(DVec3::splat(-4.0e8), DVec3::splat(4.0e8));
-        let mut regions = Vec::with_capacity(self.regions.len());
-        let mut planes = Vec::with_capacity(self.planes.len());
-        for r in &self.regions {
-            let grow = r.pad * band + slack;
-            let lo = clip(((r.lo - grow - base) / spacing).ceil())
-                .as_ivec3()
-                .max(grid_box.min);
-            let hi = clip(((r.hi + grow - base) / spacing).floor())
-                .as_ivec3()
-                .min(grid_box.max - IVec3::ONE);
-            let d = r.axis as usize;
+        let prepare_plane = |plane: &Plane, d: usize| {
             let (u, w) = ((d + 1) % 3, (d + 2) % 3);
-            let first_plane = planes.len() as u32;
-            for plane in &self.planes[r.first_plane as usize..(r.first_plane + r.planes) as usize] {
-                // m·(base + ijk·spacing) ≤ offset + band_coeff·band + slack, i.e.
-                // g0 + i_u·gu + i_w·gw + i_d·slope ≤ 0.
-                let slope = plane.m[d] * spacing[d];
-                planes.push(PreparedPlane {
-                    g0: plane.m.dot(base) - plane.offset - plane.band_coeff * band - slack,
-                    gu: plane.m[u] * spacing[u],
-                    gw: plane.m[w] * spacing[w],
-                    neg_inv: if slope != 0.0 { -1.0 / slope } else { 0.0 },
-                    kind: if slope > 0.0 {
-                        BoundKind::Upper
-                    } else if slope < 0.0 {
-                        BoundKind::Lower
-                    } else {
-                        BoundKind::Constant
-                    },
-                });
+            // m·(base + ijk·spacing) ≤ offset + band_coeff·band + slack, i.e.
+            // g0 + i_u·gu + i_w·gw + i_d·slope ≤ 0.
+            let slope = plane.m[d] * spacing[d];
+            PreparedPlane {
+                g0: plane.m.dot(base) - plane.offset - plane.band_coeff * band - slack,
+                gu: plane.m[u] * spacing[u],
+                gw: plane.m[w] * spacing[w],
+                neg_inv: if slope != 0.0 { -1.0 / slope } else { 0.0 },
+                kind: if slope > 0.0 {
+                    BoundKind::Upper
+                } else if slope < 0.0 {
+                    BoundKind::Lower
+                } else {
+                    BoundKind::Constant
+                },
             }
-            regions.push(PreparedRegion {
-                lo,
-                hi,
-                axis: r.axis,
-                first_plane,
-                planes: r.planes,
-            });
+        };
+        // Planes keep their indices; each takes its region's column axis.
+        let mut axis_of = vec![0u8; self.planes.len()];
+        for r in &self.regions {
+            axis_of[r.first_plane as usize..(r.first_plane + r.planes) as usize].fill(r.axis);
         }
+        let planes: Vec<PreparedPlane> = self
+            .planes
+            .par_iter()
+            .zip(&axis_of)
+            .map(|(plane, &axis)| prepare_plane(plane, axis as usize))
+            .collect();
+        let regions: Vec<PreparedRegion> = self
+            .regions
+            .par_iter()
+            .map(|r| {
+                let grow = r.pad * band + slack;
+                PreparedRegion {
+                    lo: clip(((r.lo - grow - base) / spacing).ceil())
+                        .as_ivec3()
+                        .max(grid_box.min),
+                    hi: clip(((r.hi + grow - base) / spacing).floor())
+                        .as_ivec3()
+                        .min(grid_box.max - IVec3::ONE),
+                    axis: r.axis,
+                    first_plane: r.first_plane,
+                    planes: r.planes,
+                }
+            })
+            .collect();
         PreparedRegions {
             regions,
             planes,
+            order: &self.order,
             by_triangle: &self.by_triangle,
         }
     }
@@ -354,6 +412,7 @@ struct PreparedRegion {
 pub(crate) struct PreparedRegions<'a> {
     regions: Vec<PreparedRegion>,
     planes: Vec<PreparedPlane>,
+    order: &'a [u32],
     by_triangle: &'a [u32],
 }
 
@@ -363,7 +422,8 @@ impl PreparedRegions<'_> {
     /// features' boxes. Runs of different regions may overlap.
     pub(crate) fn for_each_run(&self, t: usize, region_box: &IndexBox, mut f: impl FnMut(IVec3, usize, i32)) {
         let range = self.by_triangle[t] as usize..self.by_triangle[t + 1] as usize;
-        for r in &self.regions[range] {
+        for &index in &self.order[range] {
+            let r = &self.regions[index as usize];
             let lo = r.lo.max(region_box.min);
             let hi = r.hi.min(region_box.max - IVec3::ONE);
             if lo.cmpgt(hi).any() {
