@@ -246,6 +246,8 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
     #[test]
     fn triangle_soup_distances_are_exact(mesh in soup(), offset in prop_oneof![Just(0.0), Just(1e6)]) {
+        // A soup collapsed to a point or a tiny cluster has no grid of 14 voxels.
+        prop_assume!(mesh.bounds().size().max_element() > 1e-6);
         let mesh = mesh.translated(DVec3::splat(offset));
         let grid = grid_for(mesh.bounds(), 14);
         let h = grid.transform.spacing().x;

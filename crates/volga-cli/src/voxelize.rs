@@ -11,7 +11,7 @@ use serde::Serialize;
 use volga_core::memory::{self, Bytes};
 use volga_core::{Grid, Progress, SparseVolume, Transform};
 use volga_scene::{StageReport, Stages};
-use volga_voxelize::{voxelize_triangles, MeshVoxelizer, Separability, SurfaceMode};
+use volga_voxelize::{voxelize_mesh_surface, MeshVoxelizer, Separability, SurfaceMode};
 
 #[derive(Args)]
 pub struct VoxelizeArgs {
@@ -189,8 +189,7 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         let boundary_edges = voxelizer.as_ref().map(|v| v.boundary_edge_count());
         let (volume, mode) = match (args.separability, args.distance) {
             (Some(sep), _) => {
-                let tris: Vec<_> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
-                let mut surface = voxelize_triangles(&grid, &tris, sep, progress);
+                let mut surface = voxelize_mesh_surface(&grid, &mesh, sep, progress);
                 if args.solid {
                     let inside =
                         voxelizer

@@ -37,7 +37,7 @@ mod solids;
 pub mod surfaces;
 mod tri_distance;
 
-pub use binary::{triangle_covers_voxel, voxelize_triangles, Separability};
+pub use binary::{triangle_covers_voxel, voxelize_mesh_surface, voxelize_triangles, Separability};
 pub use field::AnalyticField;
 pub use filter::OrientedBoxFilter;
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity};

@@ -187,23 +187,13 @@ fn direct_winding(triangles: &[[DVec3; 3]], face_normal: &[DVec3], bvh: &Bvh) ->
 fn morton_order(mesh: &TriMesh) -> Vec<u32> {
     let bounds = mesh.bounds();
     let size = bounds.size().max(DVec3::splat(f64::MIN_POSITIVE));
-    let spread = |v: u64| {
-        // 21 bits → every third bit of 63.
-        let mut x = v & 0x1f_ffff;
-        x = (x | x << 32) & 0x1f00000000ffff;
-        x = (x | x << 16) & 0x1f0000ff0000ff;
-        x = (x | x << 8) & 0x100f00f00f00f00f;
-        x = (x | x << 4) & 0x10c30c30c30c30c3;
-        (x | x << 2) & 0x1249249249249249
-    };
     let mut keyed: Vec<(u64, u32)> = (0..mesh.triangles.len())
         .into_par_iter()
         .map(|i| {
             let [a, b, c] = mesh.triangle(i);
             let q =
                 (((a + b + c) / 3.0 - bounds.min) / size * 2_097_151.0).clamp(DVec3::ZERO, DVec3::splat(2_097_151.0));
-            let code = spread(q.x as u64) | spread(q.y as u64) << 1 | spread(q.z as u64) << 2;
-            (code, i as u32)
+            (crate::pairs::morton3(q.x as u64, q.y as u64, q.z as u64), i as u32)
         })
         .collect();
     keyed.par_sort_unstable();

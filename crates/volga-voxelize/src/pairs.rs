@@ -42,6 +42,19 @@ pub(crate) fn sort_brick_pairs(pairs: &mut Vec<(IVec3, u32)>) {
     }));
 }
 
+/// Interleaves the low 21 bits of `x`, `y`, `z` (x lowest): a Morton (Z-order) code.
+pub(crate) fn morton3(x: u64, y: u64, z: u64) -> u64 {
+    let spread = |v: u64| {
+        let mut x = v & 0x1f_ffff;
+        x = (x | x << 32) & 0x1f00000000ffff;
+        x = (x | x << 16) & 0x1f0000ff0000ff;
+        x = (x | x << 8) & 0x100f00f00f00f00f;
+        x = (x | x << 4) & 0x10c30c30c30c30c3;
+        (x | x << 2) & 0x1249249249249249
+    };
+    spread(x) | spread(y) << 1 | spread(z) << 2
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -65,5 +78,15 @@ mod tests {
         let mut c = vec![(IVec3::new(-1, 0, 0), 1), (IVec3::new(0, 0, 0), 0)];
         sort_brick_pairs(&mut c);
         assert_eq!(c[0].0, IVec3::new(-1, 0, 0));
+    }
+
+    #[test]
+    fn morton_interleaves_bits() {
+        assert_eq!(morton3(1, 0, 0), 1);
+        assert_eq!(morton3(0, 1, 0), 2);
+        assert_eq!(morton3(0, 0, 1), 4);
+        assert_eq!(morton3(3, 0, 0), 0b1001);
+        let m = (1u64 << 21) - 1;
+        assert_eq!(morton3(m, m, m), (1u64 << 63) - 1);
     }
 }
