@@ -72,19 +72,31 @@ struct Region {
 }
 
 /// Regions and their half-spaces, as one of the three kinds of features builds them.
+#[derive(Debug, Clone, Default)]
 struct Part {
-    regions: Vec<(u32, Region)>,
+    /// Owning triangle of each region.
+    owners: Vec<u32>,
+    regions: Vec<Region>,
     planes: Vec<Plane>,
 }
 
 impl Part {
     fn with_capacity(regions: usize, planes: usize) -> Part {
         Part {
+            owners: Vec::with_capacity(regions),
             regions: Vec::with_capacity(regions),
             planes: Vec::with_capacity(planes),
         }
     }
+
+    fn push(&mut self, owner: u32, region: Region) {
+        self.owners.push(owner);
+        self.regions.push(region);
+    }
 }
+
+/// Regions are addressed as `part << PART_SHIFT | index` (faces, edges, vertices).
+const PART_SHIFT: u32 = 30;
 
 /// Feature regions of a mesh, grouped by owning triangle.
 #[derive(Debug, Clone, Default)]
@@ -92,9 +104,10 @@ pub(crate) struct FeatureRegions {
     centre: DVec3,
     /// Size of the mesh's box plus the centre's magnitude: the scale of rounding errors.
     scale: f64,
-    regions: Vec<Region>,
-    planes: Vec<Plane>,
-    /// Region indices grouped by owning triangle: those of triangle `t` are
+    /// Face, edge and vertex regions, each part with its own half-spaces (kept apart:
+    /// concatenating ~40 MB of half-spaces cost more than building them).
+    parts: [Part; 3],
+    /// Region addresses grouped by owning triangle: those of triangle `t` are
     /// `order[by_triangle[t]..by_triangle[t + 1]]`.
     order: Vec<u32>,
     by_triangle: Vec<u32>,
@@ -163,7 +176,7 @@ impl FeatureRegions {
                 }
                 push_plane(&mut part.planes, nrm, tri[0], 1.0);
                 push_plane(&mut part.planes, -nrm, tri[0], 1.0);
-                part.regions.push((
+                part.push(
                     t as u32,
                     Region {
                         axis: dominant_axis(nrm),
@@ -173,7 +186,7 @@ impl FeatureRegions {
                         first_plane,
                         planes: 5,
                     },
-                ));
+                );
             }
             part
         };
@@ -214,7 +227,7 @@ impl FeatureRegions {
                         2
                     }
                 };
-                part.regions.push((
+                part.push(
                     owner,
                     Region {
                         axis,
@@ -224,7 +237,7 @@ impl FeatureRegions {
                         first_plane,
                         planes: part.planes.len() as u32 - first_plane,
                     },
-                ));
+                );
             }
             part
         };
@@ -253,7 +266,7 @@ impl FeatureRegions {
                 for &(_, w) in group {
                     push_plane(&mut part.planes, welded_pos[w as usize] - p, p, 0.0);
                 }
-                part.regions.push((
+                part.push(
                     owner,
                     Region {
                         axis: dominant_axis(vertex_normal.get(v).copied().unwrap_or(DVec3::ZERO)),
@@ -263,44 +276,36 @@ impl FeatureRegions {
                         first_plane,
                         planes: group.len() as u32,
                     },
-                ));
+                );
             }
             part
         };
 
         let (faces, (edges, vertices)) = rayon::join(faces, || rayon::join(edges, vertices));
-        // Concatenate (face, edge, vertex regions), shifting plane indices.
-        let mut planes = faces.planes;
-        let mut regions: Vec<(u32, Region)> = faces.regions;
-        for part in [edges, vertices] {
-            let shift = planes.len() as u32;
-            planes.extend(part.planes);
-            regions.extend(part.regions.into_iter().map(|(owner, mut r)| {
-                r.first_plane += shift;
-                (owner, r)
-            }));
-        }
-        // Region indices grouped by owner, keeping face, edges, vertices in order (a
-        // counting sort of indices; the regions themselves stay where they are).
+        let parts = [faces, edges, vertices];
+        // Region addresses grouped by owner, keeping face, edges, vertices in order (a
+        // counting sort; the regions themselves stay where they are).
         let mut by_triangle = vec![0u32; n + 1];
-        for (owner, _) in &regions {
-            by_triangle[*owner as usize + 1] += 1;
+        for part in &parts {
+            for &owner in &part.owners {
+                by_triangle[owner as usize + 1] += 1;
+            }
         }
         for t in 0..n {
             by_triangle[t + 1] += by_triangle[t];
         }
         let mut slot = by_triangle.clone();
-        let mut order = vec![0u32; regions.len()];
-        for (index, (owner, _)) in regions.iter().enumerate() {
-            order[slot[*owner as usize] as usize] = index as u32;
-            slot[*owner as usize] += 1;
+        let mut order = vec![0u32; by_triangle[n] as usize];
+        for (k, part) in parts.iter().enumerate() {
+            for (index, &owner) in part.owners.iter().enumerate() {
+                order[slot[owner as usize] as usize] = (k as u32) << PART_SHIFT | index as u32;
+                slot[owner as usize] += 1;
+            }
         }
-        let regions: Vec<Region> = regions.into_iter().map(|(_, r)| r).collect();
         FeatureRegions {
             centre,
             scale,
-            regions,
-            planes,
+            parts,
             order,
             by_triangle,
             fallback,
@@ -341,38 +346,45 @@ impl FeatureRegions {
                 },
             }
         };
-        // Planes keep their indices; each takes its region's column axis.
-        let mut axis_of = vec![0u8; self.planes.len()];
-        for r in &self.regions {
-            axis_of[r.first_plane as usize..(r.first_plane + r.planes) as usize].fill(r.axis);
-        }
-        let planes: Vec<PreparedPlane> = self
-            .planes
-            .par_iter()
-            .zip(&axis_of)
-            .map(|(plane, &axis)| prepare_plane(plane, axis as usize))
-            .collect();
-        let regions: Vec<PreparedRegion> = self
-            .regions
-            .par_iter()
-            .map(|r| {
-                let grow = r.pad * band + slack;
-                PreparedRegion {
-                    lo: clip(((r.lo - grow - base) / spacing).ceil())
-                        .as_ivec3()
-                        .max(grid_box.min),
-                    hi: clip(((r.hi + grow - base) / spacing).floor())
-                        .as_ivec3()
-                        .min(grid_box.max - IVec3::ONE),
-                    axis: r.axis,
-                    first_plane: r.first_plane,
-                    planes: r.planes,
-                }
-            })
-            .collect();
+        let prepare_part = |part: &Part| {
+            // Planes keep their indices; each takes its region's column axis.
+            let mut axis_of = vec![0u8; part.planes.len()];
+            for r in &part.regions {
+                axis_of[r.first_plane as usize..(r.first_plane + r.planes) as usize].fill(r.axis);
+            }
+            let planes: Vec<PreparedPlane> = part
+                .planes
+                .par_iter()
+                .zip(&axis_of)
+                .map(|(plane, &axis)| prepare_plane(plane, axis as usize))
+                .collect();
+            let regions: Vec<PreparedRegion> = part
+                .regions
+                .par_iter()
+                .map(|r| {
+                    let grow = r.pad * band + slack;
+                    PreparedRegion {
+                        lo: clip(((r.lo - grow - base) / spacing).ceil())
+                            .as_ivec3()
+                            .max(grid_box.min),
+                        hi: clip(((r.hi + grow - base) / spacing).floor())
+                            .as_ivec3()
+                            .min(grid_box.max - IVec3::ONE),
+                        axis: r.axis,
+                        first_plane: r.first_plane,
+                        planes: r.planes,
+                    }
+                })
+                .collect();
+            PreparedPart { regions, planes }
+        };
+        let parts = [
+            prepare_part(&self.parts[0]),
+            prepare_part(&self.parts[1]),
+            prepare_part(&self.parts[2]),
+        ];
         PreparedRegions {
-            regions,
-            planes,
+            parts,
             order: &self.order,
             by_triangle: &self.by_triangle,
         }
@@ -409,9 +421,13 @@ struct PreparedRegion {
 }
 
 /// [`FeatureRegions`] prepared for one grid and band.
-pub(crate) struct PreparedRegions<'a> {
+struct PreparedPart {
     regions: Vec<PreparedRegion>,
     planes: Vec<PreparedPlane>,
+}
+
+pub(crate) struct PreparedRegions<'a> {
+    parts: [PreparedPart; 3],
     order: &'a [u32],
     by_triangle: &'a [u32],
 }
@@ -422,8 +438,9 @@ impl PreparedRegions<'_> {
     /// features' boxes. Runs of different regions may overlap.
     pub(crate) fn for_each_run(&self, t: usize, region_box: &IndexBox, mut f: impl FnMut(IVec3, usize, i32)) {
         let range = self.by_triangle[t] as usize..self.by_triangle[t + 1] as usize;
-        for &index in &self.order[range] {
-            let r = &self.regions[index as usize];
+        for &address in &self.order[range] {
+            let part = &self.parts[(address >> PART_SHIFT) as usize];
+            let r = &part.regions[(address & ((1 << PART_SHIFT) - 1)) as usize];
             let lo = r.lo.max(region_box.min);
             let hi = r.hi.min(region_box.max - IVec3::ONE);
             if lo.cmpgt(hi).any() {
@@ -431,7 +448,7 @@ impl PreparedRegions<'_> {
             }
             let d = r.axis as usize;
             let (u, w) = ((d + 1) % 3, (d + 2) % 3);
-            let planes = &self.planes[r.first_plane as usize..(r.first_plane + r.planes) as usize];
+            let planes = &part.planes[r.first_plane as usize..(r.first_plane + r.planes) as usize];
             let (s_min, s_max) = (lo[d] as f64, hi[d] as f64);
             for cu in lo[u]..=hi[u] {
                 for cw in lo[w]..=hi[w] {
