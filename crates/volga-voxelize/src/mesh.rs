@@ -70,6 +70,22 @@ pub struct MeshVoxelizer {
     regions: FeatureRegions,
 }
 
+/// [`MeshVoxelizer`]'s parts that do not need the BVH (`w_bar` is `None` when the
+/// winding numbers need the whole mesh).
+struct WithoutBvh {
+    triangles: Vec<[DVec3; 3]>,
+    face_normal: Vec<DVec3>,
+    edge_normal: Vec<[DVec3; 3]>,
+    edge_ambiguous: Vec<[bool; 3]>,
+    vertex_normal: Vec<[DVec3; 3]>,
+    vertex_ambiguous: Vec<[bool; 3]>,
+    w_bar: Option<Vec<f64>>,
+    boundary_edges: usize,
+    closed: bool,
+    distance: Vec<TriDistance>,
+    regions: FeatureRegions,
+}
+
 /// How far from ½ a block's winding number must be to classify its 2×2×2 bricks at once.
 const REFINE_MARGIN: f64 = 0.3;
 
@@ -205,23 +221,37 @@ const SIGN_MARGIN: f64 = 0.3;
 
 impl MeshVoxelizer {
     pub fn new(mesh: &TriMesh) -> Self {
-        // The BVH (for winding numbers) is built from the mesh as given, alongside the
-        // rest, which works on the triangles in Morton order: the triangles a brick
-        // gathers then sit close together in memory (in mesh order they are scattered
-        // over the whole arrays, and cache misses dominated the band loop).
-        let (bvh, (mesh, order)) = rayon::join(
-            || Bvh::build(mesh),
-            || {
-                let order = morton_order(mesh);
-                let mesh = TriMesh {
-                    positions: mesh.positions.clone(),
-                    triangles: order.iter().map(|&i| mesh.triangles[i as usize]).collect(),
-                };
-                (mesh, order)
-            },
-        );
-        drop(order);
-        let mesh = &mesh;
+        // The BVH (for winding numbers) is built from the mesh as given, alongside
+        // everything else, which needs it only for meshes without simple boundary loops.
+        let (bvh, rest) = rayon::join(|| Bvh::build(mesh), || Self::without_bvh(mesh));
+        let w_bar = rest
+            .w_bar
+            .unwrap_or_else(|| direct_winding(&rest.triangles, &rest.face_normal, &bvh));
+        MeshVoxelizer {
+            triangles: rest.triangles,
+            bvh,
+            face_normal: rest.face_normal,
+            edge_normal: rest.edge_normal,
+            edge_ambiguous: rest.edge_ambiguous,
+            vertex_normal: rest.vertex_normal,
+            vertex_ambiguous: rest.vertex_ambiguous,
+            w_bar,
+            boundary_edges: rest.boundary_edges,
+            closed: rest.closed,
+            distance: rest.distance,
+            regions: rest.regions,
+        }
+    }
+
+    /// Everything but the BVH, on the triangles in Morton order: the triangles a brick
+    /// gathers then sit close together in memory (in mesh order they are scattered over
+    /// the whole arrays, and cache misses dominated the band loop).
+    fn without_bvh(mesh: &TriMesh) -> WithoutBvh {
+        let order = morton_order(mesh);
+        let mesh = &TriMesh {
+            positions: mesh.positions.clone(),
+            triangles: order.iter().map(|&i| mesh.triangles[i as usize]).collect(),
+        };
         let triangles: Vec<[DVec3; 3]> = (0..mesh.triangles.len()).map(|i| mesh.triangle(i)).collect();
 
         // Weld exactly equal positions (loaders split vertices at texture seams).
@@ -302,16 +332,12 @@ impl MeshVoxelizer {
             .collect();
 
         let (w_bar, regions) = rayon::join(
-            || {
-                cap_winding(&triangles, &welded_pos, corner, &edge_count)
-                    .unwrap_or_else(|| direct_winding(&triangles, &face_normal, &bvh))
-            },
+            || cap_winding(&triangles, &welded_pos, corner, &edge_count),
             || FeatureRegions::build(&triangles, &uses, &welded_pos, &vnormal),
         );
         let distance = triangles.par_iter().map(|t| TriDistance::new(*t)).collect();
-        MeshVoxelizer {
+        WithoutBvh {
             triangles,
-            bvh,
             face_normal,
             edge_normal,
             edge_ambiguous,
@@ -548,52 +574,26 @@ impl MeshVoxelizer {
                 IndexBox::new(clip(lo), clip(hi)).intersection(&grid_box)
             })
             .collect();
-        let mut pairs: Vec<(IVec3, u32)> = ranges
-            .par_iter()
-            .enumerate()
-            .flat_map_iter(|(i, r)| {
-                let bricks = if r.is_empty() {
-                    IndexBox::new(IVec3::ZERO, IVec3::ZERO)
-                } else {
-                    IndexBox::new(
-                        r.min.div_euclid(IVec3::splat(BRICK_DIM)),
-                        (r.max - 1).div_euclid(IVec3::splat(BRICK_DIM)) + 1,
-                    )
-                };
-                bricks.iter().map(move |b| (b, i as u32)).collect::<Vec<_>>()
-            })
-            .collect();
-        crate::pairs::sort_brick_pairs(&mut pairs);
-        let groups: Vec<&[(IVec3, u32)]> = pairs.chunk_by(|a, b| a.0 == b.0).collect();
+        let bins = crate::pairs::bin_by_brick(&ranges, volga_core::brick_extent(grid.dims()));
 
-        progress.start("voxelize", groups.len() as u64);
+        progress.start("voxelize", bins.bricks.len() as u64);
         let band2 = band * band;
         // The band in index units on the finest axis (a superset on anisotropic grids).
         let band_index = band / spacing.min_element();
         let prepared = self.regions.prepare(t, &grid_box, band);
-        let band_bricks: Vec<(IVec3, Brick<f32>)> = groups
-            .par_iter()
-            .map(|group| {
-                let brick = group[0].0;
+        let band_bricks: Vec<(IVec3, Brick<f32>)> = (0..bins.bricks.len())
+            .into_par_iter()
+            .map(|k| {
+                let brick = bins.bricks[k];
                 let region = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
                 // Start at the band: farther candidates are never needed.
                 let mut best = Nearest {
                     d2: [band2 * (1.0 + 1e-9); BRICK_VOXELS],
                     id: [u32::MAX; BRICK_VOXELS],
                 };
-                // Nearest triangles first, so each voxel's best distance shrinks early and
-                // the lower bounds reject most of the rest; ties by index keep the order
-                // (and so the result) independent of threads.
-                let centre = t.index_to_world((brick * BRICK_DIM).as_dvec3() + 3.5);
-                let mut order: Vec<(f64, u32)> = group
-                    .iter()
-                    .map(|&(_, i)| {
-                        let [a, b, c] = self.triangles[i as usize];
-                        (((a + b + c) / 3.0 - centre).length_squared(), i)
-                    })
-                    .collect();
-                order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-                for &(_, i) in &order {
+                // Triangles in index order: among equally near ones the first stays, so
+                // the result is independent of threads.
+                for &i in bins.items(k) {
                     let dist = &self.distance[i as usize];
                     let mut update = |start, axis, count| dist.column_min(t, start, axis, count, &mut best, i);
                     if self.regions.is_fallback(i as usize) {

@@ -2,6 +2,7 @@
 
 use glam::IVec3;
 use rayon::prelude::*;
+use volga_core::IndexBox;
 
 /// Bits per axis of a packed brick key (2²¹ bricks = 16.7M voxels per axis).
 const KEY_BITS: u32 = 21;
@@ -42,6 +43,98 @@ pub(crate) fn sort_brick_pairs(pairs: &mut Vec<(IVec3, u32)>) {
     }));
 }
 
+/// Items binned by the bricks their index ranges touch, bricks in storage order (z, y, x)
+/// with their items ascending.
+pub(crate) struct BrickBins {
+    pub(crate) bricks: Vec<IVec3>,
+    /// Items of brick `k`: `items[starts[k]..starts[k + 1]]`.
+    starts: Vec<usize>,
+    items: Vec<u32>,
+}
+
+impl BrickBins {
+    pub(crate) fn items(&self, k: usize) -> &[u32] {
+        &self.items[self.starts[k]..self.starts[k + 1]]
+    }
+}
+
+/// Bins item `i` into every brick its (index-space) range `ranges[i]` touches. Pairs are
+/// packed as `linear brick index << 32 | item` and sorted as plain integers; grids of 2³²
+/// bricks or more take the tuple sort.
+pub(crate) fn bin_by_brick(ranges: &[IndexBox], brick_extent: IVec3) -> BrickBins {
+    let dim = IVec3::splat(volga_core::BRICK_DIM);
+    let bricks_of = |r: &IndexBox| {
+        if r.is_empty() {
+            (IVec3::ZERO, IVec3::ZERO)
+        } else {
+            (r.min.div_euclid(dim), (r.max - 1).div_euclid(dim) + 1)
+        }
+    };
+    let e = brick_extent.max(IVec3::ONE).as_u64vec3();
+    let packable =
+        e.x.checked_mul(e.y)
+            .and_then(|xy| xy.checked_mul(e.z))
+            .is_some_and(|n| n <= u32::MAX as u64)
+            && ranges.len() <= u32::MAX as usize;
+    if !packable {
+        let mut pairs: Vec<(IVec3, u32)> = ranges
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(i, r)| {
+                let (lo, hi) = bricks_of(r);
+                IndexBox::new(lo, hi)
+                    .iter()
+                    .map(move |b| (b, i as u32))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        sort_brick_pairs(&mut pairs);
+        let mut bins = BrickBins {
+            bricks: Vec::new(),
+            starts: vec![0],
+            items: pairs.iter().map(|p| p.1).collect(),
+        };
+        for group in pairs.chunk_by(|a, b| a.0 == b.0) {
+            bins.bricks.push(group[0].0);
+            bins.starts.push(bins.starts.last().copied().unwrap_or(0) + group.len());
+        }
+        return bins;
+    }
+    let mut keys: Vec<u64> = ranges
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(i, r)| {
+            let (lo, hi) = bricks_of(r);
+            (lo.z..hi.z).flat_map(move |z| {
+                (lo.y..hi.y).flat_map(move |y| {
+                    (lo.x..hi.x).map(move |x| {
+                        let linear = (z as u64 * e.y + y as u64) * e.x + x as u64;
+                        linear << 32 | i as u64
+                    })
+                })
+            })
+        })
+        .collect();
+    keys.par_sort_unstable();
+    let mut bins = BrickBins {
+        bricks: Vec::new(),
+        starts: vec![0],
+        items: keys.par_iter().map(|k| *k as u32).collect(),
+    };
+    let mut start = 0;
+    for group in keys.chunk_by(|a, b| a >> 32 == b >> 32) {
+        let linear = group[0] >> 32;
+        bins.bricks.push(IVec3::new(
+            (linear % e.x) as i32,
+            (linear / e.x % e.y) as i32,
+            (linear / (e.x * e.y)) as i32,
+        ));
+        start += group.len();
+        bins.starts.push(start);
+    }
+    bins
+}
+
 /// Interleaves the low 21 bits of `x`, `y`, `z` (x lowest): a Morton (Z-order) code.
 pub(crate) fn morton3(x: u64, y: u64, z: u64) -> u64 {
     let spread = |v: u64| {
@@ -78,6 +171,43 @@ mod tests {
         let mut c = vec![(IVec3::new(-1, 0, 0), 1), (IVec3::new(0, 0, 0), 0)];
         sort_brick_pairs(&mut c);
         assert_eq!(c[0].0, IVec3::new(-1, 0, 0));
+    }
+
+    #[test]
+    fn bins_match_the_pair_sort() {
+        let mut state = 99u64;
+        let mut next = |m: i32| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1);
+            ((state >> 33) % m as u64) as i32
+        };
+        let extent = IVec3::new(5, 7, 3);
+        let ranges: Vec<IndexBox> = (0..300)
+            .map(|_| {
+                let lo = IVec3::new(next(40), next(56), next(24));
+                IndexBox::new(lo, lo + IVec3::new(next(12), next(12), next(12)))
+                    .intersection(&IndexBox::new(IVec3::ZERO, extent * 8))
+            })
+            .collect();
+        let bins = bin_by_brick(&ranges, extent);
+        let mut pairs: Vec<(IVec3, u32)> = Vec::new();
+        for (i, r) in ranges.iter().enumerate() {
+            if !r.is_empty() {
+                for b in IndexBox::new(
+                    r.min.div_euclid(IVec3::splat(8)),
+                    (r.max - 1).div_euclid(IVec3::splat(8)) + 1,
+                )
+                .iter()
+                {
+                    pairs.push((b, i as u32));
+                }
+            }
+        }
+        sort_brick_pairs(&mut pairs);
+        let mut flat: Vec<(IVec3, u32)> = Vec::new();
+        for (k, &brick) in bins.bricks.iter().enumerate() {
+            flat.extend(bins.items(k).iter().map(|&i| (brick, i)));
+        }
+        assert_eq!(flat, pairs);
     }
 
     #[test]

@@ -337,13 +337,6 @@ impl FeatureRegions {
                 gu: plane.m[u] * spacing[u],
                 gw: plane.m[w] * spacing[w],
                 neg_inv: if slope != 0.0 { -1.0 / slope } else { 0.0 },
-                kind: if slope > 0.0 {
-                    BoundKind::Upper
-                } else if slope < 0.0 {
-                    BoundKind::Lower
-                } else {
-                    BoundKind::Constant
-                },
             }
         };
         let prepare_part = |part: &Part| {
@@ -392,22 +385,13 @@ impl FeatureRegions {
 }
 
 #[derive(Debug, Clone, Copy)]
-enum BoundKind {
-    /// `i_d ≤ g·neg_inv`.
-    Upper,
-    /// `i_d ≥ g·neg_inv`.
-    Lower,
-    /// `g ≤ 0` along the whole column.
-    Constant,
-}
-
-#[derive(Debug, Clone, Copy)]
 struct PreparedPlane {
     g0: f64,
     gu: f64,
     gw: f64,
+    /// `−1/slope`: negative for an upper bound `i_d ≤ g·neg_inv`, positive for a lower
+    /// bound `i_d ≥ g·neg_inv`, zero for a column-wide test `g ≤ 0`.
     neg_inv: f64,
-    kind: BoundKind,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -455,14 +439,12 @@ impl PreparedRegions<'_> {
                     let (mut s_lo, mut s_hi) = (s_min, s_max);
                     for plane in planes {
                         let g = plane.g0 + cu as f64 * plane.gu + cw as f64 * plane.gw;
-                        match plane.kind {
-                            BoundKind::Upper => s_hi = s_hi.min(g * plane.neg_inv),
-                            BoundKind::Lower => s_lo = s_lo.max(g * plane.neg_inv),
-                            BoundKind::Constant => {
-                                if g > 0.0 {
-                                    s_hi = f64::NEG_INFINITY;
-                                }
-                            }
+                        if plane.neg_inv < 0.0 {
+                            s_hi = s_hi.min(g * plane.neg_inv);
+                        } else if plane.neg_inv > 0.0 {
+                            s_lo = s_lo.max(g * plane.neg_inv);
+                        } else if g > 0.0 {
+                            s_hi = f64::NEG_INFINITY;
                         }
                         if s_lo > s_hi {
                             break;
