@@ -496,9 +496,9 @@ pub fn triangle_covers_voxel(tri_index: [DVec3; 3], separability: Separability, 
 /// Binary surface voxelization of world-space triangles on `grid` with the given
 /// separability. Black voxels get density 1; the result is the union over triangles.
 ///
-/// Each triangle is prepared once; chunks of triangles in Morton order collect their
-/// black voxels as bit masks per brick, which are then merged by brick (sorted in
-/// storage order). A union does not depend on the order in which it is formed, so the
+/// Each triangle is prepared once; chunks of consecutive triangles collect their black
+/// voxels as bit masks per brick, which are then merged by brick (sorted in storage
+/// order). A union does not depend on the order in which it is formed, so the
 /// result is identical for any thread count. Non-finite triangles
 /// are skipped (callers validate input; the mesh loader refuses them).
 pub fn voxelize_triangles(
@@ -540,31 +540,15 @@ fn voxelize_indexed(
             .collect();
         return voxelize_triangles_by_bricks(grid, &index_triangles, separability, progress);
     }
-    // Finite triangles in Morton order of their centroids: each chunk below then covers
-    // a compact region, so its voxels fall in few bricks and are collected as 512-bit
-    // brick masks (a voxel is hit by ~10 small triangles; setting a bit costs nothing).
-    let (lo, hi) = (0..count)
-        .into_par_iter()
-        .filter_map(|i| finite(i).map(|[a, b, c]| (a.min(b).min(c), a.max(b).max(c))))
-        .reduce(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |x, y| (x.0.min(y.0), x.1.max(y.1)),
-        );
-    let size = (hi - lo).max(DVec3::splat(f64::MIN_POSITIVE));
-    let mut order: Vec<(u64, u32)> = (0..count)
-        .into_par_iter()
-        .filter_map(|i| {
-            let [a, b, c] = finite(i)?;
-            let q = (((a + b + c) / 3.0 - lo) / size * 2_097_151.0).clamp(DVec3::ZERO, DVec3::splat(2_097_151.0));
-            Some((crate::pairs::morton3(q.x as u64, q.y as u64, q.z as u64), i as u32))
-        })
-        .collect();
-    order.par_sort_unstable();
+    // Chunks of consecutive triangles collect their voxels as 512-bit brick masks (a
+    // voxel is hit by ~10 small triangles; setting a bit costs nothing), merged by brick
+    // at the end. Meshes list neighbouring triangles near each other, so a chunk touches
+    // few bricks; sorting the triangles spatially first cost more than it saved.
     const CHUNK: usize = 1024;
-    progress.start("voxelize", order.len().div_ceil(CHUNK) as u64);
-    let chunks: Vec<Vec<(u64, BrickMask)>> = order
-        .par_chunks(CHUNK)
-        .map(|chunk| {
+    progress.start("voxelize", count.div_ceil(CHUNK) as u64);
+    let chunks: Vec<Vec<(u64, BrickMask)>> = (0..count.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
             let mut masks: FxHashMap<u64, BrickMask> = FxHashMap::default();
             let flush = |masks: &mut FxHashMap<u64, BrickMask>, key: u64, mask: &BrickMask| {
                 let entry = masks.entry(key).or_default();
@@ -583,8 +567,9 @@ fn voxelize_indexed(
                 }
                 last.insert(Brick::<f32>::local_offset(ijk));
             };
-            for &(_, i) in chunk {
-                let tri = triangle(i as usize).map(|p| t.world_to_index(p));
+            for i in c * CHUNK..((c + 1) * CHUNK).min(count) {
+                let Some(tri) = finite(i) else { continue };
+                let tri = tri.map(|p| t.world_to_index(p));
                 let fast = (separability == Separability::TwentySix)
                     .then(|| Prepared26::new(tri))
                     .flatten();
