@@ -63,10 +63,12 @@ struct Region {
     /// Column axis: the direction in which the region is thinnest, roughly.
     axis: u8,
     /// The feature's box (relative to the centre) and how far the band widens it per
-    /// axis (|n| for faces, 1 for edges and vertices).
+    /// axis below and above (|n| for faces, at most 1 for edges, 1 for vertices): the
+    /// region lies in `[lo − pad_lo·band, hi + pad_hi·band]`.
     lo: DVec3,
     hi: DVec3,
-    pad: DVec3,
+    pad_lo: DVec3,
+    pad_hi: DVec3,
     first_plane: u32,
     planes: u32,
 }
@@ -113,6 +115,58 @@ pub(crate) struct FeatureRegions {
     by_triangle: Vec<u32>,
     /// Triangles handled conservatively (degenerate or too thin).
     fallback: Vec<bool>,
+}
+
+/// How far the wedge of an edge between two faces reaches from the edge's box, per
+/// axis, below and above, per unit of band. In the plane across the edge (unit
+/// direction `e`) the wedge's directions form the sector `{x : m₁·x ≥ 0, m₂·x ≥ 0}`
+/// (`mᵢ` the faces' outward side normals), bounded by the rays `r₁ = ±n₁` and
+/// `r₂ = ±n₂`; the sector within radius 1 reaches `max(0, r₁ₖ, r₂ₖ)` along axis `k`,
+/// or the length of the axis's projection where that projection lies inside the
+/// sector. Faces that continue each other in one plane leave the whole normal line
+/// (both sides); faces folded onto each other (a half-plane) and sectors wider than
+/// 120° keep the full box. Every bound is widened by 10⁻⁶.
+fn wedge_pads(sides: [(DVec3, DVec3); 2], e: DVec3) -> (DVec3, DVec3) {
+    const MARGIN: f64 = 1e-6;
+    let full = (DVec3::ONE, DVec3::ONE);
+    let [(n1, m1), (n2, m2)] = sides;
+    if e == DVec3::ZERO || m1 == DVec3::ZERO || m2 == DVec3::ZERO {
+        return full;
+    }
+    if m2.dot(n1).abs() < 1e-9 || m1.dot(n2).abs() < 1e-9 {
+        if m1.dot(m2) > 0.0 {
+            // Folded onto itself (m₂ = m₁): the wedge is a half-plane.
+            return full;
+        }
+        // Coplanar continuation: m₂ = −m₁ and the wedge is the normal line.
+        let reach = n1.abs().max(n2.abs()) + MARGIN;
+        return (reach, reach);
+    }
+    let r1 = if m2.dot(n1) > 0.0 { n1 } else { -n1 };
+    let r2 = if m1.dot(n2) > 0.0 { n2 } else { -n2 };
+    if r1.dot(r2) < -0.5 {
+        return full;
+    }
+    let orientation = r1.cross(r2);
+    let inside = |d: DVec3| r1.cross(d).dot(orientation) >= 0.0 && d.cross(r2).dot(orientation) >= 0.0;
+    let mut lo = DVec3::ZERO.min(r1).min(r2);
+    let mut hi = DVec3::ZERO.max(r1).max(r2);
+    for k in 0..3 {
+        let mut axis = DVec3::ZERO;
+        axis[k] = 1.0;
+        // The axis projected across the edge.
+        let d = axis - e * e[k];
+        let len = d.length();
+        if len > 0.0 {
+            if inside(d) {
+                hi[k] = hi[k].max(len);
+            }
+            if inside(-d) {
+                lo[k] = lo[k].min(-len);
+            }
+        }
+    }
+    (-lo + MARGIN, hi + MARGIN)
 }
 
 fn dominant_axis(v: DVec3) -> u8 {
@@ -182,7 +236,8 @@ impl FeatureRegions {
                         axis: dominant_axis(nrm),
                         lo: tri[0].min(tri[1]).min(tri[2]) - centre,
                         hi: tri[0].max(tri[1]).max(tri[2]) - centre,
-                        pad: nrm.abs(),
+                        pad_lo: nrm.abs(),
+                        pad_hi: nrm.abs(),
                         first_plane,
                         planes: 5,
                     },
@@ -202,16 +257,29 @@ impl FeatureRegions {
                 let (a, b) = (welded_pos[i as usize], welded_pos[j as usize]);
                 let first_plane = part.planes.len() as u32;
                 let mut normal_sum = DVec3::ZERO;
+                // (unit normal, unit outward side normal) of the first two faces.
+                let mut sides: [(DVec3, DVec3); 2] = [(DVec3::ZERO, DVec3::ZERO); 2];
+                let mut faces = 0;
                 for u in group {
                     let Some(nrm) = normals[u.triangle as usize] else {
                         continue;
                     };
                     let tri = &triangles[u.triangle as usize];
                     let (p, q) = (tri[u.corner as usize], tri[(u.corner as usize + 1) % 3]);
+                    let outward = (q - p).cross(nrm);
                     // Outside (or on) the face's side plane through the edge.
-                    push_plane(&mut part.planes, -(q - p).cross(nrm), p, 0.0);
+                    push_plane(&mut part.planes, -outward, p, 0.0);
+                    if faces < 2 {
+                        sides[faces] = (nrm, outward.normalize_or_zero());
+                    }
+                    faces += 1;
                     normal_sum += nrm;
                 }
+                let (pad_lo, pad_hi) = if faces == 2 {
+                    wedge_pads(sides, (b - a).normalize_or_zero())
+                } else {
+                    (DVec3::ONE, DVec3::ONE)
+                };
                 push_plane(&mut part.planes, a - b, a, 0.0);
                 push_plane(&mut part.planes, b - a, b, 0.0);
                 let axis = if normal_sum.length_squared() > 1e-12 {
@@ -233,7 +301,8 @@ impl FeatureRegions {
                         axis,
                         lo: a.min(b) - centre,
                         hi: a.max(b) - centre,
-                        pad: DVec3::ONE,
+                        pad_lo,
+                        pad_hi,
                         first_plane,
                         planes: part.planes.len() as u32 - first_plane,
                     },
@@ -272,7 +341,8 @@ impl FeatureRegions {
                         axis: dominant_axis(vertex_normal.get(v).copied().unwrap_or(DVec3::ZERO)),
                         lo: p - centre,
                         hi: p - centre,
-                        pad: DVec3::ONE,
+                        pad_lo: DVec3::ONE,
+                        pad_hi: DVec3::ONE,
                         first_plane,
                         planes: group.len() as u32,
                     },
@@ -354,19 +424,16 @@ impl FeatureRegions {
             let regions: Vec<PreparedRegion> = part
                 .regions
                 .par_iter()
-                .map(|r| {
-                    let grow = r.pad * band + slack;
-                    PreparedRegion {
-                        lo: clip(((r.lo - grow - base) / spacing).ceil())
-                            .as_ivec3()
-                            .max(grid_box.min),
-                        hi: clip(((r.hi + grow - base) / spacing).floor())
-                            .as_ivec3()
-                            .min(grid_box.max - IVec3::ONE),
-                        axis: r.axis,
-                        first_plane: r.first_plane,
-                        planes: r.planes,
-                    }
+                .map(|r| PreparedRegion {
+                    lo: clip(((r.lo - (r.pad_lo * band + slack) - base) / spacing).ceil())
+                        .as_ivec3()
+                        .max(grid_box.min),
+                    hi: clip(((r.hi + (r.pad_hi * band + slack) - base) / spacing).floor())
+                        .as_ivec3()
+                        .min(grid_box.max - IVec3::ONE),
+                    axis: r.axis,
+                    first_plane: r.first_plane,
+                    planes: r.planes,
                 })
                 .collect();
             PreparedPart { regions, planes }
