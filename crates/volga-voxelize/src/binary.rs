@@ -317,11 +317,14 @@ impl Prepared26 {
             let p = [ci * a[i] + cj * a[j], ci * b[i] + cj * b[j], ci * c[i] + cj * c[j]];
             let l1 = ci.abs() + cj.abs();
             let (h, eps) = (0.5 * l1, unit * l1);
+            // Finite values: plain comparisons instead of `f64::min`'s NaN handling.
+            let (lo, hi) = if p[0] < p[1] { (p[0], p[1]) } else { (p[1], p[0]) };
+            let (lo, hi) = (if p[2] < lo { p[2] } else { lo }, if p[2] > hi { p[2] } else { hi });
             Axis2 {
                 ci,
                 cj,
-                lo: p[0].min(p[1]).min(p[2]) - h - eps,
-                hi: p[0].max(p[1]).max(p[2]) + h + eps,
+                lo: lo - h - eps,
+                hi: hi + h + eps,
             }
         };
         let [e0, e1, e2] = edges;

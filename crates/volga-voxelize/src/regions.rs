@@ -397,6 +397,7 @@ impl FeatureRegions {
         // Voxel centres relative to the mesh centre: `base + ijk·spacing`.
         let base = origin - self.centre;
         let clip = |v: DVec3| v.clamp(DVec3::splat(-4.0e8), DVec3::splat(4.0e8));
+        let inv_spacing = 1.0 / spacing;
         let prepare_plane = |plane: &Plane, d: usize| {
             let (u, w) = ((d + 1) % 3, (d + 2) % 3);
             // m·(base + ijk·spacing) ≤ offset + band_coeff·band + slack, i.e.
@@ -424,16 +425,19 @@ impl FeatureRegions {
             let regions: Vec<PreparedRegion> = part
                 .regions
                 .par_iter()
-                .map(|r| PreparedRegion {
-                    lo: clip(((r.lo - (r.pad_lo * band + slack) - base) / spacing).ceil())
-                        .as_ivec3()
-                        .max(grid_box.min),
-                    hi: clip(((r.hi + (r.pad_hi * band + slack) - base) / spacing).floor())
-                        .as_ivec3()
-                        .min(grid_box.max - IVec3::ONE),
-                    axis: r.axis,
-                    first_plane: r.first_plane,
-                    planes: r.planes,
+                .map(|r| {
+                    // Rounding `· inv_spacing` differs from `/ spacing` by far less than
+                    // the slack the box already has.
+                    let lo = clip((r.lo - (r.pad_lo * band + slack) - base) * inv_spacing);
+                    let hi = clip((r.hi + (r.pad_hi * band + slack) - base) * inv_spacing);
+                    PreparedRegion {
+                        lo: IVec3::new(ceil_i32(lo.x), ceil_i32(lo.y), ceil_i32(lo.z)).max(grid_box.min),
+                        hi: IVec3::new(floor_i32(hi.x), floor_i32(hi.y), floor_i32(hi.z))
+                            .min(grid_box.max - IVec3::ONE),
+                        axis: r.axis,
+                        first_plane: r.first_plane,
+                        planes: r.planes,
+                    }
                 })
                 .collect();
             PreparedPart { regions, planes }
