@@ -165,9 +165,13 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         .map_err(|e| bad_input(format!("--resolution {}: {e}", args.resolution)))?;
 
     // Memory: every brick a triangle's band can touch (dense), plus one value per
-    // brick of the grid for filled interiors, plus the BVH and per-triangle data.
+    // brick of the grid for filled interiors, plus the BVH and per-triangle data of the
+    // distance voxelizer (~2.4 KB a triangle with its feature regions; ~100 bytes for a
+    // binary surface alone).
     let (band_bricks, grid_bricks) = MeshVoxelizer::estimate_bricks(&mesh, &grid, band_voxels * h);
-    let estimate = band_bricks * (2048 + 64) + grid_bricks * 48 + mesh.triangles.len() as u64 * 400;
+    let uses_distance = args.solid || args.separability.is_none();
+    let per_triangle = if uses_distance { 2400 } else { 100 };
+    let estimate = band_bricks * (2048 + 64) + grid_bricks * 48 + mesh.triangles.len() as u64 * per_triangle;
     let limit = args.memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX);
     if estimate > limit {
         return Err(bad_input(format!(

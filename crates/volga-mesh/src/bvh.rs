@@ -98,13 +98,6 @@ impl Bvh {
         }
     }
 
-    /// The mesh's triangle indices in tree order (leaves left to right): neighbours in
-    /// this order are neighbours in space, which callers use to lay out per-triangle
-    /// data for locality.
-    pub fn tree_order(&self) -> &[u32] {
-        &self.triangle_ids
-    }
-
     /// Number of triangles indexed.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()

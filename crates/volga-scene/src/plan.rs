@@ -143,8 +143,9 @@ fn estimate(scene: &Scene, colour: bool) -> MemoryEstimate {
         .map(|m| {
             let (band, all) = volga_voxelize::MeshVoxelizer::estimate_bricks(&m.mesh, &scene.grid, filter_band);
             // Each mesh is voxelized into its own volume (band plus uniform inside) and
-            // merged; the BVH and per-triangle data cost ~400 bytes a triangle.
-            band + all / 40 + m.mesh.triangles.len() as u64 / 5
+            // merged; the BVH, per-triangle data and feature regions cost ~2.4 KB a
+            // triangle, about 1.2 bricks' worth.
+            band + all / 40 + m.mesh.triangles.len() as u64 * 6 / 5
         })
         .fold(0, u64::saturating_add);
     let bricks = estimate_solid_bricks(&scene.grid, &scene.solids).saturating_add(mesh_bricks);

@@ -6,8 +6,11 @@
 //! 8³ bricks with their band, and each voxel keeps its nearest triangle (the first in a
 //! fixed order among equals, so the result is independent of thread count). Work is
 //! proportional to the surface: about (triangle area + band) voxels per triangle.
-//! Per-triangle data is stored in the BVH's tree order, so the triangles of one brick
-//! are neighbours in memory too.
+//! Per-triangle data is stored in Morton order of the centroids, so the triangles of
+//! one brick are neighbours in memory too. Each triangle is evaluated only in the
+//! regions where it can be nearest (its face's prism, and the wedges and cones of the
+//! edges and vertices it owns; see the `regions` module), about two evaluations per band
+//! voxel.
 //!
 //! ## Sign: inside means generalized winding number ≥ ½
 //! The documented answer for every mesh, closed or not, is the generalized winding
