@@ -38,7 +38,7 @@ use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use volga_core::{IndexBox, Transform};
 
-use crate::tri_distance::{ceil_i32, floor_i32};
+use crate::tri_distance::{ceil_i32, emit_run, floor_i32};
 
 /// One use of a mesh edge: welded endpoints packed as `min << 32 | max`, and the
 /// triangle and corner `k` (edge from corner `k` to `k + 1`) that use it.
@@ -523,14 +523,7 @@ impl PreparedRegions<'_> {
                     }
                     if s_lo <= s_hi {
                         // s_lo, s_hi lie in the region's (clipped, i32) box.
-                        let (z0, z1) = (ceil_i32(s_lo), floor_i32(s_hi));
-                        if z1 >= z0 {
-                            let mut start = IVec3::ZERO;
-                            start[d] = z0;
-                            start[u] = cu;
-                            start[w] = cw;
-                            f(start, d, z1 - z0 + 1);
-                        }
+                        emit_run(s_lo, s_hi, [d, u, w], cu, cw, &mut f);
                     }
                 }
             }

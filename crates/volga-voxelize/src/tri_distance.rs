@@ -189,6 +189,21 @@ pub(crate) fn ceil_i32(x: f64) -> i32 {
     i + ((i as f64) < x) as i32
 }
 
+/// Calls `f(start, axis, count)` for the integers within `[lo, hi]` (finite, within `i32`)
+/// along axis `d` of the column at `(cu, cw)` on axes `u`, `w` (`axes = [d, u, w]`).
+#[inline]
+pub(crate) fn emit_run(lo: f64, hi: f64, axes: [usize; 3], cu: i32, cw: i32, f: &mut impl FnMut(IVec3, usize, i32)) {
+    let (z0, z1) = (ceil_i32(lo), floor_i32(hi));
+    if z1 >= z0 {
+        let [d, u, w] = axes;
+        let mut start = IVec3::ZERO;
+        start[d] = z0;
+        start[u] = cu;
+        start[w] = cw;
+        f(start, d, z1 - z0 + 1);
+    }
+}
+
 /// `floor(x)` as an integer, under the same conditions as [`ceil_i32`].
 #[inline]
 pub(crate) fn floor_i32(x: f64) -> i32 {
@@ -325,14 +340,7 @@ impl BandColumns {
                 let z0 = ((self.c_lo - r) * self.inv_nd).max(self.tri_lo_d - reach).max(lo_d);
                 let z1 = ((self.c_hi - r) * self.inv_nd).min(self.tri_hi_d + reach).min(hi_d);
                 if z1 >= z0 {
-                    let (z0, z1) = (ceil_i32(z0), floor_i32(z1));
-                    if z1 >= z0 {
-                        let mut start = IVec3::ZERO;
-                        start[d] = z0;
-                        start[u] = cu;
-                        start[w] = cw;
-                        f(start, d, z1 - z0 + 1);
-                    }
+                    emit_run(z0, z1, [d, u, w], cu, cw, &mut f);
                 }
             }
         }
