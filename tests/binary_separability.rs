@@ -356,3 +356,29 @@ fn far_from_origin_matches_near_origin() {
         assert_eq!(near.density, far.density, "{sep:?}");
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+    /// Grids longer than 2²⁴ voxels on an axis do not fit the packed brick keys and take
+    /// the brick-pair path; it must give the same voxels as the main path.
+    #[test]
+    fn huge_grids_take_the_brick_pair_path_with_the_same_result(
+        raw in prop::collection::vec((1.0f64..15.0, 1.0f64..15.0, 1.0f64..15.0), 3..9),
+        sep in prop_oneof![Just(Separability::Six), Just(Separability::Eighteen), Just(Separability::TwentySix)],
+    ) {
+        let tris: Vec<[DVec3; 3]> = raw
+            .chunks_exact(3)
+            .map(|c| [0, 1, 2].map(|k| DVec3::new(c[k].0, c[k].1, c[k].2)))
+            .collect();
+        prop_assume!(!tris.is_empty());
+        let t = Transform::new(DVec3::ZERO, DVec3::ONE).unwrap();
+        let small = Grid::new(t, UVec3::splat(16)).unwrap();
+        let huge = Grid::new(t, UVec3::new((1 << 24) + 64, 16, 16)).unwrap();
+        let a = voxelize_triangles(&small, &tris, sep, &NoProgress);
+        let b = voxelize_triangles(&huge, &tris, sep, &NoProgress);
+        for ijk in IndexBox::new(IVec3::ZERO, IVec3::splat(16)).iter() {
+            prop_assert_eq!(a.density.get(ijk), b.density.get(ijk), "{}", ijk);
+        }
+        prop_assert_eq!(a.density.sorted_bricks(), b.density.sorted_bricks());
+    }
+}

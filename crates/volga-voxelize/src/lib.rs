@@ -1,17 +1,22 @@
 //! # volga-voxelize — turning geometry into voxels
 //!
-//! This first part holds **volume-sampled analytic solids** (survey §17.4): a sphere,
-//! an axis-aligned box and an oriented box, each with an exact signed distance
-//! ([`shapes`]), sampled with the **oriented box filter** of Sramek & Kaufman
-//! ([`OrientedBoxFilter`]): density is a linear function of the signed distance across
-//! a band of width 2√3 voxels, 0.5 on the surface. Several solids merge with the fuzzy
-//! union (max, survey eq. 17). Mesh, line and quadric voxelizers join this crate later.
+//! * **Anti-aliased analytic solids** (survey §17.4): sphere, boxes, ellipsoid, cylinder,
+//!   cone, general quadric and capsule, each with a signed distance ([`shapes`]), sampled
+//!   with the **oriented box filter** of Sramek & Kaufman ([`OrientedBoxFilter`]) and
+//!   merged with the fuzzy union (max, survey eq. 17): [`voxelize_solids`].
+//! * **Binary surfaces** of triangles with 6/18/26 separability ([`binary`]), lines
+//!   ([`lines`]) and distance-driven modes for any signed distance ([`surfaces`]).
+//! * **Meshes** ([`MeshVoxelizer`]): exact narrow-band distances (each triangle evaluated
+//!   only in the regions where it can be nearest), anti-aliased shells and solids, and
+//!   inside = generalized winding number ≥ ½.
 //!
-//! Coordinates: shapes live in **world space** (`f64`); the output is a
-//! [`volga_core::SparseVolume`] whose payload is `f32` density in \[0, 1\] (and colour
-//! when asked). Work is proportional to the surface: only bricks within the filter band
-//! of a surface are sampled voxel by voxel; bricks wholly inside a solid are stored as
-//! one uniform value, bricks wholly outside are not stored.
+//! Coordinates and geometry are **`f64`** (world space, index space for the discrete
+//! tests); the output is a [`volga_core::SparseVolume`] whose payload is **`f32`**
+//! (density in \[0, 1\], a distance in world units, and colour when asked): geometry
+//! needs the precision for exact decisions far from the origin, payloads do not. Work
+//! follows the surface: only bricks a band reaches are sampled voxel by voxel; bricks
+//! wholly inside a solid are one uniform value, bricks wholly outside are not stored.
+//! Results are identical for any thread count.
 //!
 //! ```
 //! use volga_voxelize::{voxelize_solids, Solid, Shape, shapes::Sphere};

@@ -188,7 +188,6 @@ mod tests {
                     .intersection(&IndexBox::new(IVec3::ZERO, extent * 8))
             })
             .collect();
-        let bins = bin_by_brick(&ranges, extent);
         let mut pairs: Vec<(IVec3, u32)> = Vec::new();
         for (i, r) in ranges.iter().enumerate() {
             if !r.is_empty() {
@@ -203,11 +202,15 @@ mod tests {
             }
         }
         sort_brick_pairs(&mut pairs);
-        let mut flat: Vec<(IVec3, u32)> = Vec::new();
-        for (k, &brick) in bins.bricks.iter().enumerate() {
-            flat.extend(bins.items(k).iter().map(|&i| (brick, i)));
+        // The packed keys, and a brick extent of 2⁴⁰ bricks that takes the tuple sort.
+        for extent in [extent, IVec3::new(1 << 20, 1 << 20, 3)] {
+            let bins = bin_by_brick(&ranges, extent);
+            let mut flat: Vec<(IVec3, u32)> = Vec::new();
+            for (k, &brick) in bins.bricks.iter().enumerate() {
+                flat.extend(bins.items(k).iter().map(|&i| (brick, i)));
+            }
+            assert_eq!(flat, pairs, "extent {extent}");
         }
-        assert_eq!(flat, pairs);
     }
 
     #[test]
