@@ -9,6 +9,7 @@ Heavy (minutes, up to ~7 GiB for trimesh at 512): not part of CI.
 """
 
 import argparse
+import filecmp
 import json
 import os
 import platform
@@ -35,8 +36,13 @@ END = "<!-- peers-benchmark:end -->"
 SAMPLE_SEED = 20240  # the same voxel sample on every run
 NOTES = (
     "Notes: volga (rayon) and OpenVDB (TBB) use both cores; Open3D's and trimesh's calls are "
-    "single-threaded (the libraries, not the setup; nobody is pinned). Ratio = peer time / "
-    "volga time at the same N ((b) and (c) against volga's 26-separating surface). Peer "
+    "single-threaded (the libraries, not the setup; nobody is pinned). Every tool is timed "
+    "the same way: a process that has read the mesh and made one warm-up call times each "
+    "further call (volga: `volga bench voxelize --serve`; its result is checked "
+    "byte-identical to the fresh process's output). The row 'volga (fresh process per "
+    "run)' is the `voxelize` stage of a new `volga voxelize` process each run, what a "
+    "one-off command sees. Ratio = peer time / volga (warm) time at the same N ((b) and "
+    "(c) against volga's 26-separating surface). Peer "
     "memory is the peak RSS of a process that only loads the mesh and voxelizes once "
     "(interpreter, library and mesh included); volga's is the `voxelize` stage's peak RSS "
     "from its report (mesh included), and in parentheses the largest peak of all its stages "
@@ -65,13 +71,14 @@ def check(p, what):
 
 
 class PeerServer:
-    """A peer's worker.py serving calls for one N in its own interpreter (it has made
-    its warm-up call once this returns). Its stderr is ours, for diagnostics."""
+    """A tool serving timed calls for one N in its own process (it has made its warm-up
+    call once this returns): a peer's worker.py in its interpreter, or `volga bench
+    voxelize --serve` (the same line protocol). Its stderr is ours, for diagnostics."""
 
-    def __init__(self, tool, python, mesh, n):
+    def __init__(self, tool, python, mesh, n, cmd=None):
         self.tool, self.n = tool, n
-        self.proc = subprocess.Popen([python, os.path.join(HERE, "worker.py"), tool, mesh, str(n)],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        cmd = cmd or [python, os.path.join(HERE, "worker.py"), tool, mesh, str(n)]
+        self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         self.info = self._ask(None)
         self.times, self.voxels = [], None
 
@@ -131,6 +138,14 @@ class Volga:
         p = subprocess.run([self.exe, "validate", "--help"], capture_output=True, text=True)
         return p.stdout if p.returncode == 0 else None
 
+    def server(self, n, mode_args):
+        """volga warm in one process, as the peers are measured: `volga bench voxelize
+        --serve` reads the mesh once, makes one untimed warm-up run, then times each
+        `run` request (the voxelization only, as the `voxelize` stage)."""
+        return PeerServer("volga", None, self.mesh, n,
+                          cmd=[self.exe, "bench", "voxelize", self.mesh, "--resolution", str(n)]
+                          + mode_args + ["--serve"])
+
     def voxelize(self, n, mode_args, out, report):
         """One `volga voxelize` run; returns its report. Its time is the report's
         `voxelize` stage, which leaves out reading the mesh and writing the file, as
@@ -145,24 +160,48 @@ class Volga:
         return rep
 
 
-def volga_summary(reports):
-    """Median voxelize time and peak memories over the timed runs' reports.
+def volga_summary(reports, server, dump, cold_out):
+    """volga's figures for one task: the median warm time (from its server, measured as
+    the peers are), the median fresh-process time (the `voxelize` stage of each
+    `volga voxelize` report) and the peak memories from those reports. The server's
+    last result is dumped and must be byte-identical to the fresh process's output.
 
     Memory comes from the reports, not /usr/bin/time: volga resets the kernel's
     high-water mark at each stage (/proc/self/clear_refs), which is also what GNU time
     reads at exit, so that would show only the last stage."""
+    if not reports or server is None:
+        return None
+    server.dump(dump)
+    server.close()
+    same = (lambda a, b: filecmp.cmp(a, b, shallow=False))
+    if dump.endswith(".nrrd"):
+        ok = same(dump[:-5] + ".raw", cold_out[:-5] + ".raw")
+    else:
+        ok = same(dump, cold_out)
+    if not ok:
+        raise RuntimeError(f"volga's warm result {dump} differs from its fresh-process output {cold_out}")
     stage = [next(s for s in r["stages"] if s["name"] == "voxelize") for r in reports]
-    return {"time": statistics.median(s["wall_s"] for s in stage),
+    return {"time": statistics.median(server.times),
+            "cold_time": statistics.median(s["wall_s"] for s in stage),
             "mem": max(s.get("peak_mem_bytes") or 0 for s in stage) or None,
             "all_mem": max(s.get("peak_mem_bytes") or 0 for r in reports for s in r["stages"]) or None,
             "report": reports[-1]}
 
 
+def cold_row(n, task, summary, peer, peer_time):
+    """The row of volga measured one fresh process per run (`volga voxelize --report`,
+    its `voxelize` stage): what a one-off command-line run sees."""
+    t = summary["cold_time"]
+    return dict(n=n, task=task, tool="volga (fresh process per run)", time=fmt_time(t),
+                ratio=f"{peer}/this {peer_time / t:.2f}")
+
+
 def interleaved(repeats, volga_run, servers):
-    """volga's warm-up run, then `repeats` rounds of one call of every tool. Taking
-    turns call by call spreads outside load (the two cores are shared with whatever
-    else runs) over all tools alike, instead of onto whichever ran during a burst.
-    The peer servers made their warm-up calls when they started."""
+    """A warm-up run of volga in a fresh process, then `repeats` rounds of one call of
+    every tool: volga in a fresh process, then every server (volga's warm server
+    first). Taking turns call by call spreads outside load (the two cores are shared
+    with whatever else runs) over all tools alike, instead of onto whichever ran during
+    a burst. The servers made their warm-up calls when they started."""
     reports = []
     if volga_run:
         volga_run(0)
@@ -443,29 +482,32 @@ def main():
         # (a) narrow-band signed distance ------------------------------------------
         task = "(a) signed distance, band ±3"
         vdb = serve("openvdb", n)
+        dist_args = ["--distance", str(HALF_WIDTH)]
         dist_out = os.path.join(workdir, f"volga_dist_{n}.nrrd")
-        log(f"  (a) volga warm-up, then {a.repeats} rounds of volga + OpenVDB")
-        reports = interleaved(a.repeats, volga_runner(n, ["--distance", str(HALF_WIDTH)], dist_out, f"dist{n}"),
-                              [vdb])
+        vsrv = None if volga.missing else volga.server(n, dist_args)
+        log(f"  (a) volga warm-up, then {a.repeats} rounds of volga (fresh process, warm server) + OpenVDB")
+        reports = interleaved(a.repeats, volga_runner(n, dist_args, dist_out, f"dist{n}"),
+                              [s for s in (vsrv, vdb) if s])
         vdb_npz = os.path.join(workdir, f"openvdb_{n}.npz")
         vdb.dump(vdb_npz)
         vdb.close()
-        va = volga_summary(reports) if reports else None
+        va = volga_summary(reports, vsrv, os.path.join(workdir, f"volga_dist_{n}_served.nrrd"), dist_out)
+        t = statistics.median(vdb.times)
         if va:
             ijk, vals, origin, spacing, note = volga_band(dist_out)
             details.append(f"volga distance N={n}: {note}; {va['report'].get('threads', '?')} threads per its report")
             pick = sample_rows(len(vals), a.sample)
             verr, vsign = distance_accuracy(origin + ijk[pick] * spacing, vals[pick], h, verts, tris)
-            rows.append(dict(n=n, task=task, tool="**volga**", time=fmt_time(va["time"]), ratio="1",
+            rows.append(dict(n=n, task=task, tool="**volga** (warm)", time=fmt_time(va["time"]), ratio="1",
                              voxels=f"{len(vals):,}", err=fmt_err(verr), sign=f"{vsign:.4f}", sep="—",
                              mem=f"{fmt_mem(va['mem'])} (all stages {fmt_mem(va['all_mem'])})"))
+            rows.append(cold_row(n, task, va, "OpenVDB", t))
         else:
             rows.append(dict(n=n, task=task, tool="volga", time="missing"))
         z = np.load(vdb_npz)
         pick = sample_rows(len(z["values"]), a.sample)
         err, sign = distance_accuracy(z["centre0"] + z["ijk"][pick] * z["step"], z["values"][pick],
                                       h, verts, tris)
-        t = statistics.median(vdb.times)
         rows.append(dict(n=n, task=task, tool="OpenVDB (2 threads)", time=fmt_time(t),
                          ratio=f"{t / va['time']:.2f}" if va else "n/a", voxels=f"{vdb.voxels:,}",
                          err=fmt_err(err), sign=f"{sign:.4f}", sep="—",
@@ -476,14 +518,17 @@ def main():
         if a.skip_trimesh_above is None or n <= a.skip_trimesh_above:
             tools.append("trimesh")
         servers = [serve(tool, n) for tool in tools]
+        sep_args = ["--separability", "26"]
         sep_out = os.path.join(workdir, f"volga_sep26_{n}.binvox")
-        log(f"  (b, c) volga warm-up, then {a.repeats} rounds of volga + {' + '.join(tools)}")
-        reports = interleaved(a.repeats, volga_runner(n, ["--separability", "26"], sep_out, f"sep{n}"),
-                              servers)
+        vsrv = None if volga.missing else volga.server(n, sep_args)
+        log(f"  (b, c) volga warm-up, then {a.repeats} rounds of volga (fresh process, warm server) + "
+            f"{' + '.join(tools)}")
+        reports = interleaved(a.repeats, volga_runner(n, sep_args, sep_out, f"sep{n}"),
+                              [s for s in [vsrv] + servers if s])
         for s in servers:
             s.dump(os.path.join(workdir, f"{s.tool}_{n}.binvox"))
             s.close()
-        vb = volga_summary(reports) if reports else None
+        vb = volga_summary(reports, vsrv, os.path.join(workdir, f"volga_sep26_{n}_served.binvox"), sep_out)
         if vb:
             cnt = len(read_binvox(sep_out)[0])
             details.append(f"volga 26-separating N={n}: {cnt} voxels in the .binvox, "
@@ -492,9 +537,11 @@ def main():
             sep, det = validate(volga, vhelp, sep_out, mesh)
             if det:
                 details.append(f"validate volga N={n}: `{det['cmd']}`: {det['summary']}")
-            rows.append(dict(n=n, task="(b) 26-separating surface", tool="**volga**", time=fmt_time(vb["time"]),
+            task = "(b) 26-separating surface"
+            rows.append(dict(n=n, task=task, tool="**volga** (warm)", time=fmt_time(vb["time"]),
                              ratio="1", voxels=f"{cnt:,}", sep=sep,
                              mem=f"{fmt_mem(vb['mem'])} (all stages {fmt_mem(vb['all_mem'])})"))
+            rows.append(cold_row(n, task, vb, "Open3D", statistics.median(servers[0].times)))
         else:
             rows.append(dict(n=n, task="(b) 26-separating surface", tool="volga", time="missing"))
         for s in servers:

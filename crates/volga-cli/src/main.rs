@@ -1,7 +1,8 @@
-//! `volga`: build scene files and voxelize meshes.
+//! `volga`: build scene files, voxelize meshes, validate voxel models, time jobs.
 //!
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
 
+mod bench;
 mod failure;
 mod progress;
 mod validate;
@@ -43,6 +44,9 @@ enum Command {
     /// Validate a voxel model (.binvox, .nrrd) as a discrete surface: components, N-separability,
     /// simple voxels, Euler characteristic; with --mesh, tunnels through it and cover.
     Validate(validate::ValidateArgs),
+    /// Time a job warm, in one process (for benchmarks; see docs/BENCHMARKS.md).
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
     /// Validate a scene and print its plan (channels, effects, memory estimate) without building.
     Plan {
         /// Scene file (.ron or .json).
@@ -131,6 +135,13 @@ fn main() -> ExitCode {
         Command::Validate(args) => match validate::run(args) {
             Ok(true) => ExitCode::SUCCESS,
             Ok(false) => ExitCode::from(1),
+            Err(f) => {
+                eprintln!("error: {}", f.message);
+                ExitCode::from(f.code)
+            }
+        },
+        Command::Bench(command) => match bench::run(command) {
+            Ok(()) => ExitCode::SUCCESS,
             Err(f) => {
                 eprintln!("error: {}", f.message);
                 ExitCode::from(f.code)

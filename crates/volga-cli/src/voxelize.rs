@@ -13,8 +13,9 @@ use volga_core::{Grid, Progress, SparseVolume, Transform};
 use volga_scene::{StageReport, Stages};
 use volga_voxelize::{voxelize_mesh_surface, MeshVoxelizer, Separability, SurfaceMode};
 
+/// What to voxelize and how: shared by `volga voxelize` and `volga bench voxelize`.
 #[derive(Args)]
-pub struct VoxelizeArgs {
+pub struct JobArgs {
     /// Mesh file: .obj, .gltf or .glb.
     mesh: PathBuf,
     /// Voxels along the longest side of the mesh's bounding box.
@@ -38,15 +39,21 @@ pub struct VoxelizeArgs {
     /// Thickness of an anti-aliased surface, in voxels.
     #[arg(long, default_value_t = 1.0)]
     thickness: f64,
+    /// Refuse runs estimated to need more memory than this (e.g. 8G).
+    #[arg(long, value_parser = crate::parse_size)]
+    memory_limit: Option<u64>,
+}
+
+#[derive(Args)]
+pub struct VoxelizeArgs {
+    #[command(flatten)]
+    job: JobArgs,
     /// Output: .binvox (binary modes) or .nrrd (+ .raw beside it).
     #[arg(long)]
     out: PathBuf,
     /// Write a JSON report here.
     #[arg(long)]
     report: Option<PathBuf>,
-    /// Refuse runs estimated to need more memory than this (e.g. 8G).
-    #[arg(long, value_parser = crate::parse_size)]
-    memory_limit: Option<u64>,
 }
 
 fn parse_separability(s: &str) -> Result<Separability, String> {
@@ -92,114 +99,144 @@ struct VoxelCounts {
     dense_bricks: usize,
 }
 
-enum Format {
+pub enum Format {
     Binvox,
     Nrrd,
 }
 
-pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
-    let format = match args
-        .out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .as_deref()
-    {
-        Some("binvox") => Format::Binvox,
-        Some("nrrd") => Format::Nrrd,
-        _ => {
+impl Format {
+    /// The format of an output path, from its extension; `.binvox` only for binary modes.
+    pub fn of(out: &Path, binary: bool) -> Result<Format, Failure> {
+        let format = match out
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("binvox") => Format::Binvox,
+            Some("nrrd") => Format::Nrrd,
+            _ => {
+                return Err(bad_input(format!(
+                    "{}: output must end in .binvox or .nrrd",
+                    out.display()
+                )))
+            }
+        };
+        if matches!(format, Format::Binvox) && !binary {
             return Err(bad_input(format!(
-                "{}: output must end in .binvox or .nrrd",
-                args.out.display()
-            )))
+                "{}: .binvox holds binary voxels; use --separability, or write .nrrd",
+                out.display()
+            )));
         }
-    };
-    let binary = args.separability.is_some();
-    if matches!(format, Format::Binvox) && !binary {
-        return Err(bad_input(format!(
-            "{}: .binvox holds binary voxels; use --separability, or write .nrrd",
-            args.out.display()
-        )));
+        Ok(format)
     }
-    if !(args.thickness.is_finite() && args.thickness > 0.0) {
-        return Err(bad_input(format!(
-            "--thickness must be finite and > 0, got {}",
-            args.thickness
-        )));
+}
+
+/// A checked job: the mesh read, the grid laid out, the memory estimate under the limit.
+pub struct Job {
+    pub mesh: volga_mesh::TriMesh,
+    pub grid: Grid,
+    pub estimate: u64,
+}
+
+impl JobArgs {
+    pub fn mesh_path(&self) -> &Path {
+        &self.mesh
     }
-    if let Some(hw) = args.distance {
-        if !(hw.is_finite() && hw > 0.0 && hw <= 1000.0) {
-            return Err(bad_input(format!("--distance must lie in (0, 1000] voxels, got {hw}")));
+
+    pub fn is_binary(&self) -> bool {
+        self.separability.is_some()
+    }
+
+    /// Whether the job needs the inside of the mesh (winding numbers).
+    fn needs_inside(&self) -> bool {
+        self.solid || (self.distance.is_some() && !self.unsigned)
+    }
+
+    /// Checks the arguments, reads the mesh (in a stage named `read_mesh`), lays out the
+    /// grid and refuses a job estimated to need more memory than the limit.
+    pub fn prepare(&self, stages: &mut Stages) -> Result<Job, Failure> {
+        if !(self.thickness.is_finite() && self.thickness > 0.0) {
+            return Err(bad_input(format!(
+                "--thickness must be finite and > 0, got {}",
+                self.thickness
+            )));
         }
-    }
-    if !binary && !args.anti_aliased && args.distance.is_none() {
-        return Err(bad_input(
-            "choose a mode: --separability 6|18|26, --anti-aliased or --distance HALFWIDTH",
-        ));
+        if let Some(hw) = self.distance {
+            if !(hw.is_finite() && hw > 0.0 && hw <= 1000.0) {
+                return Err(bad_input(format!("--distance must lie in (0, 1000] voxels, got {hw}")));
+            }
+        }
+        if !self.is_binary() && !self.anti_aliased && self.distance.is_none() {
+            return Err(bad_input(
+                "choose a mode: --separability 6|18|26, --anti-aliased or --distance HALFWIDTH",
+            ));
+        }
+
+        let mesh = stages
+            .run("read_mesh", || volga_mesh::load_mesh(&self.mesh))
+            .map_err(|e| bad_input(e.to_string()))?;
+
+        let bounds = mesh.bounds();
+        let h = bounds.size().max_element() / self.resolution as f64;
+        if !(h.is_finite() && h > 0.0) {
+            return Err(bad_input(format!(
+                "{}: the mesh has no extent to voxelize",
+                self.mesh.display()
+            )));
+        }
+        let band_voxels = match (self.distance, self.anti_aliased) {
+            (Some(hw), _) => hw,
+            (None, true) => 0.5 * self.thickness + 3f64.sqrt(),
+            _ => 1.0,
+        };
+        let pad = band_voxels.ceil() + 1.0;
+        let dims_f = (bounds.size() / h).ceil() + 2.0 * pad;
+        let dims = UVec3::new(dims_f.x as u32, dims_f.y as u32, dims_f.z as u32).max(UVec3::ONE);
+        let origin = bounds.min - DVec3::splat(pad * h) + DVec3::splat(0.5 * h);
+        let grid = Transform::new(origin, DVec3::splat(h))
+            .and_then(|t| Grid::new(t, dims))
+            .map_err(|e| bad_input(format!("--resolution {}: {e}", self.resolution)))?;
+
+        // Memory: every brick a triangle's band can touch (dense), plus one value per
+        // brick of the grid for filled interiors, plus the BVH and per-triangle data of
+        // the distance voxelizer (~2.4 KB a triangle with its feature regions; ~100
+        // bytes for a binary surface alone).
+        let (band_bricks, grid_bricks) = MeshVoxelizer::estimate_bricks(&mesh, &grid, band_voxels * h);
+        let uses_distance = self.solid || !self.is_binary();
+        let per_triangle = if uses_distance { 2400 } else { 100 };
+        let estimate = band_bricks * (2048 + 64) + grid_bricks * 48 + mesh.triangles.len() as u64 * per_triangle;
+        let limit = self.memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX);
+        if estimate > limit {
+            return Err(bad_input(format!(
+                "{}: voxelizing at --resolution {} ({}×{}×{} voxels) needs an estimated {}, more than the {} available",
+                self.mesh.display(),
+                self.resolution,
+                dims.x,
+                dims.y,
+                dims.z,
+                Bytes(estimate as u128),
+                Bytes(limit as u128)
+            )));
+        }
+        Ok(Job { mesh, grid, estimate })
     }
 
-    let mut stages = Stages::default();
-    let mesh = stages
-        .run("read_mesh", || volga_mesh::load_mesh(&args.mesh))
-        .map_err(|e| bad_input(e.to_string()))?;
-
-    let bounds = mesh.bounds();
-    let h = bounds.size().max_element() / args.resolution as f64;
-    if !(h.is_finite() && h > 0.0) {
-        return Err(bad_input(format!(
-            "{}: the mesh has no extent to voxelize",
-            args.mesh.display()
-        )));
-    }
-    let band_voxels = match (args.distance, args.anti_aliased) {
-        (Some(hw), _) => hw,
-        (None, true) => 0.5 * args.thickness + 3f64.sqrt(),
-        _ => 1.0,
-    };
-    let pad = band_voxels.ceil() + 1.0;
-    let dims_f = (bounds.size() / h).ceil() + 2.0 * pad;
-    let dims = UVec3::new(dims_f.x as u32, dims_f.y as u32, dims_f.z as u32).max(UVec3::ONE);
-    let origin = bounds.min - DVec3::splat(pad * h) + DVec3::splat(0.5 * h);
-    let grid = Transform::new(origin, DVec3::splat(h))
-        .and_then(|t| Grid::new(t, dims))
-        .map_err(|e| bad_input(format!("--resolution {}: {e}", args.resolution)))?;
-
-    // Memory: every brick a triangle's band can touch (dense), plus one value per
-    // brick of the grid for filled interiors, plus the BVH and per-triangle data of the
-    // distance voxelizer (~2.4 KB a triangle with its feature regions; ~100 bytes for a
-    // binary surface alone).
-    let (band_bricks, grid_bricks) = MeshVoxelizer::estimate_bricks(&mesh, &grid, band_voxels * h);
-    let uses_distance = args.solid || args.separability.is_none();
-    let per_triangle = if uses_distance { 2400 } else { 100 };
-    let estimate = band_bricks * (2048 + 64) + grid_bricks * 48 + mesh.triangles.len() as u64 * per_triangle;
-    let limit = args.memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX);
-    if estimate > limit {
-        return Err(bad_input(format!(
-            "{}: voxelizing at --resolution {} ({}×{}×{} voxels) needs an estimated {}, more than the {} available",
-            args.mesh.display(),
-            args.resolution,
-            dims.x,
-            dims.y,
-            dims.z,
-            Bytes(estimate as u128),
-            Bytes(limit as u128)
-        )));
-    }
-
-    let mut warnings = Vec::new();
-    let needs_inside = args.solid || (args.distance.is_some() && !args.unsigned);
-    let (volume, voxelizer_edges, mode) = stages.run("voxelize", || {
-        let voxelizer = (needs_inside || !binary).then(|| MeshVoxelizer::new(&mesh));
+    /// The voxelization itself, everything the `voxelize` stage times: the volume, the
+    /// mesh's boundary-edge count when the job needed its topology, and the mode's name.
+    pub fn voxelize(&self, job: &Job, progress: &dyn Progress) -> (SparseVolume, Option<usize>, String) {
+        let (mesh, grid) = (&job.mesh, &job.grid);
+        let voxelizer = (self.needs_inside() || !self.is_binary()).then(|| MeshVoxelizer::new(mesh));
         let boundary_edges = voxelizer.as_ref().map(|v| v.boundary_edge_count());
-        let (volume, mode) = match (args.separability, args.distance) {
+        let (volume, mode) = match (self.separability, self.distance) {
             (Some(sep), _) => {
-                let mut surface = voxelize_mesh_surface(&grid, &mesh, sep, progress);
-                if args.solid {
+                let mut surface = voxelize_mesh_surface(grid, mesh, sep, progress);
+                if self.solid {
                     let inside =
                         voxelizer
                             .as_ref()
                             .expect("built for --solid")
-                            .voxelize(&grid, SurfaceMode::Inside, progress);
+                            .voxelize(grid, SurfaceMode::Inside, progress);
                     volga_voxelize::merge_max(&mut surface, &inside, [1.0; 3]);
                 }
                 (
@@ -207,51 +244,70 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
                     format!(
                         "binary {}-separating {}",
                         sep.number(),
-                        if args.solid { "solid" } else { "surface" }
+                        if self.solid { "solid" } else { "surface" }
                     ),
                 )
             }
             (None, Some(hw)) => (
                 voxelizer.as_ref().expect("built").voxelize(
-                    &grid,
+                    grid,
                     SurfaceMode::Distance {
                         half_width_voxels: hw,
-                        signed: !args.unsigned,
+                        signed: !self.unsigned,
                     },
                     progress,
                 ),
                 format!(
                     "{} distance, half-width {hw} voxels",
-                    if args.unsigned { "unsigned" } else { "signed" }
+                    if self.unsigned { "unsigned" } else { "signed" }
                 ),
             ),
             (None, None) => {
-                let mode = if args.solid {
+                let mode = if self.solid {
                     SurfaceMode::Solid
                 } else {
                     SurfaceMode::Shell {
-                        thickness: args.thickness * h,
+                        thickness: self.thickness * grid.transform.spacing().x,
                     }
                 };
                 (
-                    voxelizer.as_ref().expect("built").voxelize(&grid, mode, progress),
-                    if args.solid {
+                    voxelizer.as_ref().expect("built").voxelize(grid, mode, progress),
+                    if self.solid {
                         "anti-aliased solid".to_string()
                     } else {
-                        format!("anti-aliased surface, thickness {} voxels", args.thickness)
+                        format!("anti-aliased surface, thickness {} voxels", self.thickness)
                     },
                 )
             }
         };
         (volume, boundary_edges, mode)
-    });
+    }
+
+    /// The voxel count a job reports: band voxels of distance fields (|d| < half-width,
+    /// comparable to a level set's active voxels), else the active voxels.
+    pub fn voxel_count(&self, volume: &SparseVolume) -> u64 {
+        if self.distance.is_some() {
+            band_voxel_count(volume)
+        } else {
+            volume.active_voxel_count()
+        }
+    }
+}
+
+pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
+    let job_args = &args.job;
+    let format = Format::of(&args.out, job_args.is_binary())?;
+    let mut stages = Stages::default();
+    let job = job_args.prepare(&mut stages)?;
+    let (volume, voxelizer_edges, mode) = stages.run("voxelize", || job_args.voxelize(&job, progress));
     // Binary surfaces need no topology of the mesh: count its boundary for the report
     // outside the timed stage.
-    let boundary_edges = voxelizer_edges.unwrap_or_else(|| mesh.boundary_edge_count());
-    if needs_inside && boundary_edges > 0 {
+    let boundary_edges = voxelizer_edges.unwrap_or_else(|| job.mesh.boundary_edge_count());
+    let mut warnings = Vec::new();
+    if job_args.needs_inside() && boundary_edges > 0 {
         let w = format!(
             "{} is not closed ({boundary_edges} boundary edges): inside means generalized winding number ≥ ½",
-            args.mesh.display()
+            job_args.mesh.display()
         );
         eprintln!("warning: {w}");
         warnings.push(w);
@@ -261,26 +317,27 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         .run("write", || write(&args.out, &format, &volume))
         .map_err(|e| failed(e.to_string()))?;
 
+    let grid = &job.grid;
     let report = Report {
-        mesh: args.mesh.clone(),
-        triangles: mesh.triangles.len(),
+        mesh: job_args.mesh.clone(),
+        triangles: job.mesh.triangles.len(),
         boundary_edges,
         closed: boundary_edges == 0,
         mode,
         threads: rayon::current_num_threads(),
         grid: GridReport {
-            dims: dims.to_array(),
-            voxel_size: h,
-            origin: origin.to_array(),
+            dims: grid.dims().to_array(),
+            voxel_size: grid.transform.spacing().x,
+            origin: grid.transform.origin().to_array(),
         },
         stages: stages.list,
         voxels: VoxelCounts {
             active: volume.active_voxel_count(),
-            band: args.distance.map(|_| band_voxel_count(&volume)),
+            band: job_args.distance.map(|_| band_voxel_count(&volume)),
             bricks: volume.density.brick_count(),
             dense_bricks: volume.density.dense_brick_count(),
         },
-        estimated_memory_bytes: estimate,
+        estimated_memory_bytes: job.estimate,
         warnings,
         outputs,
     };
@@ -290,7 +347,7 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
     }
     println!(
         "{}: {} → {} ({} {}, {:.3} s voxelizing)",
-        args.mesh.display(),
+        job_args.mesh.display(),
         report.mode,
         args.out.display(),
         report.voxels.band.unwrap_or(report.voxels.active),
@@ -326,7 +383,7 @@ fn band_voxel_count(volume: &SparseVolume) -> u64 {
         .sum()
 }
 
-fn write(out: &Path, format: &Format, volume: &SparseVolume) -> Result<Vec<PathBuf>, volga_io::IoError> {
+pub fn write(out: &Path, format: &Format, volume: &SparseVolume) -> Result<Vec<PathBuf>, volga_io::IoError> {
     match format {
         Format::Binvox => {
             let g = &volume.grid;

@@ -155,3 +155,70 @@ fn bad_input_exits_2() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn bench_times_warm_runs_and_serves_the_same_result() {
+    use std::io::{BufRead, BufReader, Write};
+    use std::process::Stdio;
+
+    let Some(spot) = shared("spot.obj") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let spot = spot.to_str().unwrap();
+    let fresh = dir.path().join("fresh.binvox");
+    let served = dir.path().join("served.binvox");
+    let job = ["--resolution", "24", "--separability", "18"];
+
+    let mut args = vec!["voxelize", spot];
+    args.extend(job);
+    args.extend(["--out", fresh.to_str().unwrap()]);
+    let o = volga(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let fresh_count = volga_io::read_binvox(&fresh).unwrap().filled_count();
+
+    // One JSON report: every timed run, their median, the voxel count.
+    let mut args = vec!["bench", "voxelize", spot];
+    args.extend(job);
+    args.extend(["--repeat", "3", "--warmup", "0"]);
+    let o = volga(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let times: Vec<f64> = r["times_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_f64().unwrap())
+        .collect();
+    assert_eq!(times.len(), 3);
+    let mut sorted = times.clone();
+    sorted.sort_by(f64::total_cmp);
+    assert_eq!(r["median_s"].as_f64().unwrap(), sorted[1]);
+    assert_eq!(r["voxels"].as_u64().unwrap(), fresh_count);
+
+    // The serve protocol: ready, run, dump, then an unknown request is bad input.
+    let mut args = vec!["bench", "voxelize", spot];
+    args.extend(job);
+    args.push("--serve");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_volga"))
+        .args(&args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let mut read = || -> serde_json::Value { serde_json::from_str(&lines.next().unwrap().unwrap()).unwrap() };
+    assert_eq!(read()["ready"], true);
+    writeln!(stdin, "run").unwrap();
+    let ran = read();
+    assert_eq!(ran["voxels"].as_u64().unwrap(), fresh_count);
+    assert!(ran["t"].as_f64().unwrap() >= 0.0);
+    writeln!(stdin, "dump {}", served.display()).unwrap();
+    assert_eq!(read()["ok"], true);
+    writeln!(stdin, "nonsense").unwrap();
+    drop(stdin);
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "an unknown request is bad input");
+    assert!(stderr(&o).contains("unknown request `nonsense`"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&served).unwrap(), std::fs::read(&fresh).unwrap());
+}

@@ -1,0 +1,143 @@
+//! `volga bench voxelize`: the voxelization of `volga voxelize`, timed warm in one
+//! process — what a program calling the library sees, and how the peer benchmark
+//! (`bench/peers/`) measures the peers, each in a persistent worker after a warm-up.
+//!
+//! Without `--serve` it makes `--warmup` untimed runs, then `--repeat` timed ones, and
+//! prints one JSON object (every time, their median, the voxel count). With `--serve`
+//! it reads the mesh, makes the warm-up runs, prints a JSON `ready` line and then
+//! answers standard input line by line: `run` makes one timed run and prints
+//! `{"t": seconds, "voxels": n}`; `dump PATH` writes the last result (`.binvox` or
+//! `.nrrd` by extension) and prints `{"ok": true}`. Only the voxelization is inside
+//! the timer, as in the `voxelize` stage of `volga voxelize --report`.
+
+use std::io::{BufRead, Write};
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::{Args, Subcommand};
+use serde_json::json;
+use volga_core::{NoProgress, SparseVolume};
+use volga_scene::Stages;
+
+use crate::failure::{bad_input, failed, Failure};
+use crate::voxelize::{self, Format, JobArgs};
+
+#[derive(Subcommand)]
+pub enum BenchCommand {
+    /// Time `volga voxelize`'s voxelization warm, in one process (mesh read once).
+    Voxelize(BenchArgs),
+}
+
+#[derive(Args)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    job: JobArgs,
+    /// Untimed runs first (page in code and memory).
+    #[arg(long, default_value_t = 1)]
+    warmup: usize,
+    /// Timed runs; the median is reported.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..))]
+    repeat: u64,
+    /// Serve runs on request over stdin/stdout (the peer benchmark's worker protocol).
+    #[arg(long)]
+    serve: bool,
+    /// Write the last result here (.binvox or .nrrd).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+pub fn run(command: BenchCommand) -> Result<(), Failure> {
+    let BenchCommand::Voxelize(args) = command;
+    let job_args = &args.job;
+    let format = args
+        .out
+        .as_deref()
+        .map(|out| Format::of(out, job_args.is_binary()))
+        .transpose()?;
+    let job = job_args.prepare(&mut Stages::default())?;
+    let once = || {
+        let start = Instant::now();
+        let (volume, _, mode) = job_args.voxelize(&job, &NoProgress);
+        (start.elapsed().as_secs_f64(), volume, mode)
+    };
+    let mut last: Option<(SparseVolume, String)> = None;
+    for _ in 0..args.warmup {
+        drop(last.take()); // free the previous result first, as a fresh run would find it
+        let (_, volume, mode) = once();
+        last = Some((volume, mode));
+    }
+
+    let stdout = std::io::stdout();
+    if args.serve {
+        let say = |value: serde_json::Value| -> Result<(), Failure> {
+            let mut out = stdout.lock();
+            writeln!(out, "{value}")
+                .and_then(|()| out.flush())
+                .map_err(|e| failed(format!("stdout: {e}")))
+        };
+        say(json!({
+            "ready": true,
+            "tool": "volga",
+            "version": env!("CARGO_PKG_VERSION"),
+            "threads": rayon::current_num_threads(),
+            "triangles": job.mesh.triangles.len(),
+        }))?;
+        for line in std::io::stdin().lock().lines() {
+            let line = line.map_err(|e| failed(format!("stdin: {e}")))?;
+            let mut words = line.splitn(2, char::is_whitespace);
+            match (words.next(), words.next().map(str::trim)) {
+                (Some("run"), None) => {
+                    drop(last.take()); // free the previous result first, as a fresh run would find it
+                    let (t, volume, mode) = once();
+                    say(json!({ "t": t, "voxels": job_args.voxel_count(&volume) }))?;
+                    last = Some((volume, mode));
+                }
+                (Some("dump"), Some(path)) if !path.is_empty() => {
+                    let path = PathBuf::from(path);
+                    let (volume, _) = last.as_ref().ok_or_else(|| bad_input("dump: nothing has run yet"))?;
+                    let format = Format::of(&path, job_args.is_binary())?;
+                    voxelize::write(&path, &format, volume).map_err(|e| failed(e.to_string()))?;
+                    say(json!({ "ok": true }))?;
+                }
+                (None | Some(""), _) => {}
+                _ => {
+                    return Err(bad_input(format!(
+                        "bench --serve: unknown request `{line}` (run | dump PATH)"
+                    )))
+                }
+            }
+        }
+        return Ok(());
+    }
+
+    let mut times = Vec::new();
+    for _ in 0..args.repeat {
+        drop(last.take()); // free the previous result first, as a fresh run would find it
+        let (t, volume, mode) = once();
+        times.push(t);
+        last = Some((volume, mode));
+    }
+    let (volume, mode) = last.expect("repeat ≥ 1");
+    let mut sorted = times.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = if sorted.len() % 2 == 1 {
+        sorted[sorted.len() / 2]
+    } else {
+        0.5 * (sorted[sorted.len() / 2 - 1] + sorted[sorted.len() / 2])
+    };
+    if let (Some(out), Some(format)) = (&args.out, &format) {
+        voxelize::write(out, format, &volume).map_err(|e| failed(e.to_string()))?;
+    }
+    let report = json!({
+        "mesh": job_args.mesh_path(),
+        "mode": mode,
+        "triangles": job.mesh.triangles.len(),
+        "threads": rayon::current_num_threads(),
+        "warmup": args.warmup,
+        "times_s": times,
+        "median_s": median,
+        "voxels": job_args.voxel_count(&volume),
+    });
+    println!("{}", serde_json::to_string_pretty(&report).expect("report serializes"));
+    Ok(())
+}
