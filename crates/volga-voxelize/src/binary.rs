@@ -251,7 +251,7 @@ impl PreparedTriangle {
                 let (lo_d, hi_d) = (lo[d] as f64, hi[d] as f64);
                 let x0 = (floor_i32(((plane.lo - r) / n[d]).max(lo_d).min(hi_d)) - 1).max(lo[d]);
                 let x1 = (ceil_i32(((plane.hi - r) / n[d]).max(lo_d).min(hi_d)) + 1).min(hi[d]);
-                for cd in x0..=x1 {
+                for cd in x0..x1 + 1 {
                     let mut ijk = IVec3::ZERO;
                     ijk[d] = cd;
                     ijk[u] = cu;
@@ -265,97 +265,108 @@ impl PreparedTriangle {
     }
 }
 
-/// A separating axis with one zero component: `lo ≤ ci·v_i + cj·v_j ≤ hi`, the two
-/// other components in increasing order (`lo = −∞, hi = ∞` when the axis is zero).
+/// The three edge axes `e_m × x̂_k` of one `k` (lane `m`), which have a zero component
+/// `k`: voxel `v` passes axis `m` when `lo_m ≤ ci_m·v_i + cj_m·v_j ≤ hi_m`, with `i < j`
+/// the two other components. An axis that is zero (an edge along `x̂_k`) has
+/// `lo = hi = 0` and passes every finite voxel, as the general path skips it.
 #[derive(Debug, Clone, Copy)]
-struct Axis2 {
-    ci: f64,
-    cj: f64,
-    lo: f64,
-    hi: f64,
+struct EdgeAxes {
+    ci: DVec3,
+    cj: DVec3,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl EdgeAxes {
+    #[inline(always)]
+    fn pass(&self, vi: f64, vj: f64) -> bool {
+        let s = self.ci * vi + self.cj * vj;
+        (self.lo.cmple(s) & s.cmple(self.hi)).all()
+    }
+}
+
+/// Where the binary voxelizer puts black voxels. `is_set` lets a triangle skip a voxel
+/// an earlier triangle made black (the union does not change); a sink that cannot
+/// answer cheaply says `false`.
+trait VoxelSink {
+    fn is_set(&self, ijk: IVec3) -> bool;
+    fn set(&mut self, ijk: IVec3);
+}
+
+/// A sink that only reports voxels (it never skips any).
+#[cfg(test)]
+struct Report<F>(F);
+
+#[cfg(test)]
+impl<F: FnMut(IVec3)> VoxelSink for Report<F> {
+    #[inline]
+    fn is_set(&self, _: IVec3) -> bool {
+        false
+    }
+
+    #[inline]
+    fn set(&mut self, ijk: IVec3) {
+        (self.0)(ijk)
+    }
 }
 
 /// [`PreparedTriangle`] specialised to 26-separability (`K_26` is the unit cube, the
 /// classic conservative box test) for non-degenerate triangles. It makes exactly the
 /// same decisions: the edge axes `e × x̂_k` have a zero component `k`, and every
 /// value here is computed as the general path's dot product with that zero term
-/// dropped (adding ±0 changes nothing), in the same order. Axes without a component
-/// along the column are tested once per column instead of once per voxel.
+/// dropped (adding ±0 changes nothing), in the same order.
+///
+/// Most triangles of a mesh at coarse resolutions are smaller than a voxel (the
+/// bunny at N = 128: 69K triangles for 56K voxels), so the fixed cost per triangle
+/// matters more than the cost per voxel. Three shortcuts, none of which changes a
+/// decision:
+/// - A voxel already black (set by an earlier triangle) is not tested again.
+/// - A voxel whose closed box holds a vertex of the triangle passes every edge and
+///   face axis: for any direction `a`, a point `p` of the box around `v` has
+///   `|a·(p − v)| ≤ ½‖a‖₁`, the support the axes add, and the rounding of the computed
+///   `|p − v|∞ ≤ ½` is far below their widening ε (64 ulp of the coordinates). Only
+///   the half-open plane slab is left to test there.
+/// - For a triangle whose voxel range holds at most [`SMALL_RANGE`] voxels, the nine
+///   edge axes are computed only when a voxel first needs them, and the range is
+///   tested voxel by voxel instead of column by column.
 #[derive(Debug, Clone)]
 struct Prepared26 {
-    /// `edge[k][m]`: edge `m` crossed with axis `k`.
-    edge: [[Axis2; 3]; 3],
-    /// The cube's face axes: `face_lo ≤ v ≤ face_hi` per component.
-    face_lo: DVec3,
-    face_hi: DVec3,
+    tri: [DVec3; 3],
+    /// The widening unit, 64 ulp of the largest coordinate (see [`PreparedTriangle::new`]).
+    unit: f64,
     plane: Axis,
+    /// Voxel range, which decides the cube's three face axes: a voxel `v` of
+    /// `min..=max` has `v ≥ ⌈fl(lo − ½)⌉ ≥ fl(fl(lo − ½) − ε)`, the general path's face
+    /// bound, by the monotonicity of rounding (and likewise above). The clamp of
+    /// [`round_clamped`] at ±2²⁹ only moves bounds outside every region rasterized
+    /// here (grids below 2²⁵ voxels a side).
     min: IVec3,
     max: IVec3,
 }
+
+/// Voxel ranges up to this many voxels take [`Prepared26::test_range`].
+const SMALL_RANGE: i32 = 12;
 
 impl Prepared26 {
     /// `None` for a degenerate triangle (the general path handles it).
     #[inline]
     fn new(tri: [DVec3; 3]) -> Option<Self> {
         let [a, b, c] = tri;
-        let edges = [b - a, c - b, a - c];
-        let n = edges[0].cross(c - a);
+        let n = (b - a).cross(c - a);
         if n == DVec3::ZERO {
             return None;
         }
-        let scale = a.abs().max(b.abs()).max(c.abs()).max_element() + 1.0;
+        let m = upper(upper(a.abs(), b.abs()), c.abs());
+        let scale = upper_f(upper_f(m.x, m.y), m.z) + 1.0;
         let unit = 64.0 * f64::EPSILON * scale;
-        let axis2 = |ci: f64, cj: f64, i: usize, j: usize| {
-            if ci == 0.0 && cj == 0.0 {
-                return Axis2 {
-                    ci,
-                    cj,
-                    lo: f64::NEG_INFINITY,
-                    hi: f64::INFINITY,
-                };
-            }
-            let p = [ci * a[i] + cj * a[j], ci * b[i] + cj * b[j], ci * c[i] + cj * c[j]];
-            let l1 = ci.abs() + cj.abs();
-            let (h, eps) = (0.5 * l1, unit * l1);
-            // Finite values: plain comparisons instead of `f64::min`'s NaN handling.
-            let (lo, hi) = if p[0] < p[1] { (p[0], p[1]) } else { (p[1], p[0]) };
-            let (lo, hi) = (if p[2] < lo { p[2] } else { lo }, if p[2] > hi { p[2] } else { hi });
-            Axis2 {
-                ci,
-                cj,
-                lo: lo - h - eps,
-                hi: hi + h + eps,
-            }
-        };
-        let [e0, e1, e2] = edges;
-        let edge = [
-            [
-                axis2(e0.z, -e0.y, 1, 2),
-                axis2(e1.z, -e1.y, 1, 2),
-                axis2(e2.z, -e2.y, 1, 2),
-            ],
-            [
-                axis2(-e0.z, e0.x, 0, 2),
-                axis2(-e1.z, e1.x, 0, 2),
-                axis2(-e2.z, e2.x, 0, 2),
-            ],
-            [
-                axis2(e0.y, -e0.x, 0, 1),
-                axis2(e1.y, -e1.x, 0, 1),
-                axis2(e2.y, -e2.x, 0, 1),
-            ],
-        ];
-        let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
-        let eps = unit;
         let n = canonical(n);
         let h = Separability::TwentySix.support(n);
         let d = n.dot(a);
         let eps_n = unit * (n.x.abs() + n.y.abs() + n.z.abs());
         let (min, max) = voxel_range(a, b, c);
         Some(Prepared26 {
-            edge,
-            face_lo: lo - 0.5 - eps,
-            face_hi: hi + 0.5 + eps,
+            tri,
+            unit,
             plane: Axis {
                 dir: n,
                 lo: d - h - eps_n,
@@ -366,78 +377,129 @@ impl Prepared26 {
         })
     }
 
-    /// Calls `f` for every voxel of `region` that passes (columns along the normal's
-    /// dominant axis, as [`PreparedTriangle::for_each_voxel`]).
+    /// The nine edge axes, `[k]` for the axes `e_m × x̂_k`. Each lane computes what the
+    /// general path computes for that axis (the projections `a·(e × x̂_k)` with the zero
+    /// term dropped, their extremes, the support `½‖·‖₁` and ε), without branches.
     #[inline]
-    fn for_each_voxel(&self, region: &IndexBox, f: impl FnMut(IVec3)) {
-        match dominant_axis(self.plane.dir) {
-            0 => self.scan::<0>(region, f),
-            1 => self.scan::<1>(region, f),
-            _ => self.scan::<2>(region, f),
-        }
+    fn edge_axes(&self) -> [EdgeAxes; 3] {
+        let [a, b, c] = self.tri;
+        let unit = self.unit;
+        let [e0, e1, e2] = [b - a, c - b, a - c];
+        let axes = |ci: DVec3, cj: DVec3, i: usize, j: usize| {
+            let (pa, pb, pc) = (ci * a[i] + cj * a[j], ci * b[i] + cj * b[j], ci * c[i] + cj * c[j]);
+            let l1 = ci.abs() + cj.abs();
+            let (h, eps) = (0.5 * l1, unit * l1);
+            EdgeAxes {
+                ci,
+                cj,
+                lo: lower(lower(pa, pb), pc) - h - eps,
+                hi: upper(upper(pa, pb), pc) + h + eps,
+            }
+        };
+        let ex = DVec3::new(e0.x, e1.x, e2.x);
+        let ey = DVec3::new(e0.y, e1.y, e2.y);
+        let ez = DVec3::new(e0.z, e1.z, e2.z);
+        [axes(ez, -ey, 1, 2), axes(-ez, ex, 0, 2), axes(ey, -ex, 0, 1)]
     }
 
-    /// [`Prepared26::for_each_voxel`] with the column axis `D` known at compile time.
+    /// Calls `f` for every voxel of `region` that passes.
+    #[cfg(test)]
+    fn for_each_voxel(&self, region: &IndexBox, f: impl FnMut(IVec3)) {
+        self.rasterize(region, &mut Report(f));
+    }
+
+    /// Sets every voxel of `region` that passes and is not set yet.
     #[inline]
-    fn scan<const D: usize>(&self, region: &IndexBox, mut f: impl FnMut(IVec3)) {
+    fn rasterize(&self, region: &IndexBox, sink: &mut impl VoxelSink) {
         let lo = self.min.max(region.min);
         let hi = self.max.min(region.max - IVec3::ONE);
         if lo.cmpgt(hi).any() {
             return;
         }
+        let size = hi - lo + IVec3::ONE;
+        if size.x * size.y * size.z <= SMALL_RANGE {
+            return self.test_range(lo, hi, sink);
+        }
+        match dominant_axis(self.plane.dir) {
+            0 => self.scan::<0>(lo, hi, sink),
+            1 => self.scan::<1>(lo, hi, sink),
+            _ => self.scan::<2>(lo, hi, sink),
+        }
+    }
+
+    /// Every voxel of the inclusive range `lo..=hi`, edge axes computed on demand.
+    #[inline]
+    fn test_range(&self, lo: IVec3, hi: IVec3, sink: &mut impl VoxelSink) {
+        let plane = &self.plane;
+        let n = plane.dir;
+        let mut edge: Option<[EdgeAxes; 3]> = None;
+        for z in lo.z..hi.z + 1 {
+            for y in lo.y..hi.y + 1 {
+                for x in lo.x..hi.x + 1 {
+                    let ijk = IVec3::new(x, y, z);
+                    if sink.is_set(ijk) {
+                        continue;
+                    }
+                    let v = ijk.as_dvec3();
+                    // n·v in glam's order: (x·x' + y·y') + z·z'.
+                    let s = n.x * v.x + n.y * v.y + n.z * v.z;
+                    if !(plane.lo <= s && s < plane.hi) {
+                        continue;
+                    }
+                    let e = edge.get_or_insert_with(|| self.edge_axes());
+                    let passes = e[0].pass(v.y, v.z) && e[1].pass(v.x, v.z) && e[2].pass(v.x, v.y);
+                    if passes {
+                        sink.set(ijk);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The inclusive range `lo..=hi` by columns along the normal's dominant axis `D`
+    /// (known at compile time), so the work is proportional to the triangle's area.
+    #[inline]
+    fn scan<const D: usize>(&self, lo: IVec3, hi: IVec3, sink: &mut impl VoxelSink) {
         let (u, w) = ((D + 1) % 3, (D + 2) % 3);
         let plane = &self.plane;
         let n = plane.dir.to_array();
         let inv_nd = 1.0 / n[D]; // the range is widened by one voxel: rounding is harmless
-        let (face_lo, face_hi) = (self.face_lo.to_array(), self.face_hi.to_array());
+        let edge = self.edge_axes();
         // Each axis `e × x̂_k` reads the two components other than k, in increasing order.
-        let pass = |ax: &Axis2, v: &[f64; 3], k: usize| {
-            let (i, j) = if k == 0 {
-                (1, 2)
-            } else if k == 1 {
-                (0, 2)
-            } else {
-                (0, 1)
-            };
-            let s = ax.ci * v[i] + ax.cj * v[j];
-            ax.lo <= s && s <= ax.hi
+        let pass = |k: usize, v: &[f64; 3]| match k {
+            0 => edge[0].pass(v[1], v[2]),
+            1 => edge[1].pass(v[0], v[2]),
+            _ => edge[2].pass(v[0], v[1]),
         };
         let (lo_d, hi_d) = (lo[D] as f64, hi[D] as f64);
-        for cu in lo[u]..=hi[u] {
+        // Exclusive ranges: `RangeInclusive` loops cost a third of the scan.
+        for cu in lo[u]..hi[u] + 1 {
             let vu = cu as f64;
-            if !(face_lo[u] <= vu && vu <= face_hi[u]) {
-                continue;
-            }
-            'column: for cw in lo[w]..=hi[w] {
+            for cw in lo[w]..hi[w] + 1 {
                 let vw = cw as f64;
-                if !(face_lo[w] <= vw && vw <= face_hi[w]) {
-                    continue;
-                }
                 let mut v = [0.0; 3];
                 v[u] = vu;
                 v[w] = vw;
-                for ax in &self.edge[D] {
-                    if !pass(ax, &v, D) {
-                        continue 'column;
-                    }
+                if !pass(D, &v) {
+                    continue;
                 }
                 let r = n[u] * vu + n[w] * vw;
                 let x0 = (floor_i32(((plane.lo - r) * inv_nd).max(lo_d).min(hi_d)) - 1).max(lo[D]);
                 let x1 = (ceil_i32(((plane.hi - r) * inv_nd).max(lo_d).min(hi_d)) + 1).min(hi[D]);
-                for cd in x0..=x1 {
+                for cd in x0..x1 + 1 {
+                    let mut ijk = IVec3::ZERO;
+                    ijk[D] = cd;
+                    ijk[u] = cu;
+                    ijk[w] = cw;
+                    if sink.is_set(ijk) {
+                        continue;
+                    }
                     v[D] = cd as f64;
                     // n·v in glam's order: (x·x' + y·y') + z·z'.
                     let s = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
                     let in_slab = plane.lo <= s && s < plane.hi;
-                    if !(in_slab && face_lo[D] <= v[D] && v[D] <= face_hi[D]) {
-                        continue;
-                    }
-                    if self.edge[u].iter().all(|ax| pass(ax, &v, u)) && self.edge[w].iter().all(|ax| pass(ax, &v, w)) {
-                        let mut ijk = IVec3::ZERO;
-                        ijk[D] = cd;
-                        ijk[u] = cu;
-                        ijk[w] = cw;
-                        f(ijk);
+                    if in_slab && pass(u, &v) && pass(w, &v) {
+                        sink.set(ijk);
                     }
                 }
             }
@@ -449,9 +511,31 @@ impl Prepared26 {
 /// by ½ (every `K_N` fits in the cube `[−½, ½]³`).
 fn voxel_range(a: DVec3, b: DVec3, c: DVec3) -> (IVec3, IVec3) {
     (
-        round_clamped(a.min(b).min(c) - 0.5, ceil_i32),
-        round_clamped(a.max(b).max(c) + 0.5, floor_i32),
+        round_clamped(lower(lower(a, b), c) - 0.5, ceil_i32),
+        round_clamped(upper(upper(a, b), c) + 0.5, floor_i32),
     )
+}
+
+/// Lane-wise minimum and maximum of finite vectors by plain comparisons (the same
+/// values as `DVec3::min`/`max`, without their NaN handling, which costs more than
+/// the rest of a small triangle's preparation).
+#[inline(always)]
+fn lower(p: DVec3, q: DVec3) -> DVec3 {
+    DVec3::select(p.cmplt(q), p, q)
+}
+
+#[inline(always)]
+fn upper(p: DVec3, q: DVec3) -> DVec3 {
+    DVec3::select(p.cmpgt(q), p, q)
+}
+
+#[inline(always)]
+fn upper_f(p: f64, q: f64) -> f64 {
+    if p > q {
+        p
+    } else {
+        q
+    }
 }
 
 /// The axis of the largest-magnitude component, the lowest axis among equals.
@@ -477,16 +561,16 @@ fn canonical(n: DVec3) -> DVec3 {
 }
 
 pub(crate) fn clamp_i(v: DVec3) -> IVec3 {
-    let lim = (i32::MAX / 4) as f64;
-    let c = v.clamp(DVec3::splat(-lim), DVec3::splat(lim));
+    let lim = DVec3::splat((i32::MAX / 4) as f64);
+    let c = upper(lower(v, lim), -lim);
     IVec3::new(c.x as i32, c.y as i32, c.z as i32)
 }
 
 /// `v` clamped to ±2²⁹ and rounded per component with `round` (`ceil_i32` or
 /// `floor_i32`; without SSE4.1 `f64::ceil` is a libm call, and this is per triangle).
 fn round_clamped(v: DVec3, round: fn(f64) -> i32) -> IVec3 {
-    let lim = (i32::MAX / 4) as f64;
-    let c = v.clamp(DVec3::splat(-lim), DVec3::splat(lim));
+    let lim = DVec3::splat((i32::MAX / 4) as f64);
+    let c = upper(lower(v, lim), -lim);
     IVec3::new(round(c.x), round(c.y), round(c.z))
 }
 
@@ -544,48 +628,56 @@ fn voxelize_indexed(
         return voxelize_triangles_by_bricks(grid, &index_triangles, separability, progress);
     }
     // Chunks of consecutive triangles collect their voxels as 512-bit brick masks (a
-    // voxel is hit by ~10 small triangles; setting a bit costs nothing), merged by brick
+    // voxel is hit by ~5 small triangles; setting a bit costs nothing), merged by brick
     // at the end. Meshes list neighbouring triangles near each other, so a chunk touches
-    // few bricks; sorting the triangles spatially first cost more than it saved.
+    // few bricks: they are kept in a dense array over the chunk's box of bricks, or, for
+    // a chunk spread wider than `DENSE_BRICKS`, in a hash map. Sorting the triangles
+    // spatially first cost more than it saved.
     const CHUNK: usize = 1024;
+    const DENSE_BRICKS: i64 = 4096; // 256 KiB of masks
     progress.start("voxelize", count.div_ceil(CHUNK) as u64);
     let chunks: Vec<Vec<(u64, BrickMask)>> = (0..count.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let mut masks: FxHashMap<u64, BrickMask> = FxHashMap::default();
-            let flush = |masks: &mut FxHashMap<u64, BrickMask>, key: u64, mask: &BrickMask| {
-                let entry = masks.entry(key).or_default();
-                *entry = entry.or(mask);
+            let tris: Vec<[DVec3; 3]> = (c * CHUNK..((c + 1) * CHUNK).min(count))
+                .filter_map(|i| finite(i).map(|tri| tri.map(|p| t.world_to_index(p))))
+                .collect();
+            // The chunk's bricks: its triangles' voxel ranges, clipped to the grid.
+            let (lo, hi) = tris.iter().fold((IVec3::MAX, IVec3::MIN), |(lo, hi), &[a, b, c]| {
+                let (min, max) = voxel_range(a, b, c);
+                (lo.min(min), hi.max(max))
+            });
+            let lo = lo.max(grid_box.min) >> BRICK_LOG2;
+            let hi = hi.min(grid_box.max - IVec3::ONE) >> BRICK_LOG2;
+            let size = (hi - lo + IVec3::ONE).max(IVec3::ZERO).as_i64vec3();
+            let masks: Vec<(u64, BrickMask)> = if size.x * size.y * size.z <= DENSE_BRICKS {
+                let mut sink = DenseMasks {
+                    lo,
+                    sx: size.x as i32,
+                    sxy: (size.x * size.y) as i32,
+                    masks: vec![BrickMask::EMPTY; (size.x * size.y * size.z) as usize],
+                };
+                rasterize(&tris, separability, &grid_box, &mut sink);
+                let (sx, sxy) = (sink.sx, sink.sxy);
+                let brick = |i: i32| lo + IVec3::new(i % sx, (i % sxy) / sx, i / sxy);
+                sink.masks
+                    .into_iter()
+                    .enumerate()
+                    .filter(|(_, m)| !m.is_empty())
+                    .map(|(i, m)| (brick_key(brick(i as i32)), m))
+                    .collect()
+            } else {
+                let mut sink = MapMasks {
+                    masks: FxHashMap::default(),
+                    last_key: u64::MAX,
+                    last: BrickMask::EMPTY,
+                };
+                rasterize(&tris, separability, &grid_box, &mut sink);
+                sink.flush();
+                sink.masks.into_iter().collect()
             };
-            // Consecutive voxels mostly share a brick: gather them before touching the map.
-            let (mut last_key, mut last) = (u64::MAX, BrickMask::EMPTY);
-            let mut emit = |ijk: IVec3| {
-                let key = brick_key(ijk >> BRICK_LOG2);
-                if key != last_key {
-                    if last_key != u64::MAX {
-                        flush(&mut masks, last_key, &last);
-                    }
-                    last_key = key;
-                    last = BrickMask::EMPTY;
-                }
-                last.insert(Brick::<f32>::local_offset(ijk));
-            };
-            for i in c * CHUNK..((c + 1) * CHUNK).min(count) {
-                let Some(tri) = finite(i) else { continue };
-                let tri = tri.map(|p| t.world_to_index(p));
-                let fast = (separability == Separability::TwentySix)
-                    .then(|| Prepared26::new(tri))
-                    .flatten();
-                match fast {
-                    Some(p) => p.for_each_voxel(&grid_box, &mut emit),
-                    None => PreparedTriangle::new(tri, separability).for_each_voxel(&grid_box, &mut emit),
-                }
-            }
-            if last_key != u64::MAX {
-                flush(&mut masks, last_key, &last);
-            }
             progress.inc(1);
-            masks.into_iter().collect()
+            masks
         })
         .collect();
     let mut masks: Vec<(u64, BrickMask)> = chunks.concat();
@@ -611,6 +703,88 @@ fn voxelize_indexed(
         volume.density.insert_brick(b, brick);
     }
     volume
+}
+
+/// Sets every voxel of `region` that one of `index_triangles` covers.
+#[inline]
+fn rasterize(index_triangles: &[[DVec3; 3]], separability: Separability, region: &IndexBox, sink: &mut impl VoxelSink) {
+    for &tri in index_triangles {
+        let fast = (separability == Separability::TwentySix)
+            .then(|| Prepared26::new(tri))
+            .flatten();
+        match fast {
+            Some(p) => p.rasterize(region, sink),
+            None => PreparedTriangle::new(tri, separability).for_each_voxel(region, |ijk| sink.set(ijk)),
+        }
+    }
+}
+
+/// A chunk's voxels as brick masks in a dense array over its box of bricks.
+struct DenseMasks {
+    lo: IVec3,
+    sx: i32,
+    sxy: i32,
+    masks: Vec<BrickMask>,
+}
+
+impl DenseMasks {
+    #[inline]
+    fn slot(&self, ijk: IVec3) -> (usize, usize) {
+        let b = (ijk >> BRICK_LOG2) - self.lo;
+        (
+            (b.x + self.sx * b.y + self.sxy * b.z) as usize,
+            Brick::<f32>::local_offset(ijk),
+        )
+    }
+}
+
+impl VoxelSink for DenseMasks {
+    #[inline]
+    fn is_set(&self, ijk: IVec3) -> bool {
+        let (i, o) = self.slot(ijk);
+        self.masks[i].contains(o)
+    }
+
+    #[inline]
+    fn set(&mut self, ijk: IVec3) {
+        let (i, o) = self.slot(ijk);
+        self.masks[i].insert(o);
+    }
+}
+
+/// A chunk's voxels as brick masks in a hash map, for chunks spread over many bricks.
+/// Consecutive voxels mostly share a brick: they are gathered before touching the map.
+struct MapMasks {
+    masks: FxHashMap<u64, BrickMask>,
+    last_key: u64,
+    last: BrickMask,
+}
+
+impl MapMasks {
+    fn flush(&mut self) {
+        if self.last_key != u64::MAX {
+            let entry = self.masks.entry(self.last_key).or_default();
+            *entry = entry.or(&self.last);
+        }
+    }
+}
+
+impl VoxelSink for MapMasks {
+    #[inline]
+    fn is_set(&self, ijk: IVec3) -> bool {
+        brick_key(ijk >> BRICK_LOG2) == self.last_key && self.last.contains(Brick::<f32>::local_offset(ijk))
+    }
+
+    #[inline]
+    fn set(&mut self, ijk: IVec3) {
+        let key = brick_key(ijk >> BRICK_LOG2);
+        if key != self.last_key {
+            self.flush();
+            self.last_key = key;
+            self.last = BrickMask::EMPTY;
+        }
+        self.last.insert(Brick::<f32>::local_offset(ijk));
+    }
 }
 
 /// Packs a brick of a grid (non-negative, below 2²¹ per axis) as z, y, x: sorting keys
@@ -701,16 +875,19 @@ mod tests {
 
     proptest::proptest! {
         /// The 26-separating fast path decides exactly like the general one, on random
-        /// triangles and on dyadic ones with vertices on voxel centres and faces.
+        /// triangles (voxel-sized and sub-voxel) and on dyadic ones with vertices on
+        /// voxel centres, faces and quarter points.
         #[test]
         fn fast_26_path_matches_the_general_test(
             raw in proptest::collection::vec((-6.0f64..6.0, -6.0f64..6.0, -6.0f64..6.0), 3),
             dyadic in proptest::bool::ANY,
             offset in proptest::prop_oneof![proptest::strategy::Just(0.0), proptest::strategy::Just(1e6)],
+            size in proptest::prop_oneof![proptest::strategy::Just(1.0), proptest::strategy::Just(0.125)],
         ) {
+            // Size 1/8: sub-voxel triangles, which take the small-range path.
             let tri = [0, 1, 2].map(|k| {
-                let p = DVec3::new(raw[k].0, raw[k].1, raw[k].2);
-                let p = if dyadic { (p * 2.0).round() * 0.5 } else { p };
+                let p = DVec3::new(raw[k].0, raw[k].1, raw[k].2) * size;
+                let p = if dyadic { (p * 4.0).round() * 0.25 } else { p };
                 p + offset
             });
             let Some(fast) = Prepared26::new(tri) else { return Ok(()) };

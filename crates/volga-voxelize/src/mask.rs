@@ -38,7 +38,7 @@ impl BrickMask {
         m
     }
 
-    #[cfg(test)]
+    #[inline]
     pub(crate) fn contains(&self, offset: usize) -> bool {
         self.0[offset >> 6] >> (offset & 63) & 1 == 1
     }
