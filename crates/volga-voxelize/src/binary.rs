@@ -594,37 +594,51 @@ pub fn voxelize_triangles(
     separability: Separability,
     progress: &dyn Progress,
 ) -> SparseVolume {
-    voxelize_indexed(grid, triangles.len(), |i| triangles[i], separability, progress)
+    let t = &grid.transform;
+    voxelize_indexed(
+        grid,
+        triangles.len(),
+        |i| triangles[i].map(|p| t.world_to_index(p)),
+        separability,
+        progress,
+    )
 }
 
-/// [`voxelize_triangles`] for the triangles of a mesh, without gathering them first.
+/// [`voxelize_triangles`] for the triangles of a mesh, without gathering them first
+/// (its vertices are moved to index space once, not once per corner).
 pub fn voxelize_mesh_surface(
     grid: &Grid,
     mesh: &volga_mesh::TriMesh,
     separability: Separability,
     progress: &dyn Progress,
 ) -> SparseVolume {
-    voxelize_indexed(grid, mesh.triangles.len(), |i| mesh.triangle(i), separability, progress)
+    let t = &grid.transform;
+    let index_positions: Vec<DVec3> = mesh.positions.par_iter().map(|&p| t.world_to_index(p)).collect();
+    voxelize_indexed(
+        grid,
+        mesh.triangles.len(),
+        |i| mesh.triangles[i].map(|v| index_positions[v as usize]),
+        separability,
+        progress,
+    )
 }
 
+/// The union over `count` triangles, given in index space by `index_triangle`.
+/// Triangles with a non-finite coordinate are skipped.
 fn voxelize_indexed(
     grid: &Grid,
     count: usize,
-    triangle: impl Fn(usize) -> [DVec3; 3] + Sync,
+    index_triangle: impl Fn(usize) -> [DVec3; 3] + Sync,
     separability: Separability,
     progress: &dyn Progress,
 ) -> SparseVolume {
-    let t = &grid.transform;
     let grid_box = grid.index_box();
     let finite = |i: usize| {
-        let tri = triangle(i);
+        let tri = index_triangle(i);
         tri.iter().all(|p| p.is_finite()).then_some(tri)
     };
     if grid_box.max.cmpgt(IVec3::splat(1 << (21 + BRICK_LOG2))).any() {
-        let index_triangles: Vec<[DVec3; 3]> = (0..count)
-            .into_par_iter()
-            .filter_map(|i| finite(i).map(|tri| tri.map(|p| t.world_to_index(p))))
-            .collect();
+        let index_triangles: Vec<[DVec3; 3]> = (0..count).into_par_iter().filter_map(finite).collect();
         return voxelize_triangles_by_bricks(grid, &index_triangles, separability, progress);
     }
     // Chunks of consecutive triangles collect their voxels as 512-bit brick masks (a
@@ -639,14 +653,18 @@ fn voxelize_indexed(
     let chunks: Vec<Vec<(u64, BrickMask)>> = (0..count.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let tris: Vec<[DVec3; 3]> = (c * CHUNK..((c + 1) * CHUNK).min(count))
-                .filter_map(|i| finite(i).map(|tri| tri.map(|p| t.world_to_index(p))))
-                .collect();
-            // The chunk's bricks: its triangles' voxel ranges, clipped to the grid.
-            let (lo, hi) = tris.iter().fold((IVec3::MAX, IVec3::MIN), |(lo, hi), &[a, b, c]| {
-                let (min, max) = voxel_range(a, b, c);
-                (lo.min(min), hi.max(max))
-            });
+            let tris: Vec<[DVec3; 3]> = (c * CHUNK..((c + 1) * CHUNK).min(count)).filter_map(finite).collect();
+            // The chunk's bricks: the union of its triangles' voxel ranges (the range of
+            // their bounding box, rounding being monotonic), clipped to the grid.
+            let Some(&[first, ..]) = tris.first() else {
+                progress.inc(1);
+                return Vec::new();
+            };
+            let (lo, hi) = tris
+                .iter()
+                .flatten()
+                .fold((first, first), |(lo, hi), &p| (lower(lo, p), upper(hi, p)));
+            let (lo, hi) = voxel_range(lo, hi, hi);
             let lo = lo.max(grid_box.min) >> BRICK_LOG2;
             let hi = hi.min(grid_box.max - IVec3::ONE) >> BRICK_LOG2;
             let size = (hi - lo + IVec3::ONE).max(IVec3::ZERO).as_i64vec3();
