@@ -5,7 +5,7 @@
 
 use glam::{DVec3, IVec3, UVec3};
 use proptest::prelude::*;
-use volga::voxelize::{voxelize_triangles, Separability};
+use volga::voxelize::{triangle_covers_voxel, voxelize_triangles, Separability};
 use volga::{DenseVolume, Grid, NoProgress, Transform};
 
 const ALL: [Separability; 3] = [Separability::Six, Separability::Eighteen, Separability::TwentySix];
@@ -380,5 +380,60 @@ proptest! {
             prop_assert_eq!(a.density.get(ijk), b.density.get(ijk), "{}", ijk);
         }
         prop_assert_eq!(a.density.sorted_bricks(), b.density.sorted_bricks());
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(12))]
+    /// A soup of more triangles than one chunk, small and large, some reaching outside
+    /// the grid and some not finite, gives exactly the union of the single-triangle
+    /// predicate over the grid: the spatial bucketing, the chunks' brick masks and the
+    /// skipping of voxels already black change nothing.
+    #[test]
+    fn triangle_soups_give_the_union_of_the_single_triangle_test(
+        centres in prop::collection::vec((-4.0f64..36.0, -4.0f64..36.0, -4.0f64..36.0), 1500..2600),
+        sep in sep_strategy(),
+        seed in any::<u64>(),
+    ) {
+        let mut state = seed | 1;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut tris: Vec<[DVec3; 3]> = centres
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y, z))| {
+                let size = if i % 50 == 0 { 9.0 } else { 1.5 };
+                let c = DVec3::new(x, y, z);
+                [0, 1, 2].map(|_| c + DVec3::new(next(), next(), next()) * size)
+            })
+            .collect();
+        tris[7][1].y = f64::NAN;
+        tris[11][2].x = f64::INFINITY;
+        let n = 32;
+        let got = voxelize(n, &tris, sep);
+        let mut want = vec![false; (n * n * n) as usize];
+        for tri in tris.iter().filter(|t| t.iter().all(|p| p.is_finite())) {
+            let lo = (tri[0].min(tri[1]).min(tri[2]) - 1.0).floor().max(DVec3::ZERO).as_ivec3();
+            let hi = (tri[0].max(tri[1]).max(tri[2]) + 1.0).ceil().min(DVec3::splat(n as f64 - 1.0)).as_ivec3();
+            for z in lo.z..=hi.z {
+                for y in lo.y..=hi.y {
+                    for x in lo.x..=hi.x {
+                        let ijk = IVec3::new(x, y, z);
+                        if triangle_covers_voxel(*tri, sep, ijk) {
+                            want[(x + n as i32 * (y + n as i32 * z)) as usize] = true;
+                        }
+                    }
+                }
+            }
+        }
+        for (i, &w) in want.iter().enumerate() {
+            let i = i as i32;
+            let ijk = IVec3::new(i % n as i32, (i / n as i32) % n as i32, i / (n * n) as i32);
+            prop_assert_eq!(black(&got, ijk), w, "{}", ijk);
+        }
     }
 }

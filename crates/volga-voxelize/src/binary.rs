@@ -641,19 +641,55 @@ fn voxelize_indexed(
         let index_triangles: Vec<[DVec3; 3]> = (0..count).into_par_iter().filter_map(finite).collect();
         return voxelize_triangles_by_bricks(grid, &index_triangles, separability, progress);
     }
-    // Chunks of consecutive triangles collect their voxels as 512-bit brick masks (a
-    // voxel is hit by ~5 small triangles; setting a bit costs nothing), merged by brick
-    // at the end. Meshes list neighbouring triangles near each other, so a chunk touches
-    // few bricks: they are kept in a dense array over the chunk's box of bricks, or, for
-    // a chunk spread wider than `DENSE_BRICKS`, in a hash map. Sorting the triangles
-    // spatially first cost more than it saved.
+    // Triangles in coarse spatial order: bucketed (a counting sort) by the cell of
+    // their first vertex, cells of 2^s bricks a side in storage order, at most
+    // `MAX_CELLS` of them. Non-finite triangles are dropped here.
+    const MAX_CELLS: i64 = 1 << 16;
+    let cells = (grid_box.max + IVec3::splat(BRICK_DIM - 1)) >> BRICK_LOG2;
+    let shift = (0..21)
+        .find(|&s: &i32| {
+            let c = ((cells + IVec3::splat((1 << s) - 1)) >> s).max(IVec3::ONE).as_i64vec3();
+            c.x * c.y * c.z <= MAX_CELLS
+        })
+        .unwrap_or(21);
+    let cells = ((cells + IVec3::splat((1 << shift) - 1)) >> shift).max(IVec3::ONE);
+    let cell_of: Vec<u32> = (0..count)
+        .into_par_iter()
+        .map(|i| match finite(i) {
+            Some([a, ..]) => {
+                let c = (clamp_i(a).clamp(grid_box.min, grid_box.max - IVec3::ONE) >> (BRICK_LOG2 + shift))
+                    .clamp(IVec3::ZERO, cells - IVec3::ONE);
+                (c.x + cells.x * (c.y + cells.y * c.z)) as u32
+            }
+            None => u32::MAX,
+        })
+        .collect();
+    let mut start = vec![0u32; (cells.x * cells.y * cells.z) as usize + 1];
+    for &c in cell_of.iter().filter(|&&c| c != u32::MAX) {
+        start[c as usize + 1] += 1;
+    }
+    for k in 1..start.len() {
+        start[k] += start[k - 1];
+    }
+    let mut order = vec![0u32; start[start.len() - 1] as usize];
+    for (i, &c) in cell_of.iter().enumerate().filter(|(_, &c)| c != u32::MAX) {
+        order[start[c as usize] as usize] = i as u32;
+        start[c as usize] += 1;
+    }
+    drop(cell_of);
+
+    // Chunks of spatially consecutive triangles collect their voxels as 512-bit brick
+    // masks (a voxel is hit by ~5 small triangles; setting a bit costs nothing),
+    // merged by brick at the end. A chunk touches few bricks: they are kept in a dense
+    // array over the chunk's box of bricks, or, for a chunk spread wider than
+    // `DENSE_BRICKS`, in a hash map.
     const CHUNK: usize = 1024;
     const DENSE_BRICKS: i64 = 4096; // 256 KiB of masks
-    progress.start("voxelize", count.div_ceil(CHUNK) as u64);
-    let chunks: Vec<Vec<(u64, BrickMask)>> = (0..count.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let tris: Vec<[DVec3; 3]> = (c * CHUNK..((c + 1) * CHUNK).min(count)).filter_map(finite).collect();
+    progress.start("voxelize", order.len().div_ceil(CHUNK) as u64);
+    let chunks: Vec<Vec<(u64, BrickMask)>> = order
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let tris: Vec<[DVec3; 3]> = chunk.iter().map(|&i| index_triangle(i as usize)).collect();
             // The chunk's bricks: the union of its triangles' voxel ranges (the range of
             // their bounding box, rounding being monotonic), clipped to the grid.
             let Some(&[first, ..]) = tris.first() else {
