@@ -437,3 +437,44 @@ proptest! {
         }
     }
 }
+
+/// One triangle across a 1300³ grid: its voxel range (2.2·10⁹ voxels) does not fit an
+/// `i32`, and its chunk spreads over more bricks than the dense masks take (the
+/// hash-map path). Its plane x − y + z = 0 passes through voxel centres, so black voxels
+/// have |x − y + z| ≤ 1 (the slab −3/2 ≤ n·v < 3/2), and a sample of black voxels and of
+/// voxels next to the plane agrees with the single-triangle test.
+#[test]
+fn a_grid_sized_triangle_is_voxelized_exactly() {
+    let n = 1300;
+    let m = (n - 1) as f64;
+    let tri = [DVec3::ZERO, DVec3::new(m, m, 0.0), DVec3::new(0.0, m, m)];
+    let v = voxelize_triangles(&unit_grid(n), &[tri], Separability::TwentySix, &NoProgress);
+    let covers = |ijk: IVec3| triangle_covers_voxel(tri, Separability::TwentySix, ijk);
+    let mut black_count = 0u64;
+    for b in v.density.sorted_bricks() {
+        for ijk in volga::core::brick_index_box(b).iter() {
+            if v.density.get(ijk) > 0.5 {
+                assert!((ijk.x - ijk.y + ijk.z).abs() <= 1, "{ijk}");
+                black_count += 1;
+                if black_count % 499 == 0 {
+                    assert!(covers(ijk), "{ijk}");
+                }
+            }
+        }
+    }
+    assert!(black_count > 2_000_000, "{black_count}");
+    // Voxels next to the plane, spread over the grid (a fixed pseudo-random walk).
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    for _ in 0..20_000 {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        let (x, z) = ((state % n as u64) as i32, ((state >> 32) % n as u64) as i32);
+        for d in -2..=2 {
+            let ijk = IVec3::new(x, x + z + d, z);
+            if ijk.y < n as i32 {
+                assert_eq!(v.density.get(ijk) > 0.5, covers(ijk), "{ijk}");
+            }
+        }
+    }
+}
