@@ -584,11 +584,12 @@ pub fn triangle_covers_voxel(tri_index: [DVec3; 3], separability: Separability, 
 /// Binary surface voxelization of world-space triangles on `grid` with the given
 /// separability. Black voxels get density 1; the result is the union over triangles.
 ///
-/// Each triangle is prepared once; chunks of consecutive triangles collect their black
-/// voxels as bit masks per brick, which are then merged by brick (sorted in storage
-/// order). A union does not depend on the order in which it is formed, so the
-/// result is identical for any thread count. Non-finite triangles
-/// are skipped (callers validate input; the mesh loader refuses them).
+/// Triangles are bucketed by a coarse cell of the grid; chunks of spatially consecutive
+/// triangles, each triangle prepared once, collect their black voxels as bit masks per
+/// brick, which are then merged by brick (sorted in storage order). A union does not
+/// depend on the order in which it is formed, so the result is identical for any
+/// thread count. Non-finite triangles are skipped (callers validate input; the mesh
+/// loader refuses them).
 pub fn voxelize_triangles(
     grid: &Grid,
     triangles: &[[DVec3; 3]],
