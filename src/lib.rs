@@ -34,6 +34,7 @@ pub use volga_io as io;
 pub use volga_mesh as mesh;
 pub use volga_render as render;
 pub use volga_scene as scene;
+pub use volga_shapes as shapes;
 pub use volga_topology as topology;
 pub use volga_voxelize as voxelize;
 

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::{DQuat, DVec3, EulerRot, UVec3, Vec3, Vec4};
 use volga_core::{Aabb, Filter, Grid, Transform};
 use volga_render::{Camera, Light, Material, Mode, Projection, RenderSettings, SurfaceColour, TransferFunction};
-use volga_voxelize::shapes::{AxisBox, Capsule, Cone, Cylinder, Ellipsoid, OrientedBox, Quadric, Sphere};
+use volga_shapes::{AxisBox, Capsule, Cone, Cylinder, Ellipsoid, OrientedBox, Quadric, Sphere};
 use volga_voxelize::{Shape, Solid};
 
 use crate::model::*;

@@ -1,9 +1,10 @@
 //! # volga-voxelize — turning geometry into voxels
 //!
-//! * **Anti-aliased analytic solids** (survey §17.4): sphere, boxes, ellipsoid, cylinder,
-//!   cone, general quadric and capsule, each with a signed distance ([`shapes`]), sampled
-//!   with the **oriented box filter** of Sramek & Kaufman ([`OrientedBoxFilter`]) and
-//!   merged with the fuzzy union (max, survey eq. 17): [`voxelize_solids`].
+//! * **Anti-aliased analytic solids** (survey §17.4): the shapes of the geometry layer
+//!   (`volga-shapes`, re-exported as [`shapes`]: sphere, boxes, ellipsoid, cylinder, cone,
+//!   general quadric, capsule, torus, each with a signed distance) sampled with the
+//!   **oriented box filter** of Sramek & Kaufman ([`OrientedBoxFilter`]) and merged with
+//!   the fuzzy union (max, survey eq. 17): [`voxelize_solids`].
 //! * **Binary surfaces** of triangles with 6/18/26 separability ([`binary`]), lines
 //!   ([`lines`]) and distance-driven modes for any signed distance ([`surfaces`]).
 //! * **Meshes** ([`MeshVoxelizer`]): exact narrow-band distances (each triangle evaluated
@@ -30,23 +31,22 @@
 
 pub mod binary;
 mod field;
-mod filter;
 pub mod lines;
 mod mask;
 pub mod measure;
 mod mesh;
 mod pairs;
 mod regions;
-pub mod shapes;
 mod solids;
 pub mod surfaces;
 mod tri_distance;
 
 pub use binary::{triangle_covers_voxel, voxelize_mesh_surface, voxelize_triangles, Separability};
 pub use field::AnalyticField;
-pub use filter::OrientedBoxFilter;
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity};
 pub use mesh::MeshVoxelizer;
-pub use shapes::{Shape, SignedDistance};
 pub use solids::{estimate_solid_bricks, merge_max, voxelize_solids, Solid};
 pub use surfaces::{voxelize_shapes, SurfaceMode};
+/// The geometry layer, re-exported: shapes and the filter live in `volga-shapes`.
+pub use volga_shapes as shapes;
+pub use volga_shapes::{OrientedBoxFilter, Shape, SignedDistance};
