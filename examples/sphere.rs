@@ -4,7 +4,7 @@
 //! `cargo run --release --example sphere`
 
 use glam::{DVec3, UVec3, Vec3};
-use volga::render::{first_hit, render, Camera, Light, Mode, Projection, Ray, RenderSettings, SurfaceColour};
+use volga::render::{first_hit, render, Camera, Iso, Light, Lighting, Mode, Projection, Ray, RenderSettings, SurfaceColour};
 use volga::voxelize::{shapes::Sphere, voxelize_solids, Shape, Solid};
 use volga::{Filter, Grid, NoProgress, Sampled, Transform};
 
@@ -48,18 +48,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Projection::Perspective { fov_y_deg: 35.0 },
     )?;
     let settings = RenderSettings {
-        width: 256,
-        height: 256,
-        lights: vec![Light {
-            direction: DVec3::new(1.0, 1.0, 1.0),
-            colour: Vec3::ONE,
-        }],
-        ..Default::default()
+        lighting: Lighting {
+            lights: vec![Light {
+                direction: DVec3::new(1.0, 1.0, 1.0),
+                colour: Vec3::ONE,
+            }],
+            ..Default::default()
+        },
+        ..RenderSettings::new(256, 256)
     };
-    let mode = Mode::Iso {
+    let mode = Mode::Iso(Iso {
         value: 0.5,
         colour: SurfaceColour::FromField,
-    };
+    });
     let (image, stats) = render(&field, &camera, &mode, &settings, &NoProgress)?;
     let out = std::env::temp_dir().join("volga_sphere.png");
     volga::io::write_png(&out, image.width, image.height, &image.to_rgba8())?;

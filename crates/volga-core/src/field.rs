@@ -2,14 +2,60 @@ use glam::{DVec3, Vec3};
 
 use crate::Aabb;
 
+/// What a [`Field`]'s value means, so consumers (the renderer, planners, exporters)
+/// know which side of an iso value is the inside and which way the outward normal
+/// points. Decided once per field, never per sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum FieldKind {
+    /// A density that rises inwards (e.g. the oriented box filter's `clamp(½ − d/W)`):
+    /// inside is `value ≥ iso`, the outward normal is `−∇value`.
+    #[default]
+    Density,
+    /// A signed distance in world units, negative inside: inside is `value ≤ iso`,
+    /// the outward normal is `+∇value`.
+    SignedDistance,
+    /// A 0/1 occupancy (1 inside); oriented like [`FieldKind::Density`].
+    Binary,
+}
+
+impl FieldKind {
+    /// `+1` if the value rises inwards (density, binary), `−1` if it falls inwards
+    /// (signed distance). Multiplying values and iso values by it (an exact
+    /// operation) turns every kind into "inside is `≥ iso`".
+    #[inline]
+    pub fn inward_sign(self) -> f64 {
+        match self {
+            FieldKind::Density | FieldKind::Binary => 1.0,
+            FieldKind::SignedDistance => -1.0,
+        }
+    }
+
+    /// The (unnormalized) outward direction of a level set given the value's
+    /// gradient: `−∇` for values rising inwards, `+∇` for signed distances. Exact
+    /// (a negation or the identity).
+    #[inline]
+    pub fn outward(self, gradient: DVec3) -> DVec3 {
+        match self {
+            FieldKind::Density | FieldKind::Binary => -gradient,
+            FieldKind::SignedDistance => gradient,
+        }
+    }
+}
+
 /// The one sampling interface: everything the raycaster can render is a `Field`.
 ///
-/// Positions are **world space** (`f64`). Values are densities (or distances) as
-/// `f64`, reconstructed from `f32` payloads by the implementor. A new representation
+/// Positions are **world space** (`f64`). Values are densities, distances or
+/// occupancies as `f64` ([`Field::kind`] says which), reconstructed from `f32`
+/// payloads by the implementor. A new representation
 /// (octree, ADF, CVG tree) joins the renderer by implementing this trait.
 pub trait Field: Sync {
     /// World box outside which the field equals [`Field::background`].
     fn bounds(&self) -> Aabb;
+
+    /// What the value means (which side is inside); default [`FieldKind::Density`].
+    fn kind(&self) -> FieldKind {
+        FieldKind::Density
+    }
 
     /// Value far from the content (outside `bounds`).
     fn background(&self) -> f64 {
@@ -56,6 +102,9 @@ impl<F: Field + ?Sized> Field for &F {
     fn bounds(&self) -> Aabb {
         (**self).bounds()
     }
+    fn kind(&self) -> FieldKind {
+        (**self).kind()
+    }
     fn background(&self) -> f64 {
         (**self).background()
     }
@@ -79,5 +128,73 @@ impl<F: Field + ?Sized> Field for &F {
     }
     fn sample_spacing(&self) -> f64 {
         (**self).sample_spacing()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Ball(FieldKind);
+    impl Field for Ball {
+        fn kind(&self) -> FieldKind {
+            self.0
+        }
+        fn bounds(&self) -> Aabb {
+            Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0))
+        }
+        fn value(&self, p: DVec3) -> f64 {
+            p.length() - 1.0
+        }
+        fn gradient_step(&self) -> DVec3 {
+            DVec3::splat(0.01)
+        }
+        fn value_range(&self, _: &Aabb) -> (f64, f64) {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        }
+    }
+
+    #[test]
+    fn kind_defaults_to_density_and_is_forwarded_by_references() {
+        struct Plain;
+        impl Field for Plain {
+            fn bounds(&self) -> Aabb {
+                Aabb::new(DVec3::ZERO, DVec3::ONE)
+            }
+            fn value(&self, _: DVec3) -> f64 {
+                0.0
+            }
+            fn gradient_step(&self) -> DVec3 {
+                DVec3::ONE
+            }
+            fn value_range(&self, _: &Aabb) -> (f64, f64) {
+                (0.0, 0.0)
+            }
+        }
+        assert_eq!(Plain.kind(), FieldKind::Density);
+        let sdf = Ball(FieldKind::SignedDistance);
+        assert_eq!((&sdf).kind(), FieldKind::SignedDistance);
+        assert_eq!((&&sdf).kind(), FieldKind::SignedDistance);
+    }
+
+    #[test]
+    fn outward_points_away_from_the_inside() {
+        // At (1, 0, 0) on the unit sphere: the signed distance rises outwards, so its
+        // gradient is the outward normal; a density of the same surface falls outwards.
+        let p = DVec3::X;
+        let g = Ball(FieldKind::SignedDistance).gradient(p);
+        assert!(FieldKind::SignedDistance.outward(g).dot(p) > 0.99);
+        assert!(FieldKind::Density.outward(-g).dot(p) > 0.99);
+        assert_eq!(FieldKind::Binary.outward(g), -g);
+        // inside ⟺ inward_sign·value ≥ inward_sign·iso, for each kind's own iso value
+        for (k, iso, inside, outside) in [
+            (FieldKind::Density, 0.5, 0.9, 0.1),
+            (FieldKind::Binary, 0.5, 1.0, 0.0),
+            (FieldKind::SignedDistance, 0.0, -0.3, 0.3),
+        ] {
+            let s = k.inward_sign();
+            assert!(s * inside >= s * iso, "{k:?}");
+            assert!(s * outside < s * iso, "{k:?}");
+        }
     }
 }

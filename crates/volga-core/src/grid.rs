@@ -144,6 +144,13 @@ impl Grid {
         )
     }
 
+    /// World box outside which a reconstruction of this grid ([`crate::Sampled`],
+    /// nearest or trilinear) equals the background: the voxel centres' box grown by
+    /// one spacing. The bounds a renderer clips rays to.
+    pub fn sampled_bounds(&self) -> Aabb {
+        self.center_bounds().expanded(self.transform.spacing())
+    }
+
     /// Voxels whose centres can influence a trilinear sample inside `world_box`,
     /// clipped to the grid.
     pub fn index_box_touching(&self, world_box: &Aabb) -> IndexBox {

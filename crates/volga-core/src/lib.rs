@@ -52,7 +52,7 @@ mod sparse;
 pub use aabb::Aabb;
 pub use dense::{Dense, DenseVolume};
 pub use error::CoreError;
-pub use field::Field;
+pub use field::{Field, FieldKind};
 pub use grid::{Grid, IndexBox, Transform};
 pub use layout::Shape3;
 pub use progress::{NoProgress, Progress};

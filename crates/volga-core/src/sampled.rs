@@ -151,8 +151,7 @@ impl<S: VoxelSource> Sampled<S> {
 impl<S: VoxelSource> Field for Sampled<S> {
     fn bounds(&self) -> Aabb {
         // Trilinear samples are background beyond one voxel outside the centres.
-        let g = self.source.grid();
-        g.center_bounds().expanded(g.transform.spacing())
+        self.source.grid().sampled_bounds()
     }
 
     fn background(&self) -> f64 {

@@ -23,17 +23,19 @@ pub enum RenderError {
     TransferColourOutOfRange { value: f64, rgba: [f32; 4] },
     #[error("transfer function has duplicate control point `value` {0}")]
     DuplicateTransferValue(f64),
+    /// `name` is the setting's path, e.g. `sampling.step_voxels`,
+    /// `lighting.lights[0].direction` or `mode.value`.
     #[error("render setting `{name}` is invalid: {reason}")]
-    BadSetting { name: &'static str, reason: String },
+    BadSetting { name: String, reason: String },
     #[error("field `bounds()` must be finite and non-empty, got min {min:?}, max {max:?}")]
     BadFieldBounds { min: [f64; 3], max: [f64; 3] },
     #[error("field `sample_spacing()` must be finite and > 0, got {0}")]
     BadSampleSpacing(f64),
 }
 
-pub(crate) fn bad_setting(name: &'static str, reason: impl Into<String>) -> RenderError {
+pub(crate) fn bad_setting(name: impl Into<String>, reason: impl Into<String>) -> RenderError {
     RenderError::BadSetting {
-        name,
+        name: name.into(),
         reason: reason.into(),
     }
 }

@@ -1,11 +1,12 @@
 //! # volga-render — the embedded raycaster of volga
 //!
 //! Renders anything that implements [`volga_core::Field`]: cameras ([`Camera`]),
-//! transfer functions ([`TransferFunction`]), opaque iso-surfaces, direct volume
-//! rendering, maximum intensity projection and X-ray ([`Mode`]), driven by
-//! [`render`]. The renderer samples the scene **only** through the `Field` trait
-//! (`value`, `gradient`, `colour`, `bounds`, `value_range`, `sample_spacing`), so a
-//! new representation becomes renderable by implementing that trait.
+//! one integrator per render mode ([`Iso`], [`Volume`], [`Mip`], [`XRay`], gathered
+//! in [`Mode`]), grouped [`RenderSettings`] ([`ImageSettings`], [`Sampling`],
+//! [`Lighting`]), driven by [`render`]. The renderer samples the scene **only**
+//! through the `Field` trait (`kind`, `value`, `gradient`, `colour`, `bounds`,
+//! `value_range`, `sample_spacing`), so a new representation becomes renderable by
+//! implementing that trait.
 //!
 //! ## Coordinate spaces and units
 //! * **World space** is `f64` ([`glam::DVec3`]), the same space as `Field`
@@ -15,10 +16,36 @@
 //! * **Colour** is `f32` linear RGB; [`Image`] pixels are straight (not
 //!   premultiplied) RGBA in \[0, 1\]; [`Image::to_rgba8`] applies a 1/2.2 gamma.
 //!
+//! ## The renderer's axes
+//! * **What the value means** — [`volga_core::FieldKind`], read once per image: a
+//!   density (or binary occupancy) is inside where `≥ iso` with outward normal `−∇`,
+//!   a signed distance inside where `≤ iso` with outward normal `+∇`. Iso-surfaces
+//!   and shading follow the kind through a sign decided once, never a call per sample.
+//! * **What a ray computes** — an [`Integrator`] per mode, one file each under
+//!   `src/integrators/`. Each owns its parameters' validation
+//!   ([`Integrator::validate`]), its macro-cell skip classification
+//!   ([`Integrator::classify_cell`], returning a [`CellClass`]), its per-ray
+//!   integration ([`Integrator::integrate`], generic over the field so the sample
+//!   loop is monomorphized) and the [`Effects`] it needs given the settings
+//!   (gradients, colour, shadows, early termination, skipping —
+//!   [`Integrator::effects`]), so planners ask the mode instead of matching on it.
+//!   [`render`] dispatches a [`Mode`] to its integrator once per image;
+//!   [`render_with`] takes any integrator directly.
+//! * **How samples become colour** (volume rendering) — a [`Classifier`] slot: today
+//!   the 1D [`TransferFunction`], post-classified; any [`Classify`] implementation
+//!   (2D or pre-integrated transfer functions) plugs in without touching the
+//!   compositing loop.
+//! * **Settings** — [`RenderSettings`] groups [`ImageSettings`] (size, background,
+//!   tiles), [`Sampling`] (step, reference step, early termination, skipping) and
+//!   [`Lighting`] (lights, ambient colour, material), validated in one place
+//!   ([`RenderSettings::validate`], errors name the field path such as
+//!   `sampling.step_voxels`); the field-dependent "at most 2²⁴ samples per ray" check
+//!   is [`Sampling::world_step`], callable before any field exists.
+//!
 //! ## Algorithms (survey references are to the volume graphics survey in
 //! `shared/reference`)
 //! * Shading: Blinn-Phong with the half vector, survey eq. 9, normals from the
-//!   negated field gradient (density increases inwards), two-sided.
+//!   field gradient oriented outwards by the field's kind, two-sided.
 //! * Volume rendering: post-classification (survey eq. 15) and front-to-back
 //!   compositing (survey eq. 13) with early ray termination and opacity correction
 //!   for the ray step.
@@ -29,38 +56,61 @@
 //! * Tiles are rendered in parallel with rayon; each pixel is a pure function of its
 //!   coordinates, so images are bit-identical for any thread count.
 //!
+//! ## How to add a render mode
+//! 1. Write `src/integrators/<mode>.rs`: a type with the mode's parameters and an
+//!    `impl Integrator` (`name`, `validate`, `effects`, `classify_cell` — or
+//!    `skips_cells() == false` — and `integrate`, built from the crate's marching
+//!    helpers in `march.rs`: sample lattices, `march_iso`, macro-grid lookups).
+//! 2. Add one line `<mode>::<Type>,` to the `modes!` list at the end of
+//!    `src/integrators/mod.rs`: it declares the module, re-exports the type and adds
+//!    the `Mode::<Type>` variant with its dispatch.
+//! 3. For scene files, map a scene mode to it in `volga-scene`'s validation (the
+//!    planner needs nothing: it asks [`Integrator::effects`]).
+//!
 //! ```
 //! use glam::{DVec3, Vec3};
-//! use volga_core::{Aabb, Field, NoProgress};
-//! use volga_render::{render, Camera, Mode, Projection, RenderSettings, SurfaceColour};
+//! use volga_core::{Aabb, Field, FieldKind, NoProgress};
+//! use volga_render::{render, Camera, Integrator, Iso, Mode, Projection, RenderSettings, SurfaceColour};
 //!
+//! /// A ball of radius 1.5 as a signed distance: negative inside.
 //! struct Ball;
 //! impl Field for Ball {
+//!     fn kind(&self) -> FieldKind { FieldKind::SignedDistance }
 //!     fn bounds(&self) -> Aabb { Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)) }
-//!     fn value(&self, p: DVec3) -> f64 { (1.5 - p.length()).clamp(0.0, 1.0) }
+//!     fn value(&self, p: DVec3) -> f64 { p.length() - 1.5 }
 //!     fn gradient_step(&self) -> DVec3 { DVec3::splat(0.05) }
-//!     fn value_range(&self, _: &Aabb) -> (f64, f64) { (0.0, 1.0) }
+//!     fn value_range(&self, _: &Aabb) -> (f64, f64) { (f64::NEG_INFINITY, f64::INFINITY) }
 //! }
 //! let cam = Camera::look_at(DVec3::new(0.0, 0.0, 6.0), DVec3::ZERO, DVec3::Y,
 //!     Projection::Perspective { fov_y_deg: 40.0 }).unwrap();
-//! let settings = RenderSettings { width: 16, height: 16, ..Default::default() };
-//! let mode = Mode::Iso { value: 0.5, colour: SurfaceColour::Constant(Vec3::ONE) };
+//! let settings = RenderSettings::new(16, 16);
+//! let mode = Mode::Iso(Iso { value: 0.0, colour: SurfaceColour::Constant(Vec3::ONE) });
+//! assert!(mode.integrator().effects(&settings).gradients.enabled); // lit by default
 //! let (image, stats) = render(&Ball, &cam, &mode, &settings, &NoProgress).unwrap();
 //! assert_eq!(image.pixels.len(), 256);
 //! assert_eq!(stats.rays, 256);
+//! assert_ne!(image.get(8, 8), settings.image.background); // the centre ray hits the ball
+//! assert_eq!(image.get(0, 0), settings.image.background); // a corner ray misses
 //! ```
 
 mod camera;
+mod classify;
 mod error;
+mod integrators;
 mod march;
 mod render;
+mod settings;
 mod shading;
 mod transfer;
 
 pub use camera::{Camera, Projection, Ray};
+pub use classify::{Classifier, Classify, ClassifySample};
 pub use error::RenderError;
-pub use march::{first_hit, Hit};
-pub use render::{render, Image, Mode, RenderSettings, RenderStats, SurfaceColour};
+// The integrators and every registered mode's types (`Iso`, `SurfaceColour`, `Volume`, `Mip`, `XRay`).
+pub use integrators::*;
+pub use march::{first_hit, CellClass, Hit};
+pub use render::{render, render_with, Image, RenderStats};
+pub use settings::{ImageSettings, Lighting, RenderSettings, Sampling, MAX_PIXELS, MAX_SAMPLES_PER_RAY};
 pub(crate) use shading::Shader;
 pub use shading::{Light, Material};
 pub use transfer::TransferFunction;

@@ -1,24 +1,32 @@
-//! Ray marching kernels: the empty-space grid, iso-surface search with bisection
-//! and the per-mode integrators. Everything here is generic over the field type so
-//! the per-sample loop is monomorphized (no dynamic dispatch, no allocation).
+//! Ray marching building blocks shared by the integrators: the empty-space grid,
+//! the sample lattices, and the iso-surface search with bisection. Everything here is
+//! generic over the field type so per-sample loops are monomorphized (no dynamic
+//! dispatch, no allocation).
 
-use glam::{DVec3, Vec3, Vec4};
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use volga_core::{Aabb, Field};
 
-use crate::{Mode, Ray, RenderStats, Shader, SurfaceColour, TransferFunction};
+use crate::settings::MAX_SAMPLES_PER_RAY;
+use crate::{Ray, RenderStats};
 
 /// Upper bound on lattice samples along one ray; the renderer rejects settings that
 /// would exceed it and [`first_hit`] coarsens its step to stay under it.
-pub(crate) const MAX_STEPS_PER_RAY: f64 = (1u64 << 24) as f64;
+pub(crate) const MAX_STEPS_PER_RAY: f64 = MAX_SAMPLES_PER_RAY as f64;
 
-/// Macro cell holds samples that matter.
-pub(crate) const ACTIVE: u8 = 0;
-/// Macro cell can be skipped: transparent (volume mode) or every value below the
-/// iso value (iso mode).
-pub(crate) const EMPTY_BELOW: u8 = 1;
-/// Macro cell can be skipped in iso mode: every value above the iso value.
-pub(crate) const EMPTY_ABOVE: u8 = 2;
+/// What empty-space skipping may do with a macro cell, decided by the integrator
+/// from the field's conservative value range over the cell
+/// ([`Integrator::classify_cell`](crate::Integrator::classify_cell)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellClass {
+    /// The cell holds samples that matter: march through it.
+    Active,
+    /// Skip: no sample in the cell contributes (transparent), and for iso-surfaces
+    /// every sample is outside.
+    Outside,
+    /// Skip: every sample in the cell is inside the iso-surface.
+    Inside,
+}
 
 /// A coarse grid over the field bounds for empty-space skipping. Each cell keeps the
 /// field's conservative value range over the cell grown by one sample spacing on
@@ -30,7 +38,7 @@ pub(crate) struct MacroGrid {
     max: DVec3,
     cell: DVec3,
     dims: [usize; 3],
-    class: Vec<u8>,
+    class: Vec<CellClass>,
     hi: Vec<f64>,
 }
 
@@ -43,7 +51,7 @@ impl MacroGrid {
         field: &F,
         bounds: Aabb,
         spacing: f64,
-        classify: impl Fn(f64, f64) -> u8 + Sync,
+        classify: impl Fn(f64, f64) -> CellClass + Sync,
     ) -> MacroGrid {
         let size = bounds.size();
         let dims = [0, 1, 2].map(|a| {
@@ -64,7 +72,7 @@ impl MacroGrid {
             hi: Vec::new(),
         };
         let margin = DVec3::splat(spacing);
-        let cells: Vec<(u8, f64)> = (0..dims[0] * dims[1] * dims[2])
+        let cells: Vec<(CellClass, f64)> = (0..dims[0] * dims[1] * dims[2])
             .into_par_iter()
             .map(|lin| {
                 let (lo, hi) = grid.cell_box(grid.delinearize(lin));
@@ -141,16 +149,16 @@ impl MacroGrid {
     /// If the sample at `t` lies in a skippable cell: its class and the ray
     /// parameter where the ray leaves that cell.
     #[inline]
-    fn skip_at(&self, ray: &Ray, t: f64) -> Option<(u8, f64)> {
+    pub(crate) fn skip_at(&self, ray: &Ray, t: f64) -> Option<(CellClass, f64)> {
         let (ijk, lin) = self.locate(ray.at(t));
         let class = self.class[lin];
-        (class != ACTIVE).then(|| (class, self.exit_t(ijk, ray)))
+        (class != CellClass::Active).then(|| (class, self.exit_t(ijk, ray)))
     }
 
     /// Maximum of the conservative value range of the cell holding the sample at
     /// `t`, and the ray parameter where the ray leaves that cell.
     #[inline]
-    fn hi_at(&self, ray: &Ray, t: f64) -> (f64, f64) {
+    pub(crate) fn hi_at(&self, ray: &Ray, t: f64) -> (f64, f64) {
         let (ijk, lin) = self.locate(ray.at(t));
         (self.hi[lin], self.exit_t(ijk, ray))
     }
@@ -160,7 +168,7 @@ impl MacroGrid {
 /// clamped to `[i + 1, end]` so marching always advances. Rounding can only make
 /// the skipped samples overshoot the cell by a few ulps, inside the cell's margin.
 #[inline]
-fn index_after(t_exit: f64, t0: f64, dt: f64, offset: f64, i: u64, end: u64) -> u64 {
+pub(crate) fn index_after(t_exit: f64, t0: f64, dt: f64, offset: f64, i: u64, end: u64) -> u64 {
     let x = ((t_exit - t0) / dt - offset).floor() + 1.0;
     let j = if x.is_nan() || x <= 0.0 {
         0
@@ -190,7 +198,7 @@ fn iso_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
 }
 
 /// Number of mid-point samples `t0 + (i + ½)·dt ≤ t1`.
-fn midpoint_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
+pub(crate) fn midpoint_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
     let guess = ((t1 - t0) / dt + 0.5).floor();
     let mut n = if guess.is_nan() || guess < 0.0 {
         0
@@ -206,12 +214,14 @@ fn midpoint_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
     n
 }
 
-/// Bisection of a bracket `[lo, hi]` with `value(lo) < iso ≤ value(hi)` down to
-/// width `tol` (at most 64 halvings); returns the bracket's midpoint. NaN values
-/// count as below.
+/// Bisection of a bracket `[lo, hi]` with `s·value(lo) < s·iso ≤ s·value(hi)`
+/// (`s = inward`, ±1) down to width `tol` (at most 64 halvings); returns the
+/// bracket's midpoint. NaN values count as outside.
+#[allow(clippy::too_many_arguments)]
 fn bisect<F: Field + ?Sized>(
     field: &F,
     ray: &Ray,
+    inward: f64,
     iso: f64,
     mut lo: f64,
     mut hi: f64,
@@ -227,7 +237,7 @@ fn bisect<F: Field + ?Sized>(
             break;
         }
         stats.samples += 1;
-        if field.value(ray.at(mid)) >= iso {
+        if inward * field.value(ray.at(mid)) >= iso {
             hi = mid;
         } else {
             lo = mid;
@@ -236,7 +246,11 @@ fn bisect<F: Field + ?Sized>(
     0.5 * (lo + hi)
 }
 
-/// First crossing from below `iso` to `≥ iso` along `ray` within `[t0, t1]`.
+/// First crossing from outside to inside the `iso` level set along `ray` within
+/// `[t0, t1]`: with `inward = s` (±1, [`FieldKind::inward_sign`](volga_core::FieldKind::inward_sign)),
+/// from `s·v < s·iso` to `s·v ≥ s·iso` — for a density from below to above, for a
+/// signed distance from above to below. Multiplying by `s = 1` is exact, so
+/// densities march exactly as without the factor.
 ///
 /// Samples at `t0 + i·dt` (and a last one at `t1`); a ray entering the bounds from
 /// outside starts from the field's background value, so content touching the
@@ -248,6 +262,7 @@ fn bisect<F: Field + ?Sized>(
 pub(crate) fn march_iso<F: Field + ?Sized>(
     field: &F,
     ray: &Ray,
+    inward: f64,
     iso: f64,
     (t0, t1): (f64, f64),
     dt: f64,
@@ -255,19 +270,21 @@ pub(crate) fn march_iso<F: Field + ?Sized>(
     grid: Option<&MacroGrid>,
     stats: &mut RenderStats,
 ) -> Option<f64> {
+    // Oriented so that inside is `≥ iso`.
+    let iso = inward * iso;
     let k_end = iso_lattice_len(t0, t1, dt);
     let lattice_t = |i: u64| if i >= k_end { t1 } else { t0 + i as f64 * dt };
     let bg = field.background();
     // (ray parameter, value below iso) of the previous sample.
-    let mut prev: Option<(f64, bool)> = (t0 > 0.0 && !bg.is_nan()).then_some((t0, bg < iso));
+    let mut prev: Option<(f64, bool)> = (t0 > 0.0 && !bg.is_nan()).then_some((t0, inward * bg < iso));
     let mut i = 0u64;
     while i <= k_end {
         let t = lattice_t(i);
         if let Some((class, t_exit)) = grid.and_then(|g| g.skip_at(ray, t)) {
-            let below = class == EMPTY_BELOW;
+            let below = class == CellClass::Outside;
             if let (false, Some((tp, true))) = (below, prev) {
-                // The skipped sample at `t` is above: the crossing is in [tp, t].
-                return Some(bisect(field, ray, iso, tp, t, tol, stats));
+                // The skipped sample at `t` is inside: the crossing is in [tp, t].
+                return Some(bisect(field, ray, inward, iso, tp, t, tol, stats));
             }
             let next = index_after(t_exit, t0, dt, 0.0, i, k_end + 1);
             stats.cells_skipped += 1;
@@ -278,9 +295,9 @@ pub(crate) fn march_iso<F: Field + ?Sized>(
         stats.samples += 1;
         let v = field.value(ray.at(t));
         if !v.is_nan() {
-            let below = v < iso;
+            let below = inward * v < iso;
             if let (false, Some((tp, true))) = (below, prev) {
-                return Some(bisect(field, ray, iso, tp, t, tol, stats));
+                return Some(bisect(field, ray, inward, iso, tp, t, tol, stats));
             }
             prev = Some((t, below));
         }
@@ -297,8 +314,9 @@ pub struct Hit {
     pub world_pos: DVec3,
 }
 
-/// The first crossing of `iso` (from below to above) along `ray` inside
-/// `field.bounds()`.
+/// The first crossing of `iso` from outside to inside along `ray` inside
+/// `field.bounds()`, the inside decided by [`Field::kind`]: for a density from
+/// below to `≥ iso`, for a signed distance from above to `≤ iso`.
 ///
 /// Samples every `step_world` world units (the ray's `dir` need not be unit; `t`
 /// is in units of `|dir|`), starting at the bounds entry, then refines the
@@ -332,7 +350,8 @@ pub fn first_hit<F: Field + ?Sized>(field: &F, ray: &Ray, iso: f64, step_world: 
         return None;
     }
     let mut stats = RenderStats::default();
-    let t = march_iso(field, ray, iso, (t0, t1), dt, tol, None, &mut stats)?;
+    let inward = field.kind().inward_sign();
+    let t = march_iso(field, ray, inward, iso, (t0, t1), dt, tol, None, &mut stats)?;
     Some(Hit {
         t,
         world_pos: ray.at(t),
@@ -341,218 +360,11 @@ pub fn first_hit<F: Field + ?Sized>(field: &F, ray: &Ray, iso: f64, step_world: 
 
 /// Colour of the field at `p`, white where it has none (or a non-finite one).
 #[inline]
-fn field_colour<F: Field + ?Sized>(field: &F, p: DVec3) -> Vec3 {
+pub(crate) fn field_colour<F: Field + ?Sized>(field: &F, p: DVec3) -> Vec3 {
     match field.colour(p) {
         Some(c) if c.is_finite() => c.clamp(Vec3::ZERO, Vec3::ONE),
         _ => Vec3::ONE,
     }
-}
-
-/// Per-render constants shared by every ray.
-pub(crate) struct Tracer<'a, F: ?Sized> {
-    pub field: &'a F,
-    pub bounds: Aabb,
-    /// Ray step in world units (rays are unit length, so also in `t`).
-    pub step: f64,
-    /// Bisection tolerance in `t`.
-    pub tol: f64,
-    /// `step / reference_step` for opacity correction.
-    pub alpha_exponent: f64,
-    pub early_termination_alpha: f32,
-    pub background: Vec4,
-    pub shader: Shader,
-    pub grid: Option<MacroGrid>,
-}
-
-impl<F: Field + ?Sized> Tracer<'_, F> {
-    /// The final straight-alpha pixel of one ray.
-    #[inline]
-    pub(crate) fn trace(&self, mode: &Mode, ray: &Ray, stats: &mut RenderStats) -> Vec4 {
-        stats.rays += 1;
-        let interval = self
-            .bounds
-            .ray_interval(ray.origin, ray.dir)
-            .filter(|(t0, t1)| t0.is_finite() && t1.is_finite());
-        let (c, a) = match interval {
-            None => (Vec3::ZERO, 0.0),
-            Some(ti) => match mode {
-                Mode::Iso { value, colour } => self.iso(ray, ti, *value, colour, stats),
-                Mode::Volume {
-                    transfer,
-                    colour_from_field,
-                } => self.volume(ray, ti, transfer, *colour_from_field, stats),
-                Mode::Mip => self.mip(ray, ti, stats),
-                Mode::XRay => self.xray(ray, ti, stats),
-            },
-        };
-        self.over_background(c, a)
-    }
-
-    /// Composites premultiplied `(c, a)` over the background and returns straight
-    /// RGBA clamped to \[0, 1\]: `c + (1 − a)·background`, alpha exactly 1 for an
-    /// opaque background.
-    fn over_background(&self, c: Vec3, a: f32) -> Vec4 {
-        let bg = self.background;
-        let (c, a) = if c.is_finite() && a.is_finite() {
-            (c, a.clamp(0.0, 1.0))
-        } else {
-            (Vec3::ZERO, 0.0)
-        };
-        let premult = c + bg.truncate() * (bg.w * (1.0 - a));
-        let out = if bg.w >= 1.0 {
-            premult.extend(1.0)
-        } else {
-            let alpha = a + (1.0 - a) * bg.w;
-            if alpha > 0.0 {
-                (premult / alpha).extend(alpha)
-            } else {
-                Vec4::ZERO
-            }
-        };
-        out.clamp(Vec4::ZERO, Vec4::ONE)
-    }
-
-    #[inline]
-    fn shade_at(&self, colour: Vec3, p: DVec3, ray: &Ray, stats: &mut RenderStats) -> Vec3 {
-        if self.shader.is_lit() {
-            stats.gradient_evaluations += 1;
-            self.shader.shade(colour, self.field.gradient(p), ray.dir)
-        } else {
-            colour
-        }
-    }
-
-    fn iso(&self, ray: &Ray, ti: (f64, f64), iso: f64, colour: &SurfaceColour, stats: &mut RenderStats) -> (Vec3, f32) {
-        let hit = march_iso(self.field, ray, iso, ti, self.step, self.tol, self.grid.as_ref(), stats);
-        match hit {
-            None => (Vec3::ZERO, 0.0),
-            Some(t) => {
-                let p = ray.at(t);
-                let co = match colour {
-                    SurfaceColour::Constant(c) => *c,
-                    SurfaceColour::FromField => field_colour(self.field, p),
-                };
-                (self.shade_at(co, p, ray, stats), 1.0)
-            }
-        }
-    }
-
-    /// Opacity correction for the actual step: `α' = 1 − (1 − α)^(Δs/Δs_ref)`.
-    #[inline]
-    fn correct_alpha(&self, alpha: f32) -> f32 {
-        if self.alpha_exponent == 1.0 || alpha >= 1.0 {
-            alpha
-        } else {
-            (1.0 - (1.0 - alpha as f64).powf(self.alpha_exponent)) as f32
-        }
-    }
-
-    /// Post-classified (survey eq. 15) front-to-back compositing (survey eq. 13):
-    /// `c += C·α'·(1 − a)`, `a += α'·(1 − a)` at `t0 + (i + ½)·Δs`, stopping once
-    /// `a ≥ early_termination_alpha`. Returns premultiplied colour and alpha.
-    fn volume(
-        &self,
-        ray: &Ray,
-        (t0, t1): (f64, f64),
-        tf: &TransferFunction,
-        colour_from_field: bool,
-        stats: &mut RenderStats,
-    ) -> (Vec3, f32) {
-        let n = midpoint_lattice_len(t0, t1, self.step);
-        let mut c = Vec3::ZERO;
-        let mut a = 0.0f32;
-        let mut i = 0u64;
-        while i < n {
-            let t = t0 + (i as f64 + 0.5) * self.step;
-            if let Some((_, t_exit)) = self.grid.as_ref().and_then(|g| g.skip_at(ray, t)) {
-                // Transparent cell: every sample in it has α = 0 and would be skipped.
-                stats.cells_skipped += 1;
-                i = index_after(t_exit, t0, self.step, 0.5, i, n);
-                continue;
-            }
-            i += 1;
-            stats.samples += 1;
-            let p = ray.at(t);
-            let v = self.field.value(p);
-            if v.is_nan() {
-                continue;
-            }
-            let rgba = tf.eval(v);
-            if rgba.w.is_nan() || rgba.w <= 0.0 {
-                continue;
-            }
-            let alpha = self.correct_alpha(rgba.w);
-            let co = if colour_from_field {
-                field_colour(self.field, p)
-            } else {
-                rgba.truncate()
-            };
-            let rgb = self.shade_at(co, p, ray, stats);
-            let w = (1.0 - a) * alpha;
-            c += rgb * w;
-            a += w;
-            if a >= self.early_termination_alpha {
-                stats.rays_terminated_early += 1;
-                break;
-            }
-        }
-        (c, a)
-    }
-
-    /// Maximum intensity projection: grey level `max v` clamped to \[0, 1\], drawn as
-    /// white with that opacity. Cells whose range maximum cannot raise the current
-    /// maximum are skipped.
-    fn mip(&self, ray: &Ray, (t0, t1): (f64, f64), stats: &mut RenderStats) -> (Vec3, f32) {
-        let n = midpoint_lattice_len(t0, t1, self.step);
-        let mut m = f64::NEG_INFINITY;
-        let mut i = 0u64;
-        while i < n {
-            let t = t0 + (i as f64 + 0.5) * self.step;
-            if let Some(g) = &self.grid {
-                let (hi, t_exit) = g.hi_at(ray, t);
-                if hi <= m {
-                    stats.cells_skipped += 1;
-                    i = index_after(t_exit, t0, self.step, 0.5, i, n);
-                    continue;
-                }
-            }
-            i += 1;
-            stats.samples += 1;
-            let v = self.field.value(ray.at(t));
-            if v > m {
-                m = v;
-            }
-        }
-        grey(m)
-    }
-
-    /// X-ray: the mean value of the samples inside the bounds, clamped to \[0, 1\],
-    /// drawn as white with that opacity. Never skips (the mean needs every sample).
-    fn xray(&self, ray: &Ray, (t0, t1): (f64, f64), stats: &mut RenderStats) -> (Vec3, f32) {
-        let n = midpoint_lattice_len(t0, t1, self.step);
-        let (mut sum, mut count) = (0.0f64, 0u64);
-        for i in 0..n {
-            stats.samples += 1;
-            let v = self.field.value(ray.at(t0 + (i as f64 + 0.5) * self.step));
-            if !v.is_nan() {
-                sum += v;
-                count += 1;
-            }
-        }
-        if count == 0 {
-            return (Vec3::ZERO, 0.0);
-        }
-        grey(sum / count as f64)
-    }
-}
-
-/// White at opacity `g` (premultiplied), `g` clamped to \[0, 1\]; nothing for −∞/NaN.
-fn grey(g: f64) -> (Vec3, f32) {
-    if g.is_nan() || g == f64::NEG_INFINITY {
-        return (Vec3::ZERO, 0.0);
-    }
-    let g = g.clamp(0.0, 1.0) as f32;
-    (Vec3::splat(g), g)
 }
 
 #[cfg(test)]

@@ -1,87 +1,10 @@
-use glam::{Vec3, Vec4};
+use glam::Vec4;
 use rayon::prelude::*;
 use volga_core::{Field, Progress};
 
-use crate::error::bad_setting;
-use crate::march::{MacroGrid, Tracer, ACTIVE, EMPTY_ABOVE, EMPTY_BELOW, MAX_STEPS_PER_RAY};
-use crate::{Camera, Light, Material, RenderError, Shader, TransferFunction};
-
-/// Colour `C_o` of an iso-surface.
-#[derive(Clone, Debug, PartialEq)]
-pub enum SurfaceColour {
-    /// One linear RGB colour for the whole surface.
-    Constant(Vec3),
-    /// [`Field::colour`] at the hit; white where the field has none.
-    FromField,
-}
-
-/// What a ray computes.
-#[derive(Clone, Debug)]
-pub enum Mode {
-    /// Opaque iso-surface: the first crossing from below to above `value` (density
-    /// increases inwards), refined by bisection, shaded with survey eq. 9.
-    Iso { value: f64, colour: SurfaceColour },
-    /// Direct volume rendering: post-classified (survey eq. 15) front-to-back
-    /// compositing (survey eq. 13). With `colour_from_field` the RGB comes from
-    /// [`Field::colour`] (white if none) and only alpha from the transfer function.
-    Volume {
-        transfer: TransferFunction,
-        colour_from_field: bool,
-    },
-    /// Maximum intensity projection: grey = max value along the ray, clamped to
-    /// \[0, 1\].
-    Mip,
-    /// Mean value along the ray inside the bounds, clamped to \[0, 1\].
-    XRay,
-}
-
-/// Image size, sampling, lighting and acceleration parameters of [`render`].
-#[derive(Clone, Debug)]
-pub struct RenderSettings {
-    pub width: u32,
-    pub height: u32,
-    /// Ray step as a fraction of [`Field::sample_spacing`]; default 0.5.
-    pub step_voxels: f64,
-    /// Step (in sample spacings) the transfer function's opacities are defined
-    /// for; default 1.0. Opacities are corrected to `α' = 1 − (1 − α)^(step/reference)`.
-    pub reference_step_voxels: f64,
-    /// Volume rays stop once accumulated alpha reaches this; default 0.99 (values
-    /// above 1 disable early ray termination).
-    pub early_termination_alpha: f32,
-    /// Skip macro cells that cannot contribute (never changes the image); default on.
-    pub empty_space_skipping: bool,
-    /// Straight RGBA composited behind everything; default (0.05, 0.05, 0.08, 1).
-    pub background: Vec4,
-    /// Directional lights; empty means unlit, and then no gradient is evaluated.
-    /// Default: one white light from direction (1, 1, 1).
-    pub lights: Vec<Light>,
-    /// Ambient colour `C_a` of survey eq. 9; default white.
-    pub ambient_colour: Vec3,
-    pub material: Material,
-    /// Edge of the square pixel tiles rendered in parallel; default 16.
-    pub tile_size: u32,
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        RenderSettings {
-            width: 512,
-            height: 512,
-            step_voxels: 0.5,
-            reference_step_voxels: 1.0,
-            early_termination_alpha: 0.99,
-            empty_space_skipping: true,
-            background: Vec4::new(0.05, 0.05, 0.08, 1.0),
-            lights: vec![Light {
-                direction: glam::DVec3::ONE,
-                colour: Vec3::ONE,
-            }],
-            ambient_colour: Vec3::ONE,
-            material: Material::default(),
-            tile_size: 16,
-        }
-    }
-}
+use crate::integrators::{clip, over_background, March, ModeJob};
+use crate::march::MacroGrid;
+use crate::{Camera, Integrator, Mode, RenderError, RenderSettings, Shader};
 
 /// A rendered image: row-major, `y` down, straight (not premultiplied) linear RGBA
 /// in \[0, 1\].
@@ -139,92 +62,8 @@ impl std::ops::AddAssign for RenderStats {
     }
 }
 
-/// Largest image rendered (pixels), so a typo cannot ask for terabytes.
-const MAX_PIXELS: u64 = 1 << 28;
-
-fn check_finite_nonneg(name: &'static str, v: &[f32]) -> Result<(), RenderError> {
-    if v.iter().all(|c| c.is_finite() && *c >= 0.0) {
-        Ok(())
-    } else {
-        Err(bad_setting(name, format!("must be finite and ≥ 0, got {v:?}")))
-    }
-}
-
-fn validate(settings: &RenderSettings, mode: &Mode) -> Result<(), RenderError> {
-    let s = settings;
-    if s.width == 0 || s.height == 0 {
-        return Err(bad_setting(
-            "width/height",
-            format!("must be ≥ 1, got {}×{}", s.width, s.height),
-        ));
-    }
-    if s.width as u64 * s.height as u64 > MAX_PIXELS {
-        return Err(bad_setting(
-            "width/height",
-            format!("{}×{} exceeds {MAX_PIXELS} pixels", s.width, s.height),
-        ));
-    }
-    if !(s.step_voxels.is_finite() && s.step_voxels > 0.0) {
-        return Err(bad_setting(
-            "step_voxels",
-            format!("must be finite and > 0, got {}", s.step_voxels),
-        ));
-    }
-    if !(s.reference_step_voxels.is_finite() && s.reference_step_voxels > 0.0) {
-        return Err(bad_setting(
-            "reference_step_voxels",
-            format!("must be finite and > 0, got {}", s.reference_step_voxels),
-        ));
-    }
-    if s.early_termination_alpha.is_nan() {
-        return Err(bad_setting("early_termination_alpha", "must not be NaN"));
-    }
-    if !s.background.to_array().iter().all(|c| (0.0..=1.0).contains(c)) {
-        return Err(bad_setting(
-            "background",
-            format!("must be in [0, 1], got {}", s.background),
-        ));
-    }
-    for l in &s.lights {
-        if !l.direction.is_finite() || l.direction == glam::DVec3::ZERO {
-            return Err(bad_setting(
-                "lights.direction",
-                format!("must be finite and non-zero, got {}", l.direction),
-            ));
-        }
-        check_finite_nonneg("lights.colour", &l.colour.to_array())?;
-    }
-    check_finite_nonneg("ambient_colour", &s.ambient_colour.to_array())?;
-    let m = &s.material;
-    check_finite_nonneg("material", &[m.ambient, m.diffuse, m.specular, m.shininess])?;
-    if s.tile_size == 0 {
-        return Err(bad_setting("tile_size", "must be ≥ 1"));
-    }
-    if let Mode::Iso { value, colour } = mode {
-        if !value.is_finite() {
-            return Err(bad_setting(
-                "mode.value",
-                format!("iso value must be finite, got {value}"),
-            ));
-        }
-        if let SurfaceColour::Constant(c) = colour {
-            check_finite_nonneg("mode.colour", &c.to_array())?;
-        }
-    }
-    Ok(())
-}
-
-/// Renders `field` as seen by `camera`.
-///
-/// One ray per pixel centre, clipped to `field.bounds()`; tiles of
-/// `tile_size × tile_size` pixels are rendered in parallel with rayon, and each
-/// pixel is a pure function of its coordinates, so the image is bit-identical for
-/// any thread count. Progress: `start("render", tiles)`, `inc(1)` per tile,
-/// `finish()`.
-///
-/// Errors: invalid settings or mode parameters, a field whose bounds are not
-/// finite/non-empty or whose `sample_spacing()` is not finite and positive, or a
-/// step so small that a ray would need more than 2²⁴ samples.
+/// Renders `field` as seen by `camera` in `mode`: dispatches once to the mode's
+/// integrator and calls [`render_with`].
 pub fn render<F: Field + ?Sized>(
     field: &F,
     camera: &Camera,
@@ -232,67 +71,82 @@ pub fn render<F: Field + ?Sized>(
     settings: &RenderSettings,
     progress: &dyn Progress,
 ) -> Result<(Image, RenderStats), RenderError> {
-    validate(settings, mode)?;
-    let bounds = field.bounds();
-    if !(bounds.min.is_finite() && bounds.max.is_finite()) || bounds.is_empty() {
-        return Err(RenderError::BadFieldBounds {
-            min: bounds.min.to_array(),
-            max: bounds.max.to_array(),
-        });
+    struct Job<'a, F: ?Sized> {
+        field: &'a F,
+        camera: &'a Camera,
+        settings: &'a RenderSettings,
+        progress: &'a dyn Progress,
     }
-    let spacing = field.sample_spacing();
-    if !(spacing.is_finite() && spacing > 0.0) {
-        return Err(RenderError::BadSampleSpacing(spacing));
+    impl<F: Field + ?Sized> ModeJob for Job<'_, F> {
+        type Output = Result<(Image, RenderStats), RenderError>;
+        fn run<I: Integrator>(self, integrator: &I) -> Self::Output {
+            render_with(self.field, self.camera, integrator, self.settings, self.progress)
+        }
     }
-    let step = settings.step_voxels * spacing;
-    let diagonal = bounds.size().length();
-    let steps = diagonal / step;
-    if !(step.is_finite() && step > 0.0 && steps.is_finite() && steps <= MAX_STEPS_PER_RAY) {
-        return Err(bad_setting(
-            "step_voxels",
-            format!(
-                "step of {step} world units needs more than {MAX_STEPS_PER_RAY} samples to cross the field bounds (diagonal {diagonal})"
-            ),
-        ));
-    }
+    mode.dispatch(Job {
+        field,
+        camera,
+        settings,
+        progress,
+    })
+}
 
-    let grid = match mode {
-        _ if !settings.empty_space_skipping => None,
-        Mode::XRay => None,
-        Mode::Volume { transfer, .. } => Some(MacroGrid::build(field, bounds, spacing, |lo, hi| {
-            if transfer.max_alpha(lo, hi) == 0.0 {
-                EMPTY_BELOW
-            } else {
-                ACTIVE
-            }
-        })),
-        Mode::Iso { value, .. } => Some(MacroGrid::build(field, bounds, spacing, |lo, hi| {
-            if hi < *value {
-                EMPTY_BELOW
-            } else if lo > *value {
-                EMPTY_ABOVE
-            } else {
-                ACTIVE
-            }
-        })),
-        Mode::Mip => Some(MacroGrid::build(field, bounds, spacing, |_, _| ACTIVE)),
-    };
+/// Renders `field` as seen by `camera` with `integrator`.
+///
+/// One ray per pixel centre, clipped to `field.bounds()`; tiles of
+/// `tile_size × tile_size` pixels are rendered in parallel with rayon, and each
+/// pixel is a pure function of its coordinates, so the image is bit-identical for
+/// any thread count. The field's [`kind`](Field::kind) is read once; the integrator
+/// is monomorphized with the field, so nothing is dispatched per sample. Progress:
+/// `start("render", tiles)`, `inc(1)` per tile, `finish()`.
+///
+/// Errors: invalid settings ([`RenderSettings::validate`]) or mode parameters
+/// ([`Integrator::validate`]), a field whose bounds are not finite/non-empty or
+/// whose `sample_spacing()` is not finite and positive, or a step so small that a
+/// ray would need more than 2²⁴ samples ([`Sampling::world_step`](crate::Sampling::world_step)).
+pub fn render_with<F: Field + ?Sized, I: Integrator>(
+    field: &F,
+    camera: &Camera,
+    integrator: &I,
+    settings: &RenderSettings,
+    progress: &dyn Progress,
+) -> Result<(Image, RenderStats), RenderError> {
+    settings.validate()?;
+    integrator.validate()?;
+    let bounds = field.bounds();
+    let spacing = field.sample_spacing();
+    let step = settings.sampling.world_step(&bounds, spacing)?;
+    let kind = field.kind();
+
+    let grid = (settings.sampling.empty_space_skipping && integrator.skips_cells())
+        .then(|| MacroGrid::build(field, bounds, spacing, |lo, hi| integrator.classify_cell(lo, hi, kind)));
     debug_assert!(grid.as_ref().is_none_or(|g| g.len() <= 64 * 64 * 64));
 
-    let tracer = Tracer {
+    let sampling = &settings.sampling;
+    let lighting = &settings.lighting;
+    let march = March {
         field,
-        bounds,
+        inward: kind.inward_sign(),
+        kind,
         step,
         tol: 1e-9 * spacing,
-        alpha_exponent: settings.step_voxels / settings.reference_step_voxels,
-        early_termination_alpha: settings.early_termination_alpha,
-        background: settings.background,
-        shader: Shader::new(&settings.lights, settings.ambient_colour, settings.material, spacing),
+        alpha_exponent: sampling.step_voxels / sampling.reference_step_voxels,
+        early_termination_alpha: sampling.early_termination_alpha,
+        shader: Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing),
         grid,
     };
+    let background = settings.image.background;
+    let trace = |ray: &crate::Ray, stats: &mut RenderStats| {
+        stats.rays += 1;
+        let (c, a) = match clip(&bounds, ray) {
+            None => (glam::Vec3::ZERO, 0.0),
+            Some(interval) => integrator.integrate(&march, ray, interval, stats),
+        };
+        over_background(background, c, a)
+    };
 
-    let (w, h) = (settings.width, settings.height);
-    let ts = settings.tile_size.min(w.max(h));
+    let (w, h) = (settings.image.width, settings.image.height);
+    let ts = settings.image.tile_size.min(w.max(h));
     let (tiles_x, tiles_y) = (w.div_ceil(ts), h.div_ceil(ts));
     let n_tiles = tiles_x as usize * tiles_y as usize;
     progress.start("render", n_tiles as u64);
@@ -309,7 +163,7 @@ pub fn render<F: Field + ?Sized>(
             for y in y0..y1 {
                 for x in x0..x1 {
                     let ray = camera.ray(x as f64, y as f64, w, h);
-                    px.push(tracer.trace(mode, &ray, &mut stats));
+                    px.push(trace(&ray, &mut stats));
                 }
             }
             progress.inc(1);

@@ -4,7 +4,7 @@ use crate::camera::safe_normalize;
 use crate::Camera;
 
 /// A directional light.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Light {
     /// Direction *towards* the light in world space; need not be unit length.
     pub direction: DVec3,
@@ -71,15 +71,17 @@ impl Shader {
     /// Blinn-Phong reflection, survey eq. 9 with the half vector `H`:
     /// `R = k_a·C_a·C_o + Σ_l [k_d·C_l·C_o·max(N·L, 0) + k_s·C_l·max(N·H, 0)^ns]`.
     ///
-    /// `N = −∇f/|∇f|` (density increases inwards, so the outward normal points down
-    /// the gradient), flipped towards the viewer (two-sided lighting); `−ray_dir`
-    /// where the gradient vanishes or is not finite. `ray_dir` must be unit length.
+    /// `N = outward/|outward|`, where `outward` is the field's outward direction
+    /// ([`FieldKind::outward`](volga_core::FieldKind::outward) of the gradient: `−∇f`
+    /// for densities, `+∇f` for signed distances), flipped towards the viewer
+    /// (two-sided lighting); `−ray_dir` where it vanishes or is not finite.
+    /// `ray_dir` must be unit length.
     #[inline]
-    pub(crate) fn shade(&self, colour: Vec3, gradient: DVec3, ray_dir: DVec3) -> Vec3 {
+    pub(crate) fn shade(&self, colour: Vec3, outward: DVec3, ray_dir: DVec3) -> Vec3 {
         let view = -ray_dir;
-        let len = gradient.length();
+        let len = outward.length();
         let mut n = if len.is_finite() && len > self.min_gradient {
-            -gradient / len
+            outward / len
         } else {
             view
         };
@@ -111,18 +113,18 @@ mod tests {
         let s = Shader::new(&lights, Vec3::ONE, Material::default(), 1.0);
         let dir = -DVec3::Z;
         let co = Vec3::new(0.8, 0.4, 0.2);
-        // Outward normal +z (gradient −z): ambient + diffuse + full specular.
-        let front = s.shade(co, -DVec3::Z, dir);
+        // Outward normal +z: ambient + diffuse + full specular.
+        let front = s.shade(co, DVec3::Z, dir);
         let m = Material::default();
         let want = co * (m.ambient + m.diffuse) + Vec3::splat(m.specular);
         assert!((front - want).abs().max_element() < 1e-6, "{front} vs {want}");
-        // A gradient pointing the other way is flipped towards the viewer.
-        assert_eq!(s.shade(co, DVec3::Z, dir), front);
+        // A normal pointing the other way is flipped towards the viewer.
+        assert_eq!(s.shade(co, -DVec3::Z, dir), front);
         // Zero gradient: N = −ray dir.
         assert_eq!(s.shade(co, DVec3::ZERO, dir), front);
         assert_eq!(s.shade(co, DVec3::splat(f64::NAN), dir), front);
         // Oblique normal is darker.
-        let oblique = s.shade(co, -DVec3::new(1.0, 0.0, 0.2), dir);
+        let oblique = s.shade(co, DVec3::new(1.0, 0.0, 0.2), dir);
         assert!(oblique.x < front.x);
         assert!(oblique.is_finite());
     }

@@ -7,8 +7,8 @@ use std::sync::OnceLock;
 use glam::{DVec3, IVec3, UVec3, Vec3, Vec4};
 use volga_core::{Aabb, Field, Filter, Grid, NoProgress, Progress, Sampled, SparseVolume, Transform};
 use volga_render::{
-    first_hit, render, Camera, Image, Light, Mode, Projection, Ray, RenderError, RenderSettings, RenderStats,
-    SurfaceColour, TransferFunction,
+    first_hit, render, Camera, Image, ImageSettings, Iso, Light, Lighting, Mip, Mode, Projection, Ray, RenderError,
+    RenderSettings, RenderStats, Sampling, SurfaceColour, TransferFunction, Volume, XRay,
 };
 
 // ---------------------------------------------------------------- test fields
@@ -196,10 +196,10 @@ fn ortho_camera(dir: DVec3, height_world: f64) -> Camera {
 }
 
 fn iso_mode() -> Mode {
-    Mode::Iso {
+    Mode::Iso(Iso {
         value: 0.5,
         colour: SurfaceColour::Constant(Vec3::new(0.9, 0.7, 0.5)),
-    }
+    })
 }
 
 fn volume_tf() -> TransferFunction {
@@ -213,21 +213,24 @@ fn volume_tf() -> TransferFunction {
 }
 
 fn volume_mode() -> Mode {
-    Mode::Volume {
-        transfer: volume_tf(),
-        colour_from_field: false,
-    }
+    Mode::Volume(Volume::new(volume_tf(), false))
 }
 
 fn settings(w: u32, h: u32) -> RenderSettings {
     RenderSettings {
-        width: w,
-        height: h,
-        tile_size: 8,
-        lights: vec![Light {
-            direction: DVec3::new(-1.0, 0.5, -2.0),
-            colour: Vec3::ONE,
-        }],
+        image: ImageSettings {
+            width: w,
+            height: h,
+            tile_size: 8,
+            ..Default::default()
+        },
+        lighting: Lighting {
+            lights: vec![Light {
+                direction: DVec3::new(-1.0, 0.5, -2.0),
+                colour: Vec3::ONE,
+            }],
+            ..Default::default()
+        },
         ..Default::default()
     }
 }
@@ -443,7 +446,7 @@ fn images_are_bit_identical_for_1_and_2_threads() {
     )
     .unwrap();
     let s = settings(40, 36);
-    for mode in [iso_mode(), volume_mode(), Mode::Mip, Mode::XRay] {
+    for mode in [iso_mode(), volume_mode(), Mode::Mip(Mip), Mode::XRay(XRay)] {
         let run = |n: usize| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
@@ -470,14 +473,14 @@ fn unlit_renders_never_evaluate_gradients() {
     };
     let cam = ortho_camera(DVec3::new(0.2, -0.3, 1.0), 30.0);
     let mut s = settings(24, 24);
-    for mode in [iso_mode(), volume_mode(), Mode::Mip, Mode::XRay] {
-        s.lights.clear();
+    for mode in [iso_mode(), volume_mode(), Mode::Mip(Mip), Mode::XRay(XRay)] {
+        s.lighting.lights.clear();
         let (_, stats) = go(&field, &cam, &mode, &s);
         assert_eq!(stats.gradient_evaluations, 0);
         assert_eq!(field.gradients.load(Ordering::Relaxed), 0);
         assert!(stats.samples > 0);
     }
-    s.lights = settings(1, 1).lights;
+    s.lighting.lights = settings(1, 1).lighting.lights;
     for mode in [iso_mode(), volume_mode()] {
         field.gradients.store(0, Ordering::Relaxed);
         let (_, stats) = go(&field, &cam, &mode, &s);
@@ -490,17 +493,14 @@ fn unlit_renders_never_evaluate_gradients() {
 fn early_termination_saves_samples_without_visible_change() {
     let field = sampled();
     let cam = ortho_camera(DVec3::new(0.1, 0.2, -1.0), 30.0);
-    let opaque = Mode::Volume {
-        transfer: TransferFunction::new(vec![
+    let opaque = Mode::Volume(Volume::new(TransferFunction::new(vec![
             (0.2, Vec4::new(0.0, 0.0, 0.0, 0.0)),
             (0.6, Vec4::new(1.0, 0.5, 0.2, 1.0)),
         ])
-        .unwrap(),
-        colour_from_field: false,
-    };
+        .unwrap(), false));
     let mut s = settings(32, 32);
     let (on, st_on) = go(&field, &cam, &opaque, &s);
-    s.early_termination_alpha = 1.01;
+    s.sampling.early_termination_alpha = 1.01;
     let (off, st_off) = go(&field, &cam, &opaque, &s);
     assert!(st_on.rays_terminated_early > 0);
     assert_eq!(st_off.rays_terminated_early, 0);
@@ -527,10 +527,10 @@ fn empty_space_skipping_never_changes_the_image() {
         )
         .unwrap(),
     ];
-    let coloured_iso = Mode::Iso {
+    let coloured_iso = Mode::Iso(Iso {
         value: 0.3,
         colour: SurfaceColour::FromField,
-    };
+    });
     for cam in &cams {
         // A step longer than the cells' one-spacing margin exercises iso brackets
         // that end in a skipped cell.
@@ -539,14 +539,12 @@ fn empty_space_skipping_never_changes_the_image() {
             (iso_mode(), 0.5),
             (iso_mode(), 8.0),
             (coloured_iso.clone(), 0.5),
-            (Mode::Mip, 0.5),
+            (Mode::Mip(Mip), 0.5),
         ] {
-            let mut s = RenderSettings {
-                step_voxels,
-                ..settings(32, 30)
-            };
+            let mut s = settings(32, 30);
+            s.sampling.step_voxels = step_voxels;
             let (on, st_on) = go(&field, cam, &mode, &s);
-            s.empty_space_skipping = false;
+            s.sampling.empty_space_skipping = false;
             let (off, st_off) = go(&field, cam, &mode, &s);
             assert_eq!(bits(&on), bits(&off), "{mode:?}");
             assert!(st_on.cells_skipped > 0, "{mode:?}");
@@ -556,7 +554,7 @@ fn empty_space_skipping_never_changes_the_image() {
         }
     }
     // X-ray needs every sample: no skipping.
-    let (_, st) = go(&field, &cams[0], &Mode::XRay, &settings(8, 8));
+    let (_, st) = go(&field, &cams[0], &Mode::XRay(XRay), &settings(8, 8));
     assert_eq!(st.cells_skipped, 0);
 }
 
@@ -565,8 +563,8 @@ fn iso_render_matches_first_hit() {
     let field = sampled();
     let cam = ortho_camera(DVec3::new(0.5, -0.2, 1.0), 30.0);
     let mut s = settings(20, 20);
-    s.lights.clear();
-    s.background = Vec4::new(0.0, 0.0, 0.0, 0.0);
+    s.lighting.lights.clear();
+    s.image.background = Vec4::new(0.0, 0.0, 0.0, 0.0);
     let c = Vec3::new(0.9, 0.7, 0.5);
     let (img, _) = go(&field, &cam, &iso_mode(), &s);
     for y in 0..20 {
@@ -589,20 +587,22 @@ fn opacity_correction_makes_alpha_independent_of_step() {
         Projection::Orthographic { height_world: 4.0 },
     )
     .unwrap();
-    let mode = Mode::Volume {
-        transfer: TransferFunction::new(vec![(0.5, Vec4::new(1.0, 1.0, 1.0, 0.1))]).unwrap(),
-        colour_from_field: false,
-    };
+    let mode = Mode::Volume(Volume::new(TransferFunction::new(vec![(0.5, Vec4::new(1.0, 1.0, 1.0, 0.1))]).unwrap(), false));
     let alpha = |step: f64, reference: f64| {
         let s = RenderSettings {
-            width: 4,
-            height: 4,
-            step_voxels: step,
-            reference_step_voxels: reference,
-            early_termination_alpha: 2.0,
-            background: Vec4::ZERO,
-            lights: vec![],
-            ..Default::default()
+            image: ImageSettings {
+                width: 4,
+                height: 4,
+                background: Vec4::ZERO,
+                ..Default::default()
+            },
+            sampling: Sampling {
+                step_voxels: step,
+                reference_step_voxels: reference,
+                early_termination_alpha: 2.0,
+                ..Default::default()
+            },
+            lighting: Lighting::unlit(),
         };
         let (img, stats) = go(&Slab, &cam, &mode, &s);
         assert_eq!(stats.samples, 16 * (10.0 / step).round() as u64);
@@ -625,11 +625,17 @@ fn opacity_correction_makes_alpha_independent_of_step() {
 fn lit_sphere_is_brightest_where_it_faces_the_light() {
     let cam = ortho_camera(-DVec3::Z, 2.0 * RADIUS + 6.0);
     let s = RenderSettings {
-        width: 33,
-        height: 33,
-        lights: vec![Light::headlight(&cam)],
-        background: Vec4::new(0.0, 0.0, 0.0, 1.0),
-        ..Default::default()
+        image: ImageSettings {
+            width: 33,
+            height: 33,
+            background: Vec4::new(0.0, 0.0, 0.0, 1.0),
+            ..Default::default()
+        },
+        sampling: Sampling::default(),
+        lighting: Lighting {
+            lights: vec![Light::headlight(&cam)],
+            ..Default::default()
+        },
     };
     let lum = |p: Vec4| p.x + p.y + p.z;
     for exact in [true, false] {
@@ -673,15 +679,13 @@ fn axis_aligned_rays_through_voxel_centres_and_bounds_faces_are_finite() {
         assert_eq!(r.dir, DVec3::Z);
         assert_eq!(r.origin.x.fract(), 0.0);
         assert_eq!(r.origin.y.fract(), 0.0);
-        for mode in [iso_mode(), volume_mode(), Mode::Mip, Mode::XRay] {
+        for mode in [iso_mode(), volume_mode(), Mode::Mip(Mip), Mode::XRay(XRay)] {
             for skip in [true, false] {
-                let s = RenderSettings {
-                    empty_space_skipping: skip,
-                    ..settings(px, px)
-                };
+                let mut s = settings(px, px);
+                s.sampling.empty_space_skipping = skip;
                 let (img, _) = go(&field, &cam, &mode, &s);
                 assert_valid(&img);
-                assert_ne!(img.get(px / 2, px / 2), s.background, "{mode:?}");
+                assert_ne!(img.get(px / 2, px / 2), s.image.background, "{mode:?}");
             }
         }
     }
@@ -693,25 +697,20 @@ fn nan_values_and_colours_do_not_produce_nan_pixels() {
     let cam = ortho_camera(DVec3::new(0.2, 0.1, -1.0), 30.0);
     let modes = [
         iso_mode(),
-        Mode::Iso {
+        Mode::Iso(Iso {
             value: 0.5,
             colour: SurfaceColour::FromField,
-        },
+        }),
         volume_mode(),
-        Mode::Volume {
-            transfer: volume_tf(),
-            colour_from_field: true,
-        },
-        Mode::Mip,
-        Mode::XRay,
+        Mode::Volume(Volume::new(volume_tf(), true)),
+        Mode::Mip(Mip),
+        Mode::XRay(XRay),
     ];
     for mode in modes {
         for skip in [true, false] {
-            let s = RenderSettings {
-                empty_space_skipping: skip,
-                background: Vec4::new(0.1, 0.2, 0.3, 0.5),
-                ..settings(20, 20)
-            };
+            let mut s = settings(20, 20);
+            s.sampling.empty_space_skipping = skip;
+            s.image.background = Vec4::new(0.1, 0.2, 0.3, 0.5);
             let (img, _) = go(&field, &cam, &mode, &s);
             assert_valid(&img);
         }
@@ -741,7 +740,7 @@ fn progress_counts_tiles() {
     let p = Count::default();
     let cam = ortho_camera(DVec3::Z, 30.0);
     let s = settings(21, 9); // 3 × 2 tiles of 8
-    render(&analytic_sphere(true), &cam, &Mode::Mip, &s, &p).unwrap();
+    render(&analytic_sphere(true), &cam, &Mode::Mip(Mip), &s, &p).unwrap();
     assert_eq!(p.total.load(Ordering::Relaxed), 6);
     assert_eq!(p.done.load(Ordering::Relaxed), 6);
     assert_eq!(p.finished.load(Ordering::Relaxed), 1);
@@ -752,69 +751,50 @@ fn invalid_settings_and_fields_are_errors() {
     let field = analytic_sphere(true);
     let cam = ortho_camera(DVec3::Z, 30.0);
     let ok = settings(4, 4);
+    let with = |name: &'static str, edit: &dyn Fn(&mut RenderSettings)| {
+        let mut s = ok.clone();
+        edit(&mut s);
+        (name, s)
+    };
     let cases: Vec<(&str, RenderSettings)> = vec![
-        ("width", RenderSettings { width: 0, ..ok.clone() }),
-        (
-            "step_voxels",
-            RenderSettings {
-                step_voxels: 0.0,
-                ..ok.clone()
-            },
-        ),
-        (
-            "step_voxels",
-            RenderSettings {
-                step_voxels: 1e-12,
-                ..ok.clone()
-            },
-        ),
-        (
-            "reference_step_voxels",
-            RenderSettings {
-                reference_step_voxels: f64::NAN,
-                ..ok.clone()
-            },
-        ),
-        (
-            "early_termination_alpha",
-            RenderSettings {
-                early_termination_alpha: f32::NAN,
-                ..ok.clone()
-            },
-        ),
-        (
-            "background",
-            RenderSettings {
-                background: Vec4::splat(2.0),
-                ..ok.clone()
-            },
-        ),
-        (
-            "tile_size",
-            RenderSettings {
-                tile_size: 0,
-                ..ok.clone()
-            },
-        ),
-        (
-            "lights.direction",
-            RenderSettings {
-                lights: vec![Light {
-                    direction: DVec3::ZERO,
-                    colour: Vec3::ONE,
-                }],
-                ..ok.clone()
-            },
-        ),
+        with("image.width", &|s| s.image.width = 0),
+        with("sampling.step_voxels", &|s| s.sampling.step_voxels = 0.0),
+        with("sampling.step_voxels", &|s| s.sampling.step_voxels = 1e-12),
+        with("sampling.reference_step_voxels", &|s| s.sampling.reference_step_voxels = f64::NAN),
+        with("sampling.early_termination_alpha", &|s| s.sampling.early_termination_alpha = f32::NAN),
+        with("image.background", &|s| s.image.background = Vec4::splat(2.0)),
+        with("image.tile_size", &|s| s.image.tile_size = 0),
+        with("lighting.lights[1].direction", &|s| {
+            s.lighting.lights.push(Light {
+                direction: DVec3::ZERO,
+                colour: Vec3::ONE,
+            })
+        }),
+        with("lighting.lights[0].colour", &|s| s.lighting.lights[0].colour = Vec3::splat(f32::NAN)),
+        with("lighting.ambient_colour", &|s| s.lighting.ambient_colour = -Vec3::ONE),
+        with("lighting.material.shininess", &|s| s.lighting.material.shininess = f32::INFINITY),
     ];
     for (name, s) in cases {
-        let e = render(&field, &cam, &Mode::Mip, &s, &NoProgress).unwrap_err();
-        assert!(e.to_string().contains(name), "{name}: {e}");
+        let e = render(&field, &cam, &Mode::Mip(Mip), &s, &NoProgress).unwrap_err();
+        assert!(e.to_string().contains(&format!("`{name}`")), "{name}: {e}");
+        // The same check runs without a field (what a scene calls at validation), except
+        // the field-dependent sample budget, which `Sampling::world_step` checks.
+        let step = s.sampling.world_step(&field.bounds(), field.sample_spacing());
+        let e2 = s.validate().and(step.map(|_| ())).unwrap_err();
+        assert_eq!(e2, e, "{name}");
     }
-    let nan_iso = Mode::Iso {
+    // Mode parameters are named `mode.<parameter>`.
+    for (name, bad) in [
+        ("mode.value", Iso { value: f64::INFINITY, colour: SurfaceColour::FromField }),
+        ("mode.colour", Iso { value: 0.5, colour: SurfaceColour::Constant(Vec3::new(0.0, -1.0, 0.0)) }),
+    ] {
+        let e = render(&field, &cam, &Mode::Iso(bad), &ok, &NoProgress).unwrap_err();
+        assert!(e.to_string().contains(&format!("`{name}`")), "{name}: {e}");
+    }
+    let nan_iso = Mode::Iso(Iso {
         value: f64::NAN,
         colour: SurfaceColour::FromField,
-    };
+    });
     assert!(render(&field, &cam, &nan_iso, &ok, &NoProgress).is_err());
 
     struct Unbounded;
@@ -833,7 +813,7 @@ fn invalid_settings_and_fields_are_errors() {
         }
     }
     assert!(matches!(
-        render(&Unbounded, &cam, &Mode::Mip, &ok, &NoProgress),
+        render(&Unbounded, &cam, &Mode::Mip(Mip), &ok, &NoProgress),
         Err(RenderError::BadFieldBounds { .. })
     ));
     assert!(first_hit(&Unbounded, &cam.ray(0.0, 0.0, 1, 1), 0.5, 0.5).is_none());

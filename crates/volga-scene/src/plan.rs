@@ -5,7 +5,6 @@
 use serde::Serialize;
 use volga_core::memory::{self, Bytes};
 use volga_core::BRICK_VOXELS;
-use volga_render::Mode;
 use volga_voxelize::estimate_solid_bricks;
 
 use crate::{Scene, SceneError};
@@ -73,39 +72,18 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
         },
     ];
 
+    // Each image's mode declares what it needs under its settings.
     let mut effects = Vec::new();
     for im in &scene.images {
         let n = &im.name;
-        let (gradients, why) = match (&im.mode, im.settings.lights.len()) {
-            (Mode::Mip | Mode::XRay, _) => (false, format!("`{n}` is a projection image: no shading")),
-            (_, 0) => (false, format!("`{n}` is unlit (no lights, or shading: false)")),
-            (_, k) => (true, format!("`{n}` is shaded by {k} light(s) (Phong, eq. 9)")),
-        };
-        effects.push(Decision::new(format!("{n}: gradients"), gradients, why));
-        let ert = im.settings.early_termination_alpha <= 1.0;
-        let ert_why = match (&im.mode, ert) {
-            (Mode::Volume { .. }, true) => {
-                format!("stop rays once opacity reaches {}", im.settings.early_termination_alpha)
-            }
-            (Mode::Volume { .. }, false) => "disabled in the scene".to_string(),
-            (Mode::Iso { .. }, _) => "iso rays stop at the first hit".to_string(),
-            _ => "projections read the whole ray".to_string(),
-        };
-        effects.push(Decision::new(
-            format!("{n}: early ray termination"),
-            ert && matches!(im.mode, Mode::Volume { .. }),
-            ert_why,
-        ));
-        let ess = im.settings.empty_space_skipping && !matches!(im.mode, Mode::XRay);
-        effects.push(Decision::new(
-            format!("{n}: empty-space skipping"),
-            ess,
-            if ess {
-                "skip macro-cells whose value range is invisible".to_string()
-            } else {
-                "disabled in the scene, or an X-ray sums every sample".to_string()
-            },
-        ));
+        let e = im.mode.integrator().effects(&im.settings);
+        for (what, effect) in [
+            ("gradients", e.gradients),
+            ("early ray termination", e.early_ray_termination),
+            ("empty-space skipping", e.empty_space_skipping),
+        ] {
+            effects.push(Decision::new(format!("{n}: {what}"), effect.enabled, effect.why));
+        }
     }
 
     let memory = estimate(scene, colour_channel);
@@ -154,7 +132,7 @@ fn estimate(scene: &Scene, colour: bool) -> MemoryEstimate {
     let image_bytes = scene
         .images
         .iter()
-        .map(|i| i.settings.width as u64 * i.settings.height as u64 * (16 + 4 + 4))
+        .map(|i| i.settings.image.width as u64 * i.settings.image.height as u64 * (16 + 4 + 4))
         .max()
         .unwrap_or(0);
     let d = scene.grid.dims().as_u64vec3();

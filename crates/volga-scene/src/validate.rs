@@ -6,7 +6,10 @@ use std::path::{Path, PathBuf};
 
 use glam::{DQuat, DVec3, EulerRot, UVec3, Vec3, Vec4};
 use volga_core::{Aabb, Filter, Grid, Transform};
-use volga_render::{Camera, Light, Material, Mode, Projection, RenderSettings, SurfaceColour, TransferFunction};
+use volga_render::{
+    Camera, ImageSettings, Iso, Light, Lighting, Material, Mip, Mode, Projection, RenderError, RenderSettings, Sampling,
+    SurfaceColour, TransferFunction, Volume, XRay,
+};
 use volga_shapes::{AxisBox, Capsule, Cone, Cylinder, Ellipsoid, OrientedBox, Quadric, Sphere};
 use volga_voxelize::{Shape, Solid};
 
@@ -241,7 +244,7 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
     let mut images = Vec::new();
     for (i, im) in file.outputs.images.iter().enumerate() {
         let f = format!("outputs.images[{i}]");
-        images.push(validate_image(&cx, &f, im, &cameras, &transfer, &lights, material)?);
+        images.push(validate_image(&cx, &f, im, &grid, &cameras, &transfer, &lights, material)?);
         if !stems.insert(im.name.clone()) {
             return Err(cx.err(
                 format!("{f}.name"),
@@ -449,10 +452,36 @@ fn validate_transfer(cx: &Ctx, points: Option<&[TransferPoint]>) -> Result<Trans
     TransferFunction::new(pts).map_err(|e| cx.err("transfer_function", e.to_string()))
 }
 
+/// The scene field path of a render setting named by [`RenderError::BadSetting`]
+/// (`sampling.step_voxels` → `outputs.images[i].step_voxels`, `lighting.lights[k]…`
+/// → `lights[k]…`).
+fn scene_path(f: &str, render_name: &str) -> String {
+    if let Some(rest) = render_name.strip_prefix("lighting.") {
+        if rest.starts_with("lights[") || rest.starts_with("material.") {
+            return rest.to_string();
+        }
+        return f.to_string();
+    }
+    let rest = render_name
+        .strip_prefix("image.")
+        .or_else(|| render_name.strip_prefix("sampling."))
+        .unwrap_or(render_name);
+    format!("{f}.{rest}")
+}
+
+fn render_error(cx: &Ctx, f: &str, e: RenderError) -> SceneError {
+    match e {
+        RenderError::BadSetting { name, reason } => cx.err(scene_path(f, &name), reason),
+        e => cx.err(f, e.to_string()),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
 fn validate_image(
     cx: &Ctx,
     f: &str,
     im: &ImageSpec,
+    grid: &Grid,
     cameras: &[(String, Camera)],
     transfer: &TransferFunction,
     lights: &[Light],
@@ -469,62 +498,73 @@ fn validate_image(
             return Err(cx.err(format!("{f}.{name}"), format!("must lie in 1..=16384, got {v}")));
         }
     }
-    let (mode, reads_colour) = match &im.mode {
+    let mode = match &im.mode {
         ModeSpec::Iso { value, colour } => {
             if !value.is_finite() {
                 return Err(cx.err(format!("{f}.mode.value"), format!("must be finite, got {value}")));
             }
-            let (colour, reads) = match colour {
-                None | Some(ColourSpec::FromVolume) => (SurfaceColour::FromField, true),
+            let colour = match colour {
+                None | Some(ColourSpec::FromVolume) => SurfaceColour::FromField,
                 Some(ColourSpec::Constant(c)) => {
                     cx.unit_interval(&format!("{f}.mode.colour"), c)?;
-                    (SurfaceColour::Constant(DVec3::from_array(*c).as_vec3()), false)
+                    SurfaceColour::Constant(DVec3::from_array(*c).as_vec3())
                 }
             };
-            (Mode::Iso { value: *value, colour }, reads)
+            Mode::Iso(Iso { value: *value, colour })
         }
-        ModeSpec::Volume { colour_from_volume } => (
-            Mode::Volume {
-                transfer: transfer.clone(),
-                colour_from_field: *colour_from_volume,
-            },
-            *colour_from_volume,
-        ),
-        ModeSpec::Mip => (Mode::Mip, false),
-        ModeSpec::XRay => (Mode::XRay, false),
+        ModeSpec::Volume { colour_from_volume } => Mode::Volume(Volume::new(transfer.clone(), *colour_from_volume)),
+        ModeSpec::Mip => Mode::Mip(Mip),
+        ModeSpec::XRay => Mode::XRay(XRay),
     };
     let defaults = RenderSettings::default();
-    let step = match im.step_voxels {
-        Some(s) => cx.positive(&format!("{f}.step_voxels"), s)?,
-        None => defaults.step_voxels,
-    };
+    let step = im.step_voxels.unwrap_or(defaults.sampling.step_voxels);
     if step > 16.0 {
         return Err(cx.err(format!("{f}.step_voxels"), format!("must be ≤ 16 voxels, got {step}")));
     }
-    let lit = im.shading.unwrap_or(true) && matches!(mode, Mode::Iso { .. } | Mode::Volume { .. });
     let background = match im.background {
         Some(b) => {
             cx.unit_interval(&format!("{f}.background"), &b)?;
             Vec4::from_array(b.map(|x| x as f32))
         }
-        None => defaults.background,
+        None => defaults.image.background,
     };
-    let settings = RenderSettings {
-        width: im.width,
-        height: im.height,
-        step_voxels: step,
-        early_termination_alpha: if im.early_ray_termination.unwrap_or(true) {
-            defaults.early_termination_alpha
-        } else {
-            f32::INFINITY
+    let mut settings = RenderSettings {
+        image: ImageSettings {
+            width: im.width,
+            height: im.height,
+            background,
+            ..defaults.image
         },
-        empty_space_skipping: im.empty_space_skipping.unwrap_or(true),
-        background,
-        lights: if lit { lights.to_vec() } else { Vec::new() },
-        ambient_colour: Vec3::ONE,
-        material,
-        ..defaults
+        sampling: Sampling {
+            step_voxels: step,
+            early_termination_alpha: if im.early_ray_termination.unwrap_or(true) {
+                defaults.sampling.early_termination_alpha
+            } else {
+                f32::INFINITY
+            },
+            empty_space_skipping: im.empty_space_skipping.unwrap_or(true),
+            ..defaults.sampling
+        },
+        lighting: Lighting {
+            lights: if im.shading.unwrap_or(true) { lights.to_vec() } else { Vec::new() },
+            ambient_colour: Vec3::ONE,
+            material,
+        },
     };
+    // The mode says what it needs: lights only where it shades, colour where it reads it.
+    let effects = mode.integrator().effects(&settings);
+    if !effects.gradients.enabled {
+        settings.lighting.lights.clear();
+    }
+    let reads_colour = effects.colour.enabled;
+    // The renderer's own checks, run now so bad settings are input errors (exit 2),
+    // including the samples-per-ray budget over the sampled grid the image renders.
+    settings.validate().map_err(|e| render_error(cx, f, e))?;
+    mode.integrator().validate().map_err(|e| render_error(cx, f, e))?;
+    settings
+        .sampling
+        .world_step(&grid.sampled_bounds(), grid.transform.spacing().min_element())
+        .map_err(|e| render_error(cx, f, e))?;
     let filter = match im.filter.unwrap_or(FilterSpec::Trilinear) {
         FilterSpec::Nearest => Filter::Nearest,
         FilterSpec::Trilinear => Filter::Trilinear,

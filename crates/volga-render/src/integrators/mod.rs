@@ -1,0 +1,264 @@
+//! One integrator per render mode. Each file owns its mode's parameters and their
+//! validation, its macro-cell skip classification, its per-ray integration and the
+//! effects it needs; [`Mode`] is generated from the list in [`modes!`] below.
+
+use glam::{DVec3, Vec3, Vec4};
+use volga_core::{Aabb, Field, FieldKind};
+
+use crate::march::MacroGrid;
+use crate::{CellClass, Ray, RenderError, RenderSettings, RenderStats, Shader};
+
+/// What one render mode computes along a ray.
+///
+/// The renderer calls [`validate`](Self::validate) once, builds the macro-cell grid
+/// for empty-space skipping with [`classify_cell`](Self::classify_cell) (if
+/// [`skips_cells`](Self::skips_cells)), then calls [`integrate`](Self::integrate)
+/// once per ray. `integrate` is generic over the field, so the per-sample loop is
+/// monomorphized: the mode is dispatched once per image, never per sample.
+pub trait Integrator: Sync + std::fmt::Debug {
+    /// Short name for messages and reports, e.g. `"iso"`.
+    fn name(&self) -> &'static str;
+
+    /// Checks the mode's own parameters; errors name them as `mode.<parameter>`.
+    fn validate(&self) -> Result<(), RenderError>;
+
+    /// The effects the mode needs under `settings` (its lighting and sampling), so
+    /// planners ask the mode instead of matching on it.
+    fn effects(&self, settings: &RenderSettings) -> Effects;
+
+    /// Whether the mode can use a macro-cell grid at all (an X-ray reads every
+    /// sample: no grid is built).
+    fn skips_cells(&self) -> bool {
+        true
+    }
+
+    /// What empty-space skipping may do with a macro cell over which the field's
+    /// value lies in `[lo, hi]` (conservative, never NaN, possibly infinite), for a
+    /// field of `kind`.
+    fn classify_cell(&self, lo: f64, hi: f64, kind: FieldKind) -> CellClass;
+
+    /// Premultiplied colour and alpha of one ray over `[t0, t1]` (the ray clipped to
+    /// the field's bounds, finite), before the background is composited.
+    fn integrate<F: Field + ?Sized>(
+        &self,
+        march: &March<'_, F>,
+        ray: &Ray,
+        interval: (f64, f64),
+        stats: &mut RenderStats,
+    ) -> (Vec3, f32)
+    where
+        Self: Sized;
+}
+
+/// One effect a render needs, and why (shown in the build report).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Effect {
+    pub enabled: bool,
+    pub why: String,
+}
+
+impl Effect {
+    pub fn on(why: impl Into<String>) -> Self {
+        Effect {
+            enabled: true,
+            why: why.into(),
+        }
+    }
+    pub fn off(why: impl Into<String>) -> Self {
+        Effect {
+            enabled: false,
+            why: why.into(),
+        }
+    }
+}
+
+/// The effects a mode needs for one image, as declared by
+/// [`Integrator::effects`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Effects {
+    /// Field gradients (shading normals).
+    pub gradients: Effect,
+    /// The field's colour ([`Field::colour`]).
+    pub colour: Effect,
+    /// Shadow rays (none of today's modes casts them).
+    pub shadows: Effect,
+    /// Rays may stop early.
+    pub early_ray_termination: Effect,
+    /// Macro cells may be skipped.
+    pub empty_space_skipping: Effect,
+}
+
+impl Effects {
+    /// The gradient effect of a mode that shades with `settings.lighting`.
+    pub fn shading(settings: &RenderSettings) -> Effect {
+        match settings.lighting.lights.len() {
+            0 => Effect::off("unlit (no lights, or shading: false)"),
+            k => Effect::on(format!("shaded by {k} light(s) (Phong, eq. 9)")),
+        }
+    }
+
+    /// The skipping effect of a mode that skips macro cells when the settings allow.
+    pub fn skipping(settings: &RenderSettings, why: &str) -> Effect {
+        if settings.sampling.empty_space_skipping {
+            Effect::on(why)
+        } else {
+            Effect::off("disabled in the settings")
+        }
+    }
+
+    pub(crate) fn no_shadows() -> Effect {
+        Effect::off("no mode casts shadow rays yet")
+    }
+}
+
+/// Per-image constants an integrator reads while marching one ray: the field (with
+/// its kind decided once), the world step, the macro-cell grid and the shader.
+pub struct March<'a, F: ?Sized> {
+    pub(crate) field: &'a F,
+    /// `+1` or `−1`: [`FieldKind::inward_sign`] of the field, decided once per image.
+    pub(crate) inward: f64,
+    pub(crate) kind: FieldKind,
+    /// Ray step in world units (rays are unit length, so also in `t`).
+    pub(crate) step: f64,
+    /// Bisection tolerance in `t`.
+    pub(crate) tol: f64,
+    /// `step / reference_step` for opacity correction.
+    pub(crate) alpha_exponent: f64,
+    pub(crate) early_termination_alpha: f32,
+    pub(crate) shader: Shader,
+    pub(crate) grid: Option<MacroGrid>,
+}
+
+impl<F: Field + ?Sized> March<'_, F> {
+    /// The field being rendered.
+    pub fn field(&self) -> &F {
+        self.field
+    }
+
+    /// The field's kind (decided once per image).
+    pub fn kind(&self) -> FieldKind {
+        self.kind
+    }
+
+    /// Ray step in world units.
+    pub fn step(&self) -> f64 {
+        self.step
+    }
+
+    /// Shades `colour` at `p` with the image's lights (survey eq. 9), the normal
+    /// oriented outwards by the field's kind; returns `colour` unchanged (and
+    /// evaluates no gradient) when unlit.
+    #[inline]
+    pub fn shade_at(&self, colour: Vec3, p: DVec3, ray: &Ray, stats: &mut RenderStats) -> Vec3 {
+        if self.shader.is_lit() {
+            stats.gradient_evaluations += 1;
+            let outward = self.kind.outward(self.field.gradient(p));
+            self.shader.shade(colour, outward, ray.dir)
+        } else {
+            colour
+        }
+    }
+
+    /// Opacity correction for the actual step: `α' = 1 − (1 − α)^(Δs/Δs_ref)`.
+    #[inline]
+    pub fn correct_alpha(&self, alpha: f32) -> f32 {
+        if self.alpha_exponent == 1.0 || alpha >= 1.0 {
+            alpha
+        } else {
+            (1.0 - (1.0 - alpha as f64).powf(self.alpha_exponent)) as f32
+        }
+    }
+}
+
+/// White at opacity `g` (premultiplied), `g` clamped to \[0, 1\]; nothing for −∞/NaN.
+pub(crate) fn grey(g: f64) -> (Vec3, f32) {
+    if g.is_nan() || g == f64::NEG_INFINITY {
+        return (Vec3::ZERO, 0.0);
+    }
+    let g = g.clamp(0.0, 1.0) as f32;
+    (Vec3::splat(g), g)
+}
+
+/// Composites premultiplied `(c, a)` over `background` and returns straight RGBA
+/// clamped to \[0, 1\]: `c + (1 − a)·background`, alpha exactly 1 for an opaque
+/// background.
+pub(crate) fn over_background(background: Vec4, c: Vec3, a: f32) -> Vec4 {
+    let bg = background;
+    let (c, a) = if c.is_finite() && a.is_finite() {
+        (c, a.clamp(0.0, 1.0))
+    } else {
+        (Vec3::ZERO, 0.0)
+    };
+    let premult = c + bg.truncate() * (bg.w * (1.0 - a));
+    let out = if bg.w >= 1.0 {
+        premult.extend(1.0)
+    } else {
+        let alpha = a + (1.0 - a) * bg.w;
+        if alpha > 0.0 {
+            (premult / alpha).extend(alpha)
+        } else {
+            Vec4::ZERO
+        }
+    };
+    out.clamp(Vec4::ZERO, Vec4::ONE)
+}
+
+/// The finite ray interval inside `bounds`, if any.
+#[inline]
+pub(crate) fn clip(bounds: &Aabb, ray: &Ray) -> Option<(f64, f64)> {
+    bounds
+        .ray_interval(ray.origin, ray.dir)
+        .filter(|(t0, t1)| t0.is_finite() && t1.is_finite())
+}
+
+/// Registers the modes: declares each integrator's module and generates [`Mode`]
+/// (one variant per integrator, named after its type), `From` conversions,
+/// [`Mode::integrator`] and the once-per-image dispatch [`Mode::render_with`].
+/// Adding a mode is one new file here plus one line in this list.
+macro_rules! modes {
+    ($($module:ident :: $ty:ident),* $(,)?) => {
+        $(mod $module; pub use $module::*;)*
+
+        /// The registered render modes, one per integrator (a thin convenience over
+        /// the [`Integrator`] types: every method forwards to the integrator).
+        #[derive(Clone, Debug)]
+        pub enum Mode {
+            $($ty($ty),)*
+        }
+
+        $(impl From<$ty> for Mode {
+            fn from(i: $ty) -> Mode {
+                Mode::$ty(i)
+            }
+        })*
+
+        impl Mode {
+            /// The mode's integrator, for its validation and effects.
+            pub fn integrator(&self) -> &dyn Integrator {
+                match self {
+                    $(Mode::$ty(i) => i,)*
+                }
+            }
+
+            /// Calls `job` with the concrete integrator (one dispatch per image).
+            pub(crate) fn dispatch<J: ModeJob>(&self, job: J) -> J::Output {
+                match self {
+                    $(Mode::$ty(i) => job.run(i),)*
+                }
+            }
+        }
+    };
+}
+
+/// Work generic over the concrete integrator type, run by [`Mode`]'s dispatch.
+pub(crate) trait ModeJob {
+    type Output;
+    fn run<I: Integrator>(self, integrator: &I) -> Self::Output;
+}
+
+modes! {
+    iso::Iso,
+    volume::Volume,
+    mip::Mip,
+    xray::XRay,
+}

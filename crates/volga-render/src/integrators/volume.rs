@@ -1,0 +1,145 @@
+//! Direct volume rendering: classified samples composited front to back.
+
+use glam::Vec3;
+use volga_core::{Field, FieldKind};
+
+use super::{Effect, Effects, Integrator, March};
+use crate::classify::{Classifier, Classify, ClassifySample};
+use crate::march::{field_colour, index_after, midpoint_lattice_len};
+use crate::{CellClass, Ray, RenderError, RenderSettings, RenderStats, TransferFunction};
+
+/// Direct volume rendering: samples classified by [`Classifier`] (today the
+/// post-classified 1D transfer function, survey eq. 15) and composited front to
+/// back (survey eq. 13) with opacity correction and early ray termination. With
+/// `colour_from_field` the RGB comes from [`Field::colour`] (white if none) and only
+/// the opacity from the classifier.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Volume {
+    pub classifier: Classifier,
+    pub colour_from_field: bool,
+}
+
+impl Volume {
+    /// Post-classified volume rendering with a 1D transfer function.
+    pub fn new(transfer: TransferFunction, colour_from_field: bool) -> Self {
+        Volume {
+            classifier: Classifier::Transfer(transfer),
+            colour_from_field,
+        }
+    }
+}
+
+impl Integrator for Volume {
+    fn name(&self) -> &'static str {
+        "volume"
+    }
+
+    /// Classifiers are valid by construction ([`TransferFunction::new`] checks).
+    fn validate(&self) -> Result<(), RenderError> {
+        Ok(())
+    }
+
+    fn effects(&self, settings: &RenderSettings) -> Effects {
+        let sampling = &settings.sampling;
+        Effects {
+            gradients: Effects::shading(settings),
+            colour: if self.colour_from_field {
+                Effect::on("sample colour from the field")
+            } else {
+                Effect::off("colour from the transfer function")
+            },
+            shadows: Effects::no_shadows(),
+            early_ray_termination: if sampling.early_termination() {
+                Effect::on(format!(
+                    "stop rays once opacity reaches {}",
+                    sampling.early_termination_alpha
+                ))
+            } else {
+                Effect::off("disabled in the settings")
+            },
+            empty_space_skipping: Effects::skipping(settings, "skip macro-cells whose value range is invisible"),
+        }
+    }
+
+    /// Transparent cells (zero opacity over the cell's range) are skipped.
+    fn classify_cell(&self, lo: f64, hi: f64, _kind: FieldKind) -> CellClass {
+        if self.classifier.max_alpha(lo, hi) == 0.0 {
+            CellClass::Outside
+        } else {
+            CellClass::Active
+        }
+    }
+
+    fn integrate<F: Field + ?Sized>(
+        &self,
+        m: &March<'_, F>,
+        ray: &Ray,
+        interval: (f64, f64),
+        stats: &mut RenderStats,
+    ) -> (Vec3, f32) {
+        match &self.classifier {
+            Classifier::Transfer(tf) => composite(m, tf, self.colour_from_field, ray, interval, stats),
+        }
+    }
+}
+
+/// Front-to-back compositing (survey eq. 13): `c += C·α'·(1 − a)`, `a += α'·(1 − a)`
+/// at `t0 + (i + ½)·Δs`, stopping once `a ≥ early_termination_alpha`. Returns
+/// premultiplied colour and alpha. Generic over the classifier, which it never
+/// inspects beyond [`Classify`].
+fn composite<F: Field + ?Sized, C: Classify>(
+    m: &March<'_, F>,
+    classifier: &C,
+    colour_from_field: bool,
+    ray: &Ray,
+    (t0, t1): (f64, f64),
+    stats: &mut RenderStats,
+) -> (Vec3, f32) {
+    let n = midpoint_lattice_len(t0, t1, m.step);
+    let mut c = Vec3::ZERO;
+    let mut a = 0.0f32;
+    let mut previous_value = f64::NAN;
+    let mut i = 0u64;
+    while i < n {
+        let t = t0 + (i as f64 + 0.5) * m.step;
+        if let Some((_, t_exit)) = m.grid.as_ref().and_then(|g| g.skip_at(ray, t)) {
+            // Transparent cell: every sample in it has α = 0 and would be skipped.
+            stats.cells_skipped += 1;
+            i = index_after(t_exit, t0, m.step, 0.5, i, n);
+            previous_value = f64::NAN;
+            continue;
+        }
+        i += 1;
+        stats.samples += 1;
+        let p = ray.at(t);
+        let v = m.field.value(p);
+        let sample = ClassifySample {
+            value: v,
+            previous_value,
+            world_pos: p,
+        };
+        previous_value = v;
+        if v.is_nan() {
+            continue;
+        }
+        let rgba = classifier.classify(&sample);
+        if rgba.w.is_nan() || rgba.w <= 0.0 {
+            continue;
+        }
+        let alpha = m.correct_alpha(rgba.w);
+        let co = if colour_from_field {
+            field_colour(m.field, p)
+        } else {
+            rgba.truncate()
+        };
+        let rgb = m.shade_at(co, p, ray, stats);
+        let w = (1.0 - a) * alpha;
+        c += rgb * w;
+        a += w;
+        if a >= m.early_termination_alpha {
+            stats.rays_terminated_early += 1;
+            break;
+        }
+    }
+    (c, a)
+}

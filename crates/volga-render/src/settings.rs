@@ -1,0 +1,246 @@
+//! Render settings, grouped by what they control, and their one validation.
+
+use glam::{DVec3, Vec3, Vec4};
+use volga_core::Aabb;
+
+use crate::error::bad_setting;
+use crate::march::MAX_STEPS_PER_RAY;
+use crate::{Light, Material, RenderError};
+
+/// Largest image rendered (pixels), so a typo cannot ask for terabytes.
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// Largest number of lattice samples one ray may take (2²⁴).
+pub const MAX_SAMPLES_PER_RAY: u64 = 1 << 24;
+
+/// The picture: its size, what lies behind the content, and how it is tiled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Straight RGBA composited behind everything; default (0.05, 0.05, 0.08, 1).
+    pub background: Vec4,
+    /// Edge of the square pixel tiles rendered in parallel; default 16. Never
+    /// changes the image.
+    pub tile_size: u32,
+}
+
+impl Default for ImageSettings {
+    fn default() -> Self {
+        ImageSettings {
+            width: 512,
+            height: 512,
+            background: Vec4::new(0.05, 0.05, 0.08, 1.0),
+            tile_size: 16,
+        }
+    }
+}
+
+/// How rays are sampled and when they may stop or skip.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sampling {
+    /// Ray step as a fraction of [`Field::sample_spacing`](volga_core::Field::sample_spacing);
+    /// default 0.5.
+    pub step_voxels: f64,
+    /// Step (in sample spacings) the transfer function's opacities are defined
+    /// for; default 1.0. Opacities are corrected to `α' = 1 − (1 − α)^(step/reference)`.
+    pub reference_step_voxels: f64,
+    /// Volume rays stop once accumulated alpha reaches this; default 0.99 (values
+    /// above 1 disable early ray termination).
+    pub early_termination_alpha: f32,
+    /// Skip macro cells that cannot contribute (never changes the image); default on.
+    pub empty_space_skipping: bool,
+}
+
+impl Default for Sampling {
+    fn default() -> Self {
+        Sampling {
+            step_voxels: 0.5,
+            reference_step_voxels: 1.0,
+            early_termination_alpha: 0.99,
+            empty_space_skipping: true,
+        }
+    }
+}
+
+impl Sampling {
+    /// Whether early ray termination can stop a ray (`early_termination_alpha ≤ 1`).
+    pub fn early_termination(&self) -> bool {
+        self.early_termination_alpha <= 1.0
+    }
+
+    /// The ray step in world units for a field with `bounds` and `sample_spacing`
+    /// (what [`Field::bounds`](volga_core::Field::bounds) and
+    /// [`Field::sample_spacing`](volga_core::Field::sample_spacing) return), after
+    /// checking that a ray crossing the bounds needs at most
+    /// [`MAX_SAMPLES_PER_RAY`] samples.
+    ///
+    /// This is the check [`render`](crate::render) runs; a scene can run it at
+    /// validation time with the bounds and spacing of the field it will render
+    /// (for a sampled grid: [`Grid::sampled_bounds`](volga_core::Grid::sampled_bounds)
+    /// and the smallest voxel spacing).
+    ///
+    /// Errors: bounds not finite or empty, spacing not finite and positive, a step
+    /// that is not finite and positive, or too many samples (named
+    /// `sampling.step_voxels`).
+    pub fn world_step(&self, bounds: &Aabb, sample_spacing: f64) -> Result<f64, RenderError> {
+        if !(bounds.min.is_finite() && bounds.max.is_finite()) || bounds.is_empty() {
+            return Err(RenderError::BadFieldBounds {
+                min: bounds.min.to_array(),
+                max: bounds.max.to_array(),
+            });
+        }
+        if !(sample_spacing.is_finite() && sample_spacing > 0.0) {
+            return Err(RenderError::BadSampleSpacing(sample_spacing));
+        }
+        let step = self.step_voxels * sample_spacing;
+        let diagonal = bounds.size().length();
+        let steps = diagonal / step;
+        if !(step.is_finite() && step > 0.0 && steps.is_finite() && steps <= MAX_STEPS_PER_RAY) {
+            return Err(bad_setting(
+                "sampling.step_voxels",
+                format!(
+                    "step of {step} world units needs more than {MAX_STEPS_PER_RAY} samples to cross the field bounds (diagonal {diagonal})"
+                ),
+            ));
+        }
+        Ok(step)
+    }
+}
+
+/// Blinn-Phong lighting (survey eq. 9).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lighting {
+    /// Directional lights; empty means unlit, and then no gradient is evaluated.
+    /// Default: one white light from direction (1, 1, 1).
+    pub lights: Vec<Light>,
+    /// Ambient colour `C_a` of survey eq. 9; default white.
+    pub ambient_colour: Vec3,
+    pub material: Material,
+}
+
+impl Default for Lighting {
+    fn default() -> Self {
+        Lighting {
+            lights: vec![Light {
+                direction: DVec3::ONE,
+                colour: Vec3::ONE,
+            }],
+            ambient_colour: Vec3::ONE,
+            material: Material::default(),
+        }
+    }
+}
+
+impl Lighting {
+    /// No lights: surfaces and samples keep their colour, no gradient is evaluated.
+    pub fn unlit() -> Self {
+        Lighting {
+            lights: Vec::new(),
+            ..Lighting::default()
+        }
+    }
+
+    /// Whether any light shines (and so whether shading modes need gradients).
+    pub fn is_lit(&self) -> bool {
+        !self.lights.is_empty()
+    }
+}
+
+/// Everything [`render`](crate::render) needs besides the field, camera and mode,
+/// in three groups. Checked by [`RenderSettings::validate`], the one place render
+/// settings are validated.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderSettings {
+    pub image: ImageSettings,
+    pub sampling: Sampling,
+    pub lighting: Lighting,
+}
+
+impl RenderSettings {
+    /// The defaults with an image of `width × height` pixels.
+    pub fn new(width: u32, height: u32) -> Self {
+        RenderSettings {
+            image: ImageSettings {
+                width,
+                height,
+                ..ImageSettings::default()
+            },
+            ..RenderSettings::default()
+        }
+    }
+
+    /// Checks every setting; the error names the field by its path, e.g.
+    /// `sampling.step_voxels` or `lighting.lights[1].direction`.
+    ///
+    /// Field-dependent checks (bounds, spacing, samples per ray) are
+    /// [`Sampling::world_step`]'s.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        let im = &self.image;
+        for (name, v) in [("image.width", im.width), ("image.height", im.height)] {
+            if v == 0 {
+                return Err(bad_setting(name, format!("must be ≥ 1, got {}×{}", im.width, im.height)));
+            }
+        }
+        if im.width as u64 * im.height as u64 > MAX_PIXELS {
+            return Err(bad_setting(
+                "image.width/height",
+                format!("{}×{} exceeds {MAX_PIXELS} pixels", im.width, im.height),
+            ));
+        }
+        if !im.background.to_array().iter().all(|c| (0.0..=1.0).contains(c)) {
+            return Err(bad_setting(
+                "image.background",
+                format!("must be in [0, 1], got {}", im.background),
+            ));
+        }
+        if im.tile_size == 0 {
+            return Err(bad_setting("image.tile_size", "must be ≥ 1"));
+        }
+        let s = &self.sampling;
+        if !(s.step_voxels.is_finite() && s.step_voxels > 0.0) {
+            return Err(bad_setting(
+                "sampling.step_voxels",
+                format!("must be finite and > 0, got {}", s.step_voxels),
+            ));
+        }
+        if !(s.reference_step_voxels.is_finite() && s.reference_step_voxels > 0.0) {
+            return Err(bad_setting(
+                "sampling.reference_step_voxels",
+                format!("must be finite and > 0, got {}", s.reference_step_voxels),
+            ));
+        }
+        if s.early_termination_alpha.is_nan() {
+            return Err(bad_setting("sampling.early_termination_alpha", "must not be NaN"));
+        }
+        let l = &self.lighting;
+        for (i, light) in l.lights.iter().enumerate() {
+            if !light.direction.is_finite() || light.direction == DVec3::ZERO {
+                return Err(bad_setting(
+                    format!("lighting.lights[{i}].direction"),
+                    format!("must be finite and non-zero, got {}", light.direction),
+                ));
+            }
+            check_finite_nonneg(format!("lighting.lights[{i}].colour"), &light.colour.to_array())?;
+        }
+        check_finite_nonneg("lighting.ambient_colour", &l.ambient_colour.to_array())?;
+        let m = &l.material;
+        for (name, v) in [
+            ("ambient", m.ambient),
+            ("diffuse", m.diffuse),
+            ("specular", m.specular),
+            ("shininess", m.shininess),
+        ] {
+            check_finite_nonneg(format!("lighting.material.{name}"), &[v])?;
+        }
+        Ok(())
+    }
+}
+
+pub(crate) fn check_finite_nonneg(name: impl Into<String>, v: &[f32]) -> Result<(), RenderError> {
+    if v.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        Ok(())
+    } else {
+        Err(bad_setting(name, format!("must be finite and ≥ 0, got {v:?}")))
+    }
+}
