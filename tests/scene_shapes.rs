@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use volga::scene::nodes::Node;
 use volga::scene::{build, load_scene, BuildOptions, SceneError};
 
 const SHAPES: &str = include_str!("../scenes/shapes.ron");
@@ -20,6 +21,14 @@ fn scene_in(dir: &Path, text: &str) -> std::path::PathBuf {
     p
 }
 
+fn kinds(scene: &volga::scene::Scene) -> Vec<&'static str> {
+    scene.root.children().iter().map(|c| c.kind()).collect()
+}
+
+fn solids(scene: &volga::scene::Scene) -> Vec<volga::voxelize::Solid> {
+    scene.root.children().iter().filter_map(|c| c.as_solid()).collect()
+}
+
 #[test]
 fn shapes_scene_builds_every_object_kind() {
     let dir = tempfile::tempdir().unwrap();
@@ -28,8 +37,10 @@ fn shapes_scene_builds_every_object_kind() {
         .replace("width: 640, height: 480", "width: 64, height: 48");
     let path = scene_in(dir.path(), &text);
     let scene = load_scene(&path).unwrap();
-    assert_eq!(scene.solids.len(), 8);
-    assert_eq!(scene.meshes.len(), 1);
+    assert_eq!(
+        kinds(&scene),
+        ["shape"; 8].into_iter().chain(["mesh"]).collect::<Vec<_>>()
+    );
     let report = build(
         &path,
         &BuildOptions {
@@ -41,7 +52,7 @@ fn shapes_scene_builds_every_object_kind() {
     .unwrap();
     // Every object contributes voxels: more than the analytic solids alone.
     let solids_only =
-        volga::voxelize::voxelize_solids(&scene.grid, &scene.solids, false, &volga::NoProgress).active_voxel_count();
+        volga::voxelize::voxelize_solids(&scene.grid, &solids(&scene), false, &volga::NoProgress).active_voxel_count();
     assert!(
         report.voxels.active > solids_only + 1000,
         "{} vs {solids_only}",
@@ -104,8 +115,11 @@ fn inline_triangles_are_a_solid_and_bad_indices_name_the_field() {
     );
     let dir = tempfile::tempdir().unwrap();
     let scene = load_scene(&scene_in(dir.path(), &text)).unwrap();
-    assert_eq!(scene.meshes.len(), 2);
-    assert!(scene.meshes[0].mesh.is_closed());
+    assert_eq!(kinds(&scene).iter().filter(|k| **k == "mesh").count(), 2);
+    // Inline triangles need no resolving: their bounds are the tetrahedron's.
+    let tetra = scene.root.children().iter().find(|c| c.name() == "tetra").unwrap();
+    assert_eq!(tetra.kind(), "mesh");
+    assert_eq!(tetra.bounds(), volga::Aabb::new(glam::DVec3::ZERO, glam::DVec3::ONE));
     expect_field(&text.replace("(1, 2, 3)]", "(1, 2, 9)]"), "objects[0].shape.triangles");
     expect_field(
         &text.replace("(0.0, 0.0, 1.0)]", "(0.0, 0.0, NaN)]"),

@@ -493,11 +493,14 @@ fn unlit_renders_never_evaluate_gradients() {
 fn early_termination_saves_samples_without_visible_change() {
     let field = sampled();
     let cam = ortho_camera(DVec3::new(0.1, 0.2, -1.0), 30.0);
-    let opaque = Mode::Volume(Volume::new(TransferFunction::new(vec![
+    let opaque = Mode::Volume(Volume::new(
+        TransferFunction::new(vec![
             (0.2, Vec4::new(0.0, 0.0, 0.0, 0.0)),
             (0.6, Vec4::new(1.0, 0.5, 0.2, 1.0)),
         ])
-        .unwrap(), false));
+        .unwrap(),
+        false,
+    ));
     let mut s = settings(32, 32);
     let (on, st_on) = go(&field, &cam, &opaque, &s);
     s.sampling.early_termination_alpha = 1.01;
@@ -587,7 +590,10 @@ fn opacity_correction_makes_alpha_independent_of_step() {
         Projection::Orthographic { height_world: 4.0 },
     )
     .unwrap();
-    let mode = Mode::Volume(Volume::new(TransferFunction::new(vec![(0.5, Vec4::new(1.0, 1.0, 1.0, 0.1))]).unwrap(), false));
+    let mode = Mode::Volume(Volume::new(
+        TransferFunction::new(vec![(0.5, Vec4::new(1.0, 1.0, 1.0, 0.1))]).unwrap(),
+        false,
+    ));
     let alpha = |step: f64, reference: f64| {
         let s = RenderSettings {
             image: ImageSettings {
@@ -760,8 +766,12 @@ fn invalid_settings_and_fields_are_errors() {
         with("image.width", &|s| s.image.width = 0),
         with("sampling.step_voxels", &|s| s.sampling.step_voxels = 0.0),
         with("sampling.step_voxels", &|s| s.sampling.step_voxels = 1e-12),
-        with("sampling.reference_step_voxels", &|s| s.sampling.reference_step_voxels = f64::NAN),
-        with("sampling.early_termination_alpha", &|s| s.sampling.early_termination_alpha = f32::NAN),
+        with("sampling.reference_step_voxels", &|s| {
+            s.sampling.reference_step_voxels = f64::NAN
+        }),
+        with("sampling.early_termination_alpha", &|s| {
+            s.sampling.early_termination_alpha = f32::NAN
+        }),
         with("image.background", &|s| s.image.background = Vec4::splat(2.0)),
         with("image.tile_size", &|s| s.image.tile_size = 0),
         with("lighting.lights[1].direction", &|s| {
@@ -770,9 +780,13 @@ fn invalid_settings_and_fields_are_errors() {
                 colour: Vec3::ONE,
             })
         }),
-        with("lighting.lights[0].colour", &|s| s.lighting.lights[0].colour = Vec3::splat(f32::NAN)),
+        with("lighting.lights[0].colour", &|s| {
+            s.lighting.lights[0].colour = Vec3::splat(f32::NAN)
+        }),
         with("lighting.ambient_colour", &|s| s.lighting.ambient_colour = -Vec3::ONE),
-        with("lighting.material.shininess", &|s| s.lighting.material.shininess = f32::INFINITY),
+        with("lighting.material.shininess", &|s| {
+            s.lighting.material.shininess = f32::INFINITY
+        }),
     ];
     for (name, s) in cases {
         let e = render(&field, &cam, &Mode::Mip(Mip), &s, &NoProgress).unwrap_err();
@@ -785,8 +799,20 @@ fn invalid_settings_and_fields_are_errors() {
     }
     // Mode parameters are named `mode.<parameter>`.
     for (name, bad) in [
-        ("mode.value", Iso { value: f64::INFINITY, colour: SurfaceColour::FromField }),
-        ("mode.colour", Iso { value: 0.5, colour: SurfaceColour::Constant(Vec3::new(0.0, -1.0, 0.0)) }),
+        (
+            "mode.value",
+            Iso {
+                value: f64::INFINITY,
+                colour: SurfaceColour::FromField,
+            },
+        ),
+        (
+            "mode.colour",
+            Iso {
+                value: 0.5,
+                colour: SurfaceColour::Constant(Vec3::new(0.0, -1.0, 0.0)),
+            },
+        ),
     ] {
         let e = render(&field, &cam, &Mode::Iso(bad), &ok, &NoProgress).unwrap_err();
         assert!(e.to_string().contains(&format!("`{name}`")), "{name}: {e}");

@@ -3,15 +3,15 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use crate::nodes::Node;
 use serde::Serialize;
 use volga_core::{Progress, Sampled, SparseVolume};
 use volga_io::StagedOutputs;
-use volga_render::{render, RenderStats};
-use volga_voxelize::{merge_max, voxelize_solids, MeshVoxelizer, SurfaceMode};
+use volga_render::{render, RenderError, RenderStats};
 
 use crate::plan::{plan, Plan};
 use crate::stages::{StageReport, Stages};
-use crate::{load, BuildError, Scene, SceneError};
+use crate::{load, BuildError, RenderSource, Scene, SceneError};
 
 /// What `volga build` did, written to `{out}/report.json`.
 #[derive(Debug, Clone, Serialize)]
@@ -37,7 +37,7 @@ pub struct GridReport {
     pub voxels: u64,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct VoxelReport {
     /// Voxels with non-zero density.
     pub active: u64,
@@ -61,10 +61,17 @@ pub struct ImageReport {
     pub cells_skipped: u64,
 }
 
-/// Parses and validates a scene file.
-pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+/// Parses and validates a scene file (no I/O but reading it).
+pub fn validate_scene(path: &Path) -> Result<Scene, SceneError> {
     let file = load::parse_file(path)?;
     crate::validate::validate(path, &file)
+}
+
+/// Parses, validates and resolves a scene file (loads the meshes it names).
+pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    let mut scene = validate_scene(path)?;
+    scene.resolve()?;
+    Ok(scene)
 }
 
 /// Options of a build.
@@ -81,19 +88,18 @@ pub struct BuildOptions {
 pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Result<Report, BuildError> {
     let start = Instant::now();
     let mut stages = Stages::default();
-    let scene = stages.run("load", || load_scene(path))?;
+    let mut scene = stages.run("load", || validate_scene(path))?;
+    stages.run("resolve", || scene.resolve())?;
     let plan = stages.run("plan", || plan(&scene, options.memory_limit))?;
 
-    let mut volume = stages.run("voxelize", || {
-        let mut volume = voxelize_solids(&scene.grid, &scene.solids, plan.colour_channel, progress);
-        // Meshes join the fuzzy union after the analytic solids, in scene order.
-        for m in &scene.meshes {
-            let solid = MeshVoxelizer::new(&m.mesh).voxelize(&scene.grid, SurfaceMode::Solid, progress);
-            merge_max(&mut volume, &solid, m.colour);
-        }
-        volume
-    });
-    let voxels = voxel_report(&volume);
+    // Only when an image renders the baked volume or a volume output writes it.
+    let mut volume = match plan.voxelize.enabled {
+        true => Some(stages.run("voxelize", || {
+            scene.root.bake(&scene.grid, plan.colour_channel, progress)
+        })?),
+        false => None,
+    };
+    let voxels = volume.as_ref().map(voxel_report).unwrap_or_default();
 
     std::fs::create_dir_all(&options.out_dir).map_err(|source| volga_io::IoError::Io {
         path: options.out_dir.clone(),
@@ -103,9 +109,21 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
     let mut images = Vec::new();
     for job in &scene.images {
         let (image, stats) = stages
-            .run(format!("render:{}", job.name), || {
-                let field = Sampled::new(&volume, job.filter);
-                render(&field, &job.camera, &job.mode, &job.settings, progress)
+            .run(format!("render:{}", job.name), || match (job.source, &volume) {
+                (RenderSource::Baked, Some(volume)) => {
+                    let field = Sampled::new(volume, job.filter);
+                    render(&field, &job.camera, &job.mode, &job.settings, progress)
+                }
+                _ => {
+                    let field = scene
+                        .root
+                        .lazy_field(&scene.grid)
+                        .map_err(|e| RenderError::BadSetting {
+                            name: "source".into(),
+                            reason: e.to_string(),
+                        })?;
+                    render(field.as_ref(), &job.camera, &job.mode, &job.settings, progress)
+                }
             })
             .map_err(|e| BuildError::Render {
                 image: job.name.clone(),
@@ -119,19 +137,21 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
         images.push(image_report(&job.name, file, &image, stats));
     }
 
-    let outputs = stages.run("write", || -> Result<Vec<PathBuf>, BuildError> {
+    stages.run("write", || -> Result<(), BuildError> {
         for v in &scene.volumes {
+            let Some(volume) = volume.as_mut() else { break };
             // Only the channels the output asks for: hide colour from the writer when
             // it was allocated for images but not requested here.
             let colour = if v.colour { None } else { volume.colour.take() };
-            let r = volga_io::write_nrrd(&options.out_dir, &v.name, &volume, &mut staged);
+            let r = volga_io::write_nrrd(&options.out_dir, &v.name, volume, &mut staged);
             if colour.is_some() {
                 volume.colour = colour;
             }
             r?;
         }
-        Ok(staged.commit()?)
+        Ok(())
     })?;
+    let outputs = staged.staged_paths();
 
     let report_path = options.out_dir.join("report.json");
     let mut report = Report {
@@ -155,7 +175,10 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
     report.stages = stages.list;
     report.total_wall_s = start.elapsed().as_secs_f64();
     let json = serde_json::to_vec_pretty(&report).expect("report serializes");
-    volga_io::write_atomic(&report_path, |w| w.write_all(&json))?;
+    // The report is staged with the other outputs: nothing is replaced unless every
+    // file, the report included, could be written.
+    staged.stage(&report_path, |w| w.write_all(&json))?;
+    staged.commit()?;
     Ok(report)
 }
 

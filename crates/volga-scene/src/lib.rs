@@ -17,16 +17,18 @@
 //! kernel crates only ever see validated values.
 
 mod build;
+mod ctx;
 mod error;
 mod load;
 pub mod model;
+pub mod nodes;
 pub mod plan;
 mod stages;
 mod validate;
 
-pub use build::{build, load_scene, BuildOptions, GridReport, ImageReport, Report, VoxelReport};
+pub use build::{build, load_scene, validate_scene, BuildOptions, GridReport, ImageReport, Report, VoxelReport};
 pub use error::{BuildError, SceneError};
 pub use load::{parse_file, parse_json, parse_ron};
 pub use plan::{Decision, MemoryEstimate, Plan};
 pub use stages::{peak_rss_bytes, StageReport, Stages};
-pub use validate::{content_bounds, validate, ImageJob, Scene};
+pub use validate::{content_bounds, validate, ImageJob, RenderSource, Scene};

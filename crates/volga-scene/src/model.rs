@@ -11,7 +11,13 @@ pub type V3 = [f64; 3];
 #[serde(deny_unknown_fields, rename = "Scene")]
 pub struct SceneFile {
     pub grid: GridSpec,
-    pub objects: Vec<ObjectSpec>,
+    /// The objects, merged with the fuzzy union (max) in this order. Either this or
+    /// `root`.
+    #[serde(default)]
+    pub objects: Option<Vec<ObjectSpec>>,
+    /// The scene as a tree of nodes (operators over objects). Either this or `objects`.
+    #[serde(default)]
+    pub root: Option<NodeSpec>,
     #[serde(default)]
     pub transfer_function: Option<Vec<TransferPoint>>,
     #[serde(default)]
@@ -49,7 +55,24 @@ pub enum VoxelSize {
     PerAxis(V3),
 }
 
-/// A solid of the scene. All objects are merged with the fuzzy union (max).
+/// A node of the scene tree: an operator over nodes, or an object (a leaf).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum NodeSpec {
+    /// Fuzzy union (max, survey eq. 17) of the operands, in order; colour from the
+    /// operand that is strictly densest (the first on ties).
+    Union(Vec<NodeSpec>),
+    /// A leaf: one object (RON: `Object(name: "ball", shape: Sphere(...), colour: ...)`),
+    /// the fields of [`ObjectSpec`].
+    Object {
+        #[serde(default)]
+        name: Option<String>,
+        shape: ShapeSpec,
+        #[serde(default)]
+        colour: Option<V3>,
+    },
+}
+
+/// A solid of the scene: a leaf whose shape decides its node kind.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectSpec {
@@ -115,6 +138,14 @@ pub enum ShapeSpec {
         a: V3,
         b: V3,
         radius: f64,
+    },
+    /// A ring torus: the solid within `minor_radius` of the circle of `major_radius`
+    /// around `axis` through `center` (`0 < minor_radius < major_radius`).
+    Torus {
+        center: V3,
+        axis: V3,
+        major_radius: f64,
+        minor_radius: f64,
     },
     /// A triangle mesh given inline: corner positions and index triples (0-based), as a
     /// solid like `Mesh`.
@@ -220,6 +251,16 @@ pub struct ImageSpec {
     pub empty_space_skipping: Option<bool>,
     #[serde(default)]
     pub background: Option<[f64; 4]>,
+    /// What rays sample: the voxelized volume (`Baked`, default) or the node tree
+    /// itself (`Lazy`, no voxels; `filter` does not apply).
+    #[serde(default)]
+    pub source: Option<SourceSpec>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SourceSpec {
+    Baked,
+    Lazy,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -5,9 +5,9 @@
 use serde::Serialize;
 use volga_core::memory::{self, Bytes};
 use volga_core::BRICK_VOXELS;
-use volga_voxelize::estimate_solid_bricks;
 
-use crate::{Scene, SceneError};
+use crate::nodes::Node;
+use crate::{RenderSource, Scene, SceneError};
 
 /// One decision of the plan with the reason for it, as shown in `report.json`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -42,6 +42,8 @@ pub struct MemoryEstimate {
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Plan {
+    /// Whether the node tree is voxelized at all.
+    pub voxelize: Decision,
     pub channels: Vec<Decision>,
     pub effects: Vec<Decision>,
     pub memory: MemoryEstimate,
@@ -86,7 +88,30 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
         }
     }
 
-    let memory = estimate(scene, colour_channel);
+    let bake = scene.needs_baked_volume();
+    let lazy: Vec<&str> = scene
+        .images
+        .iter()
+        .filter(|i| i.source == RenderSource::Lazy)
+        .map(|i| i.name.as_str())
+        .collect();
+    let voxelize = if bake {
+        Decision::new(
+            "voxelize",
+            true,
+            "an image renders the baked volume, or a volume output writes it",
+        )
+    } else {
+        Decision::new(
+            "voxelize",
+            false,
+            format!(
+                "no volume output, and every image samples the nodes lazily ({})",
+                lazy.join(", ")
+            ),
+        )
+    };
+    let memory = estimate(scene, colour_channel, bake);
     let limit = memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX);
     if memory.total_bytes > limit {
         let d = scene.grid.dims();
@@ -105,6 +130,7 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
         });
     }
     Ok(Plan {
+        voxelize,
         channels,
         effects,
         memory,
@@ -113,26 +139,20 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
     })
 }
 
-fn estimate(scene: &Scene, colour: bool) -> MemoryEstimate {
-    let filter_band = scene.grid.transform.spacing().length();
-    let mesh_bricks: u64 = scene
-        .meshes
-        .iter()
-        .map(|m| {
-            let (band, all) = volga_voxelize::MeshVoxelizer::estimate_bricks(&m.mesh, &scene.grid, filter_band);
-            // Each mesh is voxelized into its own volume (band plus uniform inside) and
-            // merged; the BVH, per-triangle data and feature regions cost ~2.4 KB a
-            // triangle, about 1.2 bricks' worth.
-            band + all / 40 + m.mesh.triangles.len() as u64 * 6 / 5
-        })
-        .fold(0, u64::saturating_add);
-    let bricks = estimate_solid_bricks(&scene.grid, &scene.solids).saturating_add(mesh_bricks);
+fn estimate(scene: &Scene, colour: bool, bake: bool) -> MemoryEstimate {
+    let nodes = scene.root.estimate(&scene.grid);
+    // Baking holds every node's bricks; lazy images hold only the nodes' own data
+    // (meshes' BVHs), which baking needs too.
+    let bricks = if bake { nodes.bricks } else { 0 };
     let per_brick = BRICK_VOXELS as u64 * (4 + if colour { 12 } else { 0 }) + BRICK_OVERHEAD_BYTES + 12; // the voxelizer's list of candidate brick coordinates
-    let volume_bytes = bricks.saturating_mul(per_brick);
+    let volume_bytes = bricks.saturating_mul(per_brick).saturating_add(nodes.extra_bytes);
     let image_bytes = scene
         .images
         .iter()
-        .map(|i| i.settings.image.width as u64 * i.settings.image.height as u64 * (16 + 4 + 4))
+        // Per pixel: the tiles' float pixels and the assembled image (16 + 16 bytes,
+        // both alive while tiles are copied), the 8-bit copy (4) and the PNG
+        // encoder's filtered rows and output (≤ 4).
+        .map(|i| i.settings.image.width as u64 * i.settings.image.height as u64 * (16 + 16 + 4 + 4))
         .max()
         .unwrap_or(0);
     let d = scene.grid.dims().as_u64vec3();

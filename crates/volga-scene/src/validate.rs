@@ -4,38 +4,59 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use glam::{DQuat, DVec3, EulerRot, UVec3, Vec3, Vec4};
+use glam::{DVec3, UVec3, Vec3, Vec4};
 use volga_core::{Aabb, Filter, Grid, Transform};
 use volga_render::{
-    Camera, ImageSettings, Iso, Light, Lighting, Material, Mip, Mode, Projection, RenderError, RenderSettings, Sampling,
-    SurfaceColour, TransferFunction, Volume, XRay,
+    Camera, ImageSettings, Iso, Light, Lighting, Material, Mip, Mode, Projection, RenderError, RenderSettings,
+    Sampling, SurfaceColour, TransferFunction, Volume, XRay,
 };
-use volga_shapes::{AxisBox, Capsule, Cone, Cylinder, Ellipsoid, OrientedBox, Quadric, Sphere};
-use volga_voxelize::{Shape, Solid};
 
+use crate::ctx::Ctx;
 use crate::model::*;
+use crate::nodes::union::Union;
+use crate::nodes::{Node, Resolve};
 use crate::SceneError;
 
 /// A scene whose every value has been checked: what the planner and builder run.
-#[derive(Debug, Clone)]
+///
+/// Validation does no I/O: nodes that name files (meshes) load them in the resolve
+/// stage ([`Scene::resolve`]).
+#[derive(Debug)]
 pub struct Scene {
     pub source: PathBuf,
     pub grid: Grid,
-    /// Analytic solids (shapes and quadrics).
-    pub solids: Vec<Solid>,
-    /// Mesh solids, merged after the analytic ones.
-    pub meshes: Vec<MeshObject>,
-    pub object_names: Vec<String>,
+    /// The node tree; its root is a union (the implicit union of `objects`, or `root`).
+    pub root: Union,
     pub images: Vec<ImageJob>,
     pub volumes: Vec<VolumeOutputSpec>,
 }
 
-/// A mesh object of the scene, loaded and placed in world space.
-#[derive(Debug, Clone)]
-pub struct MeshObject {
-    pub name: String,
-    pub mesh: volga_mesh::TriMesh,
-    pub colour: volga_core::Rgb,
+impl Scene {
+    /// The resolve stage: loads every file the nodes name (paths relative to the scene
+    /// file's folder).
+    pub fn resolve(&mut self) -> Result<(), SceneError> {
+        let dir = self.source.parent().unwrap_or(Path::new(".")).to_owned();
+        let cx = Resolve {
+            scene: &self.source,
+            dir: &dir,
+        };
+        self.root.resolve(&cx)
+    }
+
+    /// Whether the volume is voxelized: some image renders it, or a volume output
+    /// writes it.
+    pub fn needs_baked_volume(&self) -> bool {
+        !self.volumes.is_empty() || self.images.iter().any(|i| i.source == RenderSource::Baked)
+    }
+}
+
+/// What an image samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RenderSource {
+    /// The voxelized volume, reconstructed with the image's filter.
+    Baked,
+    /// The node tree evaluated where rays sample it, without voxels.
+    Lazy,
 }
 
 /// One image output: a camera, a mode and the render settings for it.
@@ -47,64 +68,9 @@ pub struct ImageJob {
     pub mode: Mode,
     pub settings: RenderSettings,
     pub filter: Filter,
+    pub source: RenderSource,
     /// The image reads the volume's colour channel.
     pub reads_colour: bool,
-}
-
-struct Ctx<'a> {
-    path: &'a Path,
-}
-
-impl Ctx<'_> {
-    fn err(&self, field: impl Into<String>, message: impl Into<String>) -> SceneError {
-        SceneError::Invalid {
-            path: self.path.to_owned(),
-            field: field.into(),
-            message: message.into(),
-        }
-    }
-
-    fn finite3(&self, field: &str, v: V3) -> Result<DVec3, SceneError> {
-        let d = DVec3::from_array(v);
-        if d.is_finite() {
-            Ok(d)
-        } else {
-            Err(self.err(field, format!("must be finite, got {v:?}")))
-        }
-    }
-
-    fn positive(&self, field: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(self.err(field, format!("must be finite and > 0, got {v}")))
-        }
-    }
-
-    fn unit_interval(&self, field: &str, v: &[f64]) -> Result<(), SceneError> {
-        if v.iter().all(|x| (0.0..=1.0).contains(x)) {
-            Ok(())
-        } else {
-            Err(self.err(field, format!("components must lie in [0, 1], got {v:?}")))
-        }
-    }
-
-    fn file_stem(&self, field: &str, name: &str) -> Result<(), SceneError> {
-        let ok = !name.is_empty()
-            && name.len() <= 100
-            && !name.starts_with('.')
-            && name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
-        if ok {
-            Ok(())
-        } else {
-            Err(self.err(
-                field,
-                format!("`{name}` is not a valid file name (letters, digits, `_`, `-`, `.`; not starting with `.`)"),
-            ))
-        }
-    }
 }
 
 /// Largest voxel count per axis a scene may ask for (the grid type's own limit).
@@ -114,66 +80,22 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
     let cx = Ctx { path };
     let grid = validate_grid(&cx, &file.grid)?;
 
-    if file.objects.is_empty() {
-        return Err(cx.err("objects", "the scene has no objects"));
-    }
-    let mut solids = Vec::new();
-    let mut meshes = Vec::new();
-    let mut object_names = Vec::new();
-    for (i, o) in file.objects.iter().enumerate() {
-        let f = format!("objects[{i}]");
-        let colour = match o.colour {
-            Some(c) => {
-                cx.unit_interval(&format!("{f}.colour"), &c)?;
-                c.map(|x| x as f32)
-            }
-            None => [1.0; 3],
-        };
-        let name = o.name.clone().unwrap_or_else(|| format!("object{i}"));
-        if let ShapeSpec::Mesh {
-            path: mesh_path,
-            translate,
-            scale,
-        } = &o.shape
-        {
-            let f = format!("{f}.shape");
-            let offset = cx.finite3(&format!("{f}.translate"), *translate)?;
-            let scale = cx.positive(&format!("{f}.scale"), *scale)?;
-            let resolved = path.parent().unwrap_or(Path::new(".")).join(mesh_path);
-            let mesh = volga_mesh::load_mesh(&resolved).map_err(|e| cx.err(format!("{f}.path"), e.to_string()))?;
-            let placed = mesh.transformed(&glam::DAffine3::from_scale_rotation_translation(
-                DVec3::splat(scale),
-                DQuat::IDENTITY,
-                offset,
-            ));
-            meshes.push(MeshObject {
-                name: name.clone(),
-                mesh: placed,
-                colour,
-            });
-        } else if let ShapeSpec::Triangles { vertices, triangles } = &o.shape {
-            let f = format!("{f}.shape");
-            let positions = vertices
-                .iter()
-                .enumerate()
-                .map(|(k, v)| cx.finite3(&format!("{f}.vertices[{k}]"), *v))
-                .collect::<Result<Vec<_>, _>>()?;
-            if triangles.is_empty() {
-                return Err(cx.err(format!("{f}.triangles"), "needs at least one triangle"));
-            }
-            let mesh = volga_mesh::TriMesh::new(positions, triangles.clone())
-                .map_err(|e| cx.err(format!("{f}.triangles"), e.to_string()))?;
-            meshes.push(MeshObject {
-                name: name.clone(),
-                mesh,
-                colour,
-            });
-        } else {
-            let shape = validate_shape(&cx, &format!("{f}.shape"), &o.shape)?;
-            solids.push(Solid::new(shape, colour));
+    let root = match (&file.objects, &file.root) {
+        (Some(_), Some(_)) => {
+            return Err(cx.err(
+                "root",
+                "give either `root` (a node tree) or `objects` (a list merged by union), not both",
+            ))
         }
-        object_names.push(name);
-    }
+        (None, None) => {
+            return Err(cx.err(
+                "objects",
+                "the scene has no objects: give `objects` (a list merged by union) or `root` (a node tree)",
+            ))
+        }
+        (Some(objects), None) => Union::from_objects(&cx, "objects", objects)?,
+        (None, Some(node)) => Union::from_root(&cx, "root", node)?,
+    };
 
     let transfer = validate_transfer(&cx, file.transfer_function.as_deref())?;
     let mut lights = Vec::new();
@@ -244,7 +166,9 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
     let mut images = Vec::new();
     for (i, im) in file.outputs.images.iter().enumerate() {
         let f = format!("outputs.images[{i}]");
-        images.push(validate_image(&cx, &f, im, &grid, &cameras, &transfer, &lights, material)?);
+        images.push(validate_image(
+            &cx, &f, im, &grid, &cameras, &transfer, &lights, material,
+        )?);
         if !stems.insert(im.name.clone()) {
             return Err(cx.err(
                 format!("{f}.name"),
@@ -267,9 +191,7 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
     Ok(Scene {
         source: path.to_owned(),
         grid,
-        solids,
-        meshes,
-        object_names,
+        root,
         images,
         volumes: file.outputs.volumes.clone(),
     })
@@ -317,109 +239,6 @@ fn validate_grid(cx: &Ctx, g: &GridSpec) -> Result<Grid, SceneError> {
     let dims = UVec3::new(dims_f.x as u32, dims_f.y as u32, dims_f.z as u32);
     let transform = Transform::new(min + voxel * 0.5, voxel).map_err(|e| cx.err("grid", e.to_string()))?;
     Grid::new(transform, dims).map_err(|e| cx.err("grid", e.to_string()))
-}
-
-fn nonzero(cx: &Ctx, field: &str, v: V3) -> Result<DVec3, SceneError> {
-    let d = cx.finite3(field, v)?;
-    if d == DVec3::ZERO {
-        return Err(cx.err(field, "must not be the zero vector"));
-    }
-    Ok(d)
-}
-
-fn validate_shape(cx: &Ctx, f: &str, s: &ShapeSpec) -> Result<Shape, SceneError> {
-    Ok(match s {
-        ShapeSpec::Sphere { center, radius } => {
-            let c = cx.finite3(&format!("{f}.center"), *center)?;
-            let r = cx.positive(&format!("{f}.radius"), *radius)?;
-            Shape::Sphere(Sphere::new(c, r).map_err(|e| cx.err(f, e.to_string()))?)
-        }
-        ShapeSpec::Box { min, max } => {
-            let lo = cx.finite3(&format!("{f}.min"), *min)?;
-            let hi = cx.finite3(&format!("{f}.max"), *max)?;
-            Shape::AxisBox(AxisBox::new(lo, hi).map_err(|e| cx.err(f, e.to_string()))?)
-        }
-        ShapeSpec::OrientedBox {
-            center,
-            half_extents,
-            rotation_deg,
-        } => {
-            let c = cx.finite3(&format!("{f}.center"), *center)?;
-            let h = cx.finite3(&format!("{f}.half_extents"), *half_extents)?;
-            for a in 0..3 {
-                cx.positive(&format!("{f}.half_extents[{a}]"), h[a])?;
-            }
-            let r = cx.finite3(&format!("{f}.rotation_deg"), *rotation_deg)?;
-            let q = DQuat::from_euler(EulerRot::XYZ, r.x.to_radians(), r.y.to_radians(), r.z.to_radians());
-            Shape::OrientedBox(OrientedBox::new(c, h, q).map_err(|e| cx.err(f, e.to_string()))?)
-        }
-        ShapeSpec::Ellipsoid {
-            center,
-            radii,
-            rotation_deg,
-        } => {
-            let c = cx.finite3(&format!("{f}.center"), *center)?;
-            let r = cx.finite3(&format!("{f}.radii"), *radii)?;
-            for a in 0..3 {
-                cx.positive(&format!("{f}.radii[{a}]"), r[a])?;
-            }
-            let e = cx.finite3(&format!("{f}.rotation_deg"), *rotation_deg)?;
-            let q = DQuat::from_euler(EulerRot::XYZ, e.x.to_radians(), e.y.to_radians(), e.z.to_radians());
-            Shape::Ellipsoid(Ellipsoid::new(c, r, q).map_err(|e| cx.err(f, e.to_string()))?)
-        }
-        ShapeSpec::Cylinder {
-            center,
-            axis,
-            radius,
-            half_length,
-        } => {
-            let c = cx.finite3(&format!("{f}.center"), *center)?;
-            let a = nonzero(cx, &format!("{f}.axis"), *axis)?;
-            let r = cx.positive(&format!("{f}.radius"), *radius)?;
-            let l = half_length
-                .map(|l| cx.positive(&format!("{f}.half_length"), l))
-                .transpose()?;
-            Shape::Cylinder(Cylinder::new(c, a, r, l).map_err(|e| cx.err(f, e.to_string()))?)
-        }
-        ShapeSpec::Cone {
-            apex,
-            axis,
-            half_angle_deg,
-            height,
-        } => {
-            let p = cx.finite3(&format!("{f}.apex"), *apex)?;
-            let a = nonzero(cx, &format!("{f}.axis"), *axis)?;
-            if !(half_angle_deg.is_finite() && *half_angle_deg > 0.0 && *half_angle_deg < 90.0) {
-                return Err(cx.err(
-                    format!("{f}.half_angle_deg"),
-                    format!("must lie in (0, 90), got {half_angle_deg}"),
-                ));
-            }
-            let h = height.map(|h| cx.positive(&format!("{f}.height"), h)).transpose()?;
-            Shape::Cone(Cone::new(p, a, half_angle_deg.to_radians(), h).map_err(|e| cx.err(f, e.to_string()))?)
-        }
-        ShapeSpec::Quadric { a, b, c, clip } => {
-            let rows: Vec<DVec3> = (0..3)
-                .map(|r| cx.finite3(&format!("{f}.a[{r}]"), a[r]))
-                .collect::<Result<_, _>>()?;
-            let bv = cx.finite3(&format!("{f}.b"), *b)?;
-            if !c.is_finite() {
-                return Err(cx.err(format!("{f}.c"), format!("must be finite, got {c}")));
-            }
-            let lo = cx.finite3(&format!("{f}.clip.min"), clip.min)?;
-            let hi = cx.finite3(&format!("{f}.clip.max"), clip.max)?;
-            let clip_box = AxisBox::new(lo, hi).map_err(|e| cx.err(format!("{f}.clip"), e.to_string()))?;
-            let m = glam::DMat3::from_cols(rows[0], rows[1], rows[2]).transpose();
-            Shape::Quadric(Quadric::new(m, bv, *c, clip_box).map_err(|e| cx.err(f, e.to_string()))?)
-        }
-        ShapeSpec::Capsule { a, b, radius } => {
-            let pa = cx.finite3(&format!("{f}.a"), *a)?;
-            let pb = cx.finite3(&format!("{f}.b"), *b)?;
-            let r = cx.positive(&format!("{f}.radius"), *radius)?;
-            Shape::Capsule(Capsule::new(pa, pb, r).map_err(|e| cx.err(f, e.to_string()))?)
-        }
-        ShapeSpec::Mesh { .. } | ShapeSpec::Triangles { .. } => unreachable!("meshes are loaded by the caller"),
-    })
 }
 
 /// The default transfer function: transparent below density 0.3, ramping to a
@@ -546,7 +365,11 @@ fn validate_image(
             ..defaults.sampling
         },
         lighting: Lighting {
-            lights: if im.shading.unwrap_or(true) { lights.to_vec() } else { Vec::new() },
+            lights: if im.shading.unwrap_or(true) {
+                lights.to_vec()
+            } else {
+                Vec::new()
+            },
             ambient_colour: Vec3::ONE,
             material,
         },
@@ -569,6 +392,16 @@ fn validate_image(
         FilterSpec::Nearest => Filter::Nearest,
         FilterSpec::Trilinear => Filter::Trilinear,
     };
+    let source = match im.source.unwrap_or(SourceSpec::Baked) {
+        SourceSpec::Baked => RenderSource::Baked,
+        SourceSpec::Lazy if im.filter.is_some() => {
+            return Err(cx.err(
+                format!("{f}.filter"),
+                "`filter` reconstructs the baked volume; a `Lazy` image samples the nodes directly (remove one)",
+            ))
+        }
+        SourceSpec::Lazy => RenderSource::Lazy,
+    };
     Ok(ImageJob {
         name: im.name.clone(),
         camera_name: im.camera.clone(),
@@ -576,6 +409,7 @@ fn validate_image(
         mode,
         settings,
         filter,
+        source,
         reads_colour,
     })
 }
@@ -583,11 +417,5 @@ fn validate_image(
 /// World bounds of all objects (for tools that frame a camera); unbounded quadrics
 /// count as the grid's bounds.
 pub fn content_bounds(scene: &Scene) -> Aabb {
-    use volga_voxelize::SignedDistance;
-    let grid = scene.grid.world_bounds();
-    let solids = scene
-        .solids
-        .iter()
-        .fold(Aabb::EMPTY, |b, s| b.union(&s.shape.bounds().intersection(&grid)));
-    scene.meshes.iter().fold(solids, |b, m| b.union(&m.mesh.bounds()))
+    scene.root.bounds().intersection(&scene.grid.world_bounds())
 }
