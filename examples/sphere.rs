@@ -4,7 +4,9 @@
 //! `cargo run --release --example sphere`
 
 use glam::{DVec3, UVec3, Vec3};
-use volga::render::{first_hit, render, Camera, Iso, Light, Lighting, Mode, Projection, Ray, RenderSettings, SurfaceColour};
+use volga::render::{
+    first_hit, render, Camera, Iso, Light, Lighting, Mode, Projection, Ray, RenderSettings, SurfaceColour,
+};
 use volga::voxelize::{shapes::Sphere, voxelize_solids, Shape, Solid};
 use volga::{Filter, Grid, NoProgress, Sampled, Transform};
 

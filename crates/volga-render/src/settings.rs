@@ -179,7 +179,10 @@ impl RenderSettings {
         let im = &self.image;
         for (name, v) in [("image.width", im.width), ("image.height", im.height)] {
             if v == 0 {
-                return Err(bad_setting(name, format!("must be ≥ 1, got {}×{}", im.width, im.height)));
+                return Err(bad_setting(
+                    name,
+                    format!("must be ≥ 1, got {}×{}", im.width, im.height),
+                ));
             }
         }
         if im.width as u64 * im.height as u64 > MAX_PIXELS {
