@@ -923,7 +923,7 @@ fn signed_distance_iso_matches_density_iso() {
             assert_eq!(alpha(&a), alpha(&b), "silhouettes differ ({dir}, lit {lit})");
             assert!(max_diff(&a, &b) < 1e-5, "{} ({dir}, lit {lit})", max_diff(&a, &b));
             assert_eq!(sa.gradient_evaluations, sb.gradient_evaluations);
-            assert!(alpha(&a).iter().any(|&w| w == 1.0) && alpha(&a).iter().any(|&w| w == 0.0));
+            assert!(alpha(&a).contains(&1.0) && alpha(&a).contains(&0.0));
         }
         for py in 0..29 {
             for px in 0..31 {
