@@ -173,8 +173,14 @@ mod tests {
         }
         assert_eq!(Plain.kind(), FieldKind::Density);
         let sdf = Ball(FieldKind::SignedDistance);
-        assert_eq!((&sdf).kind(), FieldKind::SignedDistance);
-        assert_eq!((&&sdf).kind(), FieldKind::SignedDistance);
+        // Through the `&F` impl (a by-value generic, so the reference is the field).
+        fn kind_of<F: Field>(f: F) -> FieldKind {
+            f.kind()
+        }
+        assert_eq!(kind_of(&sdf), FieldKind::SignedDistance);
+        let by_ref = &sdf;
+        let by_ref_ref: &&Ball = &by_ref;
+        assert_eq!(kind_of(by_ref_ref), FieldKind::SignedDistance);
     }
 
     #[test]

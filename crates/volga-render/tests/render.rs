@@ -5,10 +5,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
 use glam::{DVec3, IVec3, UVec3, Vec3, Vec4};
-use volga_core::{Aabb, Field, Filter, Grid, NoProgress, Progress, Sampled, SparseVolume, Transform};
+use volga_core::{Aabb, Field, FieldKind, Filter, Grid, NoProgress, Progress, Sampled, SparseVolume, Transform};
 use volga_render::{
-    first_hit, render, Camera, Image, ImageSettings, Iso, Light, Lighting, Mip, Mode, Projection, Ray, RenderError,
-    RenderSettings, RenderStats, Sampling, SurfaceColour, TransferFunction, Volume, XRay,
+    first_hit, render, Camera, Image, ImageSettings, Integrator, Iso, Light, Lighting, Mip, Mode, Projection, Ray,
+    RenderError, RenderSettings, RenderStats, Sampling, SurfaceColour, TransferFunction, Volume, XRay,
 };
 
 // ---------------------------------------------------------------- test fields
@@ -857,4 +857,225 @@ fn rgba8_conversion() {
     assert_eq!(&b[..4], &[0, 255, 186, 255]);
     assert_eq!(&b[4..], &[0, 255, 0, 128]);
     let _ = IVec3::ZERO;
+}
+
+// ---------------------------------------------------------------- 8. field kinds
+
+/// The same sphere as a signed distance `|p − c| − r` (negative inside, world
+/// units), normals from the default central differences with step `h`.
+struct SdfSphere(Sphere);
+
+impl Field for SdfSphere {
+    fn kind(&self) -> FieldKind {
+        FieldKind::SignedDistance
+    }
+    fn bounds(&self) -> Aabb {
+        self.0.bounds()
+    }
+    fn background(&self) -> f64 {
+        f64::INFINITY
+    }
+    fn value(&self, p: DVec3) -> f64 {
+        (p - self.0.c).length() - self.0.r
+    }
+    fn gradient_step(&self) -> DVec3 {
+        DVec3::splat(self.0.h)
+    }
+    fn value_range(&self, b: &Aabb) -> (f64, f64) {
+        let c = self.0.c;
+        let near = c.clamp(b.min, b.max);
+        let far = DVec3::select((c - b.min).abs().cmpgt((c - b.max).abs()), b.min, b.max);
+        ((near - c).length() - self.0.r, (far - c).length() - self.0.r)
+    }
+}
+
+/// An SDF rendered iso at 0 and the density `clamp(½ − d/2w)` rendered iso at 0.5
+/// show the same surface. Tolerances: both fields are analytic with the same zero
+/// set and the same sign on each side of it (`½ − d/2w ≥ ½ ⟺ d ≤ 0`, up to one
+/// rounding of `d/2w`), so they bracket the same crossings on the same lattice and
+/// bisect to 1e-9 voxel: hits agree to 1e-6. Their central-difference gradients
+/// are exactly proportional (factor −1/2w) while the stencil (±h = 1) stays in the
+/// density ramp (w = √3), so normals, and shading, agree to f32 rounding: 1e-5.
+#[test]
+fn signed_distance_iso_matches_density_iso() {
+    let density = analytic_sphere(false);
+    let sdf = SdfSphere(analytic_sphere(false));
+    let iso = |value: f64| {
+        Mode::Iso(Iso {
+            value,
+            colour: SurfaceColour::Constant(Vec3::new(0.9, 0.7, 0.5)),
+        })
+    };
+    let mut hits = 0;
+    for dir in [-DVec3::Z, DVec3::new(1.0, 1.0, 1.0), DVec3::new(0.3, -1.0, 0.2)] {
+        let cam = ortho_camera(dir, 2.0 * RADIUS + 4.0);
+        // Lit from the side and unlit, with a transparent background so alpha is the
+        // silhouette.
+        for lit in [true, false] {
+            let mut s = settings(31, 29);
+            s.image.background = Vec4::ZERO;
+            if !lit {
+                s.lighting.lights.clear();
+            }
+            let (a, sa) = go(&density, &cam, &iso(0.5), &s);
+            let (b, sb) = go(&sdf, &cam, &iso(0.0), &s);
+            let alpha = |img: &Image| img.pixels.iter().map(|p| p.w).collect::<Vec<_>>();
+            assert_eq!(alpha(&a), alpha(&b), "silhouettes differ ({dir}, lit {lit})");
+            assert!(max_diff(&a, &b) < 1e-5, "{} ({dir}, lit {lit})", max_diff(&a, &b));
+            assert_eq!(sa.gradient_evaluations, sb.gradient_evaluations);
+            assert!(alpha(&a).contains(&1.0) && alpha(&a).contains(&0.0));
+        }
+        for py in 0..29 {
+            for px in 0..31 {
+                let ray = cam.ray(px as f64, py as f64, 31, 29);
+                let (hd, hs) = (first_hit(&density, &ray, 0.5, 0.5), first_hit(&sdf, &ray, 0.0, 0.5));
+                assert_eq!(hd.is_some(), hs.is_some(), "{ray:?}");
+                if let (Some(hd), Some(hs)) = (hd, hs) {
+                    hits += 1;
+                    assert!((hd.world_pos - hs.world_pos).length() < 1e-6, "{hd:?} vs {hs:?}");
+                    assert!(((hs.world_pos - centre()).length() - RADIUS).abs() < 1e-6);
+                    // The outward normals the renderer shades with (`FieldKind::outward`
+                    // of the gradient) point away from the centre for both kinds (central
+                    // differences with h = 1 at r = 12 bend them by O(h²/r²)), and agree.
+                    let radial = (hs.world_pos - centre()).normalize();
+                    let nd = density.kind().outward(density.gradient(hd.world_pos)).normalize();
+                    let ns = sdf.kind().outward(sdf.gradient(hs.world_pos)).normalize();
+                    assert!(nd.dot(radial) > 0.9999, "density: {nd} vs {radial}");
+                    assert!(ns.dot(radial) > 0.9999, "sdf: {ns} vs {radial}");
+                    assert!((nd - ns).length() < 1e-6, "{nd} vs {ns}");
+                }
+            }
+        }
+    }
+    assert!(hits > 500, "{hits}");
+    // A ray starting inside the SDF solid has no crossing into it.
+    let inside = Ray {
+        origin: centre(),
+        dir: DVec3::X,
+    };
+    assert!(first_hit(&sdf, &inside, 0.0, 0.5).is_none());
+    // Skipping never changes an SDF image.
+    let cam = ortho_camera(DVec3::new(0.3, 0.4, -1.0), 40.0);
+    let mut s = settings(24, 24);
+    let (on, st_on) = go(&sdf, &cam, &iso(0.0), &s);
+    // (The tight analytic bounds leave no cell off the surface: nothing is skipped here.)
+    s.sampling.empty_space_skipping = false;
+    let (off, st_off) = go(&sdf, &cam, &iso(0.0), &s);
+    assert_eq!(bits(&on), bits(&off));
+    assert_eq!(st_on.samples, st_off.samples);
+    // The flip itself: a cell of positive distances is outside, of densities above
+    // the iso value inside.
+    let iso0 = Iso {
+        value: 0.0,
+        colour: SurfaceColour::FromField,
+    };
+    let iso5 = Iso {
+        value: 0.5,
+        ..iso0.clone()
+    };
+    use volga_render::CellClass::{Active, Inside, Outside};
+    assert_eq!(iso0.classify_cell(1.0, 5.0, FieldKind::SignedDistance), Outside);
+    assert_eq!(iso0.classify_cell(-5.0, -1.0, FieldKind::SignedDistance), Inside);
+    assert_eq!(iso0.classify_cell(-1.0, 1.0, FieldKind::SignedDistance), Active);
+    assert_eq!(iso5.classify_cell(0.6, 0.9, FieldKind::Density), Inside);
+    assert_eq!(iso5.classify_cell(0.0, 0.4, FieldKind::Density), Outside);
+    assert_eq!(iso5.classify_cell(0.0, 0.4, FieldKind::Binary), Outside);
+}
+
+// ---------------------------------------------------------------- 9. declared effects
+
+/// What each mode declares matches what it does: gradients are evaluated exactly
+/// when declared, colour is read exactly when declared, skipping happens only when
+/// declared.
+#[test]
+fn declared_effects_match_the_render() {
+    /// Counts colour reads.
+    struct Coloured {
+        inner: Counting<Sampled<&'static SparseVolume>>,
+        colours: AtomicU64,
+    }
+    impl Field for Coloured {
+        fn bounds(&self) -> Aabb {
+            self.inner.bounds()
+        }
+        fn value(&self, p: DVec3) -> f64 {
+            self.inner.value(p)
+        }
+        fn gradient(&self, p: DVec3) -> DVec3 {
+            self.inner.gradient(p)
+        }
+        fn gradient_step(&self) -> DVec3 {
+            self.inner.gradient_step()
+        }
+        fn value_range(&self, b: &Aabb) -> (f64, f64) {
+            self.inner.value_range(b)
+        }
+        fn has_colour(&self) -> bool {
+            true
+        }
+        fn colour(&self, _: DVec3) -> Option<Vec3> {
+            self.colours.fetch_add(1, Ordering::Relaxed);
+            Some(Vec3::new(0.2, 0.4, 0.6))
+        }
+    }
+    let field = Coloured {
+        inner: Counting {
+            inner: sampled(),
+            gradients: AtomicU64::new(0),
+        },
+        colours: AtomicU64::new(0),
+    };
+    let cam = ortho_camera(DVec3::new(0.2, -0.3, 1.0), 30.0);
+    let modes = [
+        iso_mode(),
+        Mode::Iso(Iso {
+            value: 0.5,
+            colour: SurfaceColour::FromField,
+        }),
+        volume_mode(),
+        Mode::Volume(Volume::new(volume_tf(), true)),
+        Mode::Mip(Mip),
+        Mode::XRay(XRay),
+    ];
+    let mut seen = [[false; 2]; 3];
+    for mode in &modes {
+        for lit in [true, false] {
+            for skip in [true, false] {
+                let mut s = settings(16, 16);
+                s.sampling.empty_space_skipping = skip;
+                if !lit {
+                    s.lighting = Lighting::unlit();
+                }
+                let e = mode.integrator().effects(&s);
+                assert!(!e.shadows.enabled);
+                field.colours.store(0, Ordering::Relaxed);
+                let (_, st) = go(&field, &cam, mode, &s);
+                let colours = field.colours.load(Ordering::Relaxed);
+                assert_eq!(e.gradients.enabled, st.gradient_evaluations > 0, "{mode:?} lit {lit}");
+                assert_eq!(e.colour.enabled, colours > 0, "{mode:?}");
+                assert_eq!(
+                    e.empty_space_skipping.enabled,
+                    st.cells_skipped > 0,
+                    "{mode:?} skip {skip}"
+                );
+                if e.early_ray_termination.enabled {
+                    assert!(st.rays_terminated_early > 0 || st.samples > 0);
+                } else {
+                    assert_eq!(st.rays_terminated_early, 0, "{mode:?}");
+                }
+                for (k, on) in [e.gradients.enabled, e.colour.enabled, e.empty_space_skipping.enabled]
+                    .into_iter()
+                    .enumerate()
+                {
+                    seen[k][on as usize] = true;
+                }
+            }
+        }
+    }
+    assert_eq!(seen, [[true; 2]; 3], "every effect is seen both on and off");
+    // Early ray termination is declared off when disabled in the settings.
+    let mut s = settings(4, 4);
+    assert!(volume_mode().integrator().effects(&s).early_ray_termination.enabled);
+    s.sampling.early_termination_alpha = 1.5;
+    assert!(!volume_mode().integrator().effects(&s).early_ray_termination.enabled);
 }

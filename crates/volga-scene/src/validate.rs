@@ -419,3 +419,65 @@ fn validate_image(
 pub fn content_bounds(scene: &Scene) -> Aabb {
     scene.root.bounds().intersection(&scene.grid.world_bounds())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HELLO: &str = include_str!("../../../scenes/hello.ron");
+
+    fn load(text: &str) -> Result<Scene, SceneError> {
+        let path = Path::new("test.ron");
+        validate(path, &crate::load::parse_ron(path, text)?)
+    }
+
+    fn invalid_field(text: &str) -> (String, String) {
+        match load(text) {
+            Err(SceneError::Invalid { field, message, .. }) => (field, message),
+            other => panic!("expected an invalid-field error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn render_settings_are_checked_at_validation() {
+        assert!(load(HELLO).is_ok());
+        let with = |extra: &str| {
+            HELLO.replace(
+                "width: 512, height: 512),",
+                &format!("width: 512, height: 512, {extra}),"),
+            )
+        };
+        // Positive but so small a ray needs more than 2^24 samples: once a render-time
+        // failure (exit 1), now a validation error naming the scene field (exit 2).
+        let (field, message) = invalid_field(&with("step_voxels: 1e-9"));
+        assert_eq!(field, "outputs.images[0].step_voxels");
+        assert!(message.contains("samples"), "{message}");
+        // The renderer's own range checks name the scene field too.
+        for bad in ["0.0", "-1.0"] {
+            let (field, message) = invalid_field(&with(&format!("step_voxels: {bad}")));
+            assert_eq!(field, "outputs.images[0].step_voxels", "{bad}");
+            assert!(message.contains("> 0"), "{message}");
+        }
+        // A step that fits the budget still loads.
+        assert!(load(&with("step_voxels: 0.01")).is_ok());
+    }
+
+    #[test]
+    fn modes_declare_lights_and_colour() {
+        let text = HELLO.replace("mode: Volume(colour_from_volume: true)", "mode: Mip");
+        let scene = load(&text).unwrap();
+        let (iso, mip) = (&scene.images[0], &scene.images[1]);
+        // Iso shades with the scene's light and reads the volume's colour.
+        assert_eq!(iso.settings.lighting.lights.len(), 1);
+        assert!(iso.reads_colour);
+        // MIP neither shades nor reads colour: the mode says so, the scene asks it.
+        assert!(mip.settings.lighting.lights.is_empty());
+        assert!(!mip.reads_colour);
+        let plan = crate::plan::plan(&scene, Some(u64::MAX)).unwrap();
+        let enabled = |name: &str| plan.effects.iter().find(|d| d.name == name).unwrap().enabled;
+        assert!(enabled("hello_iso: gradients"));
+        assert!(!enabled("hello_volume: gradients"));
+        assert!(enabled("hello_volume: empty-space skipping"));
+        assert!(!enabled("hello_iso: early ray termination"));
+    }
+}
