@@ -222,8 +222,7 @@ impl TunnelRecord {
 /// The N-offsets after the origin in (z, y, x) order: each adjacent pair once, `a`
 /// before `b`.
 fn forward_offsets(connectivity: Connectivity) -> &'static [IVec3] {
-    let all = connectivity.offsets();
-    &all[all.len() / 2..]
+    connectivity.half_offsets()
 }
 
 fn tunnel_records(set: &VoxelSet, connectivity: Connectivity, mesh: &SurfaceMesh) -> Vec<TunnelRecord> {
