@@ -88,6 +88,14 @@ impl Shape3 {
         ijk.y as usize + self.dims.y as usize * ijk.z as usize
     }
 
+    /// `(x, row)` of a linear offset: the inverse of `x + dims.x · row` (see
+    /// [`Shape3::row`]).
+    #[inline]
+    pub fn split_row(&self, linear: usize) -> (usize, usize) {
+        let nx = self.dims.x as usize;
+        (linear % nx, linear / nx)
+    }
+
     /// Inverse of [`Shape3::linearize`].
     #[inline]
     pub fn delinearize(&self, linear: usize) -> IVec3 {
@@ -119,6 +127,7 @@ mod tests {
         for i in 0..s.len() {
             let v = s.delinearize(i);
             assert_eq!(v.x as usize + 3 * s.row(v), i);
+            assert_eq!(s.split_row(i), (v.x as usize, s.row(v)));
         }
     }
 
