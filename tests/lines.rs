@@ -72,7 +72,7 @@ proptest! {
 
     #[test]
     fn six_connected_is_exactly_the_supercover(p in pt(), q in pt()) {
-        let line = segment_voxels(p, q, LineConnectivity::Six);
+        let line = segment_voxels(p, q, LineConnectivity::SIX);
         let set: HashSet<IVec3> = line.iter().copied().collect();
         prop_assert_eq!(set.len(), line.len(), "duplicates");
         prop_assert_eq!(&set, &brute_supercover(p, q));
@@ -91,7 +91,7 @@ proptest! {
 
     #[test]
     fn twenty_six_connected_thin_line(p in pt(), q in pt()) {
-        let line = segment_voxels(p, q, LineConnectivity::TwentySix);
+        let line = segment_voxels(p, q, LineConnectivity::TWENTY_SIX);
         let t = Transform::new(DVec3::ZERO, DVec3::ONE).unwrap();
         let (vp, vq) = (t.nearest_voxel(p), t.nearest_voxel(q));
         prop_assert_eq!(line[0], vp);
@@ -107,7 +107,7 @@ proptest! {
             prop_assert!((p + d * t - c).length() <= 3f64.sqrt(), "{} far from the segment", v);
         }
         // Reversing the segment gives the same voxels except at exact rounding ties.
-        prop_assert_eq!(segment_voxels(q, p, LineConnectivity::TwentySix).len(), line.len());
+        prop_assert_eq!(segment_voxels(q, p, LineConnectivity::TWENTY_SIX).len(), line.len());
     }
 }
 
@@ -115,21 +115,21 @@ proptest! {
 fn zero_length_and_axis_parallel_segments() {
     let p = DVec3::new(1.0, 2.0, 3.0);
     assert_eq!(
-        segment_voxels(p, p, LineConnectivity::TwentySix),
+        segment_voxels(p, p, LineConnectivity::TWENTY_SIX),
         vec![IVec3::new(1, 2, 3)]
     );
-    assert_eq!(segment_voxels(p, p, LineConnectivity::Six), vec![IVec3::new(1, 2, 3)]);
+    assert_eq!(segment_voxels(p, p, LineConnectivity::SIX), vec![IVec3::new(1, 2, 3)]);
     // A point exactly on a cell corner touches eight closed cells.
     let corner = DVec3::splat(0.5);
-    assert_eq!(segment_voxels(corner, corner, LineConnectivity::Six).len(), 8);
+    assert_eq!(segment_voxels(corner, corner, LineConnectivity::SIX).len(), 8);
     // Along x through voxel centres: one row, both connectivities.
     let row = segment_voxels(
         DVec3::new(0.0, 2.0, 3.0),
         DVec3::new(9.0, 2.0, 3.0),
-        LineConnectivity::Six,
+        LineConnectivity::SIX,
     );
     assert_eq!(row, (0..=9).map(|x| IVec3::new(x, 2, 3)).collect::<Vec<_>>());
-    assert!(segment_voxels(DVec3::NAN, p, LineConnectivity::Six).is_empty());
+    assert!(segment_voxels(DVec3::NAN, p, LineConnectivity::SIX).is_empty());
 }
 
 #[test]
@@ -154,7 +154,7 @@ fn voxelized_segments_clip_to_the_grid_and_agree_across_threads() {
             .build()
             .unwrap()
             .install(|| {
-                voxelize_segments(&grid, &segs, LineConnectivity::Six, &NoProgress)
+                voxelize_segments(&grid, &segs, LineConnectivity::SIX, &NoProgress)
                     .to_dense()
                     .unwrap()
             })
@@ -168,7 +168,7 @@ fn voxelized_segments_clip_to_the_grid_and_agree_across_threads() {
             segment_voxels(
                 grid.transform.world_to_index(*a),
                 grid.transform.world_to_index(*b),
-                LineConnectivity::Six,
+                LineConnectivity::SIX,
             )
         })
         .filter(|v| grid.contains(*v))

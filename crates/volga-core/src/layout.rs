@@ -1,5 +1,7 @@
 use glam::{IVec3, UVec3};
 
+use crate::CoreError;
+
 /// Layout of a dense 3D array with x varying fastest:
 /// `linear = x + dims.x · (y + dims.y · z)`.
 ///
@@ -15,6 +17,26 @@ impl Shape3 {
     /// callers (`Grid`) have checked both.
     pub(crate) const fn new_unchecked(dims: UVec3) -> Self {
         Shape3 { dims }
+    }
+
+    /// The layout of a `dims` array: refused if an axis is 0 or the voxel count does not
+    /// fit in `usize`.
+    pub fn new(dims: UVec3) -> Result<Self, CoreError> {
+        if dims.cmpeq(UVec3::ZERO).any() {
+            return Err(CoreError::EmptyGrid(dims.to_array()));
+        }
+        let count = dims
+            .as_u64vec3()
+            .to_array()
+            .iter()
+            .try_fold(1u64, |a, &d| a.checked_mul(d));
+        match count.map(usize::try_from) {
+            Some(Ok(_)) => Ok(Shape3 { dims }),
+            _ => Err(CoreError::TooLarge {
+                dims: dims.to_array(),
+                bytes: dims.as_u64vec3().to_array().iter().map(|&d| d as u128).product(),
+            }),
+        }
     }
 
     pub fn dims(&self) -> UVec3 {
@@ -39,6 +61,39 @@ impl Shape3 {
         debug_assert!(self.contains(ijk), "{ijk} outside {}", self.dims);
         let (x, y, z) = (ijk.x as usize, ijk.y as usize, ijk.z as usize);
         x + self.dims.x as usize * (y + self.dims.y as usize * z)
+    }
+
+    /// Elements in one z slab (`dims.x · dims.y`): slab `z` is `z · plane_len ..`.
+    #[inline]
+    pub fn plane_len(&self) -> usize {
+        self.dims.x as usize * self.dims.y as usize
+    }
+
+    /// Number of x rows (`dims.y · dims.z`).
+    #[inline]
+    pub fn row_count(&self) -> usize {
+        self.dims.y as usize * self.dims.z as usize
+    }
+
+    /// Index of the x row holding `ijk` (`y + dims.y · z`); row `r` is the elements
+    /// `r · dims.x ..` (so `linearize(ijk) = x + dims.x · row(ijk)`). `ijk.y`, `ijk.z`
+    /// must be inside (debug-asserted).
+    #[inline]
+    pub fn row(&self, ijk: IVec3) -> usize {
+        debug_assert!(
+            self.contains(IVec3::new(0, ijk.y, ijk.z)),
+            "{ijk} outside {}",
+            self.dims
+        );
+        ijk.y as usize + self.dims.y as usize * ijk.z as usize
+    }
+
+    /// `(x, row)` of a linear offset: the inverse of `x + dims.x · row` (see
+    /// [`Shape3::row`]).
+    #[inline]
+    pub fn split_row(&self, linear: usize) -> (usize, usize) {
+        let nx = self.dims.x as usize;
+        (linear % nx, linear / nx)
     }
 
     /// Inverse of [`Shape3::linearize`].
@@ -67,5 +122,22 @@ mod tests {
         assert_eq!(s.linearize(IVec3::new(1, 0, 0)), 1);
         assert_eq!(s.linearize(IVec3::new(0, 1, 0)), 3);
         assert_eq!(s.linearize(IVec3::new(0, 0, 1)), 15);
+        assert_eq!(s.plane_len(), 15);
+        assert_eq!(s.row_count(), 35);
+        for i in 0..s.len() {
+            let v = s.delinearize(i);
+            assert_eq!(v.x as usize + 3 * s.row(v), i);
+            assert_eq!(s.split_row(i), (v.x as usize, s.row(v)));
+        }
+    }
+
+    #[test]
+    fn new_refuses_empty_and_unaddressable() {
+        assert_eq!(Shape3::new(UVec3::new(3, 5, 7)).unwrap().len(), 105);
+        assert!(matches!(Shape3::new(UVec3::new(3, 0, 7)), Err(CoreError::EmptyGrid(_))));
+        assert!(matches!(
+            Shape3::new(UVec3::splat(u32::MAX)),
+            Err(CoreError::TooLarge { .. })
+        ));
     }
 }

@@ -39,6 +39,8 @@
 //! ```
 
 mod aabb;
+mod adjacency;
+mod channel;
 mod dense;
 mod error;
 mod field;
@@ -48,8 +50,11 @@ pub mod memory;
 mod progress;
 mod sampled;
 mod sparse;
+mod units;
 
 pub use aabb::Aabb;
+pub use adjacency::Adjacency;
+pub use channel::ChannelKind;
 pub use dense::{Dense, DenseVolume};
 pub use error::CoreError;
 pub use field::{Field, FieldKind};
@@ -59,7 +64,7 @@ pub use progress::{NoProgress, Progress};
 pub use sampled::{Filter, Sampled, VoxelSource};
 pub use sparse::{
     brick_extent, brick_index_box, brick_of, gather_brick, Brick, SparseGrid, SparseVolume, BRICK_DIM, BRICK_LOG2,
-    BRICK_VOXELS,
+    BRICK_SHAPE, BRICK_VOXELS,
 };
 
 /// Linear RGB colour payload, each component in \[0, 1\].

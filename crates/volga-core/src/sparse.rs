@@ -1,8 +1,10 @@
+use std::sync::Arc;
+
 use glam::{IVec3, UVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
-use crate::{CoreError, DenseVolume, Grid, IndexBox, Rgb};
+use crate::{ChannelKind, CoreError, DenseVolume, Grid, IndexBox, Rgb, Shape3};
 
 /// log2 of the brick edge length.
 pub const BRICK_LOG2: i32 = 3;
@@ -10,20 +12,28 @@ pub const BRICK_LOG2: i32 = 3;
 pub const BRICK_DIM: i32 = 1 << BRICK_LOG2;
 /// Voxels per brick (512).
 pub const BRICK_VOXELS: usize = (BRICK_DIM * BRICK_DIM * BRICK_DIM) as usize;
+/// Layout of the voxels inside a brick (8³, x fastest).
+pub const BRICK_SHAPE: Shape3 = Shape3::new_unchecked(UVec3::splat(BRICK_DIM as u32));
 
 /// One 8³ block of voxels: either one value for all 512 voxels, or each stored.
+///
+/// Dense voxels are shared copy-on-write: cloning a brick (or a whole [`SparseGrid`])
+/// copies a pointer, and the first write through [`SparseGrid::set`] or
+/// [`SparseGrid::brick_data_mut`] copies the 512 values only if another version still
+/// holds them (`Arc::make_mut`). An undo stack can therefore keep whole versions of a
+/// volume and pay only for the bricks that changed ([`SparseGrid::changed_bricks`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Brick<T> {
     Uniform(T),
-    Dense(Box<[T; BRICK_VOXELS]>),
+    Dense(Arc<[T; BRICK_VOXELS]>),
 }
 
 impl<T: Copy + PartialEq> Brick<T> {
-    /// Offset of a voxel inside its brick from its `ijk` (x fastest).
+    /// Offset of a voxel inside its brick from its `ijk` (x fastest: the
+    /// [`BRICK_SHAPE`] layout of the voxel's position in its brick).
     #[inline]
     pub fn local_offset(ijk: IVec3) -> usize {
-        let l = ijk & IVec3::splat(BRICK_DIM - 1);
-        (l.x + BRICK_DIM * (l.y + BRICK_DIM * l.z)) as usize
+        BRICK_SHAPE.linearize(ijk & IVec3::splat(BRICK_DIM - 1))
     }
 
     #[inline]
@@ -31,6 +41,18 @@ impl<T: Copy + PartialEq> Brick<T> {
         match self {
             Brick::Uniform(v) => *v,
             Brick::Dense(d) => d[offset],
+        }
+    }
+
+    /// The collapsed brick holding `voxels` (x fastest): uniform, without allocating,
+    /// if all are equal, else dense (one allocation, not shared).
+    #[inline]
+    pub fn from_voxels(voxels: &[T; BRICK_VOXELS]) -> Self {
+        let first = voxels[0];
+        if voxels.iter().all(|v| *v == first) {
+            Brick::Uniform(first)
+        } else {
+            Brick::Dense(Arc::new(*voxels))
         }
     }
 
@@ -42,14 +64,34 @@ impl<T: Copy + PartialEq> Brick<T> {
         }
     }
 
+    /// The voxels for writing: a uniform brick becomes dense, and dense voxels shared
+    /// with another version are copied first (copy-on-write).
     fn densify(&mut self) -> &mut [T; BRICK_VOXELS] {
-        if let Brick::Uniform(v) = *self {
-            *self = Brick::Dense(Box::new([v; BRICK_VOXELS]));
-        }
         match self {
-            Brick::Dense(d) => d,
-            Brick::Uniform(_) => unreachable!("densified above"),
+            Brick::Dense(d) => Arc::make_mut(d),
+            Brick::Uniform(v) => {
+                *self = Brick::Dense(Arc::new([*v; BRICK_VOXELS]));
+                self.densify()
+            }
         }
+    }
+
+    /// Whether `self` and `other` are the same version of a brick without comparing
+    /// voxels: equal uniform values, or dense voxels at the same address (shared by a
+    /// clone and not written since). Two dense bricks with equal values written
+    /// separately are *not* the same version.
+    #[inline]
+    pub fn same_version(&self, other: &Brick<T>) -> bool {
+        match (self, other) {
+            (Brick::Uniform(a), Brick::Uniform(b)) => a == b,
+            (Brick::Dense(a), Brick::Dense(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
+
+    /// Whether the dense voxels of this brick are shared with another version.
+    pub fn is_shared(&self) -> bool {
+        matches!(self, Brick::Dense(d) if Arc::strong_count(d) > 1)
     }
 }
 
@@ -106,6 +148,35 @@ impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
         self.bricks.get(&brick)
     }
 
+    /// The 512 voxels of brick `brick` for writing (x fastest, see
+    /// [`Brick::local_offset`]): an absent brick is created as background, a uniform one
+    /// made dense, and voxels shared with another version copied first.
+    pub fn brick_data_mut(&mut self, brick: IVec3) -> &mut [T; BRICK_VOXELS] {
+        let bg = self.background;
+        self.bricks.entry(brick).or_insert(Brick::Uniform(bg)).densify()
+    }
+
+    /// Bricks that may differ between `self` and `other` (two versions of one grid, e.g.
+    /// an edit and its undo copy), in (z, y, x) order, found by pointer equality without
+    /// reading voxels: present in one only, different uniform values, or dense voxels not
+    /// shared. Conservative: a brick rewritten with its old values is listed. Returns
+    /// every brick of both if the backgrounds differ.
+    pub fn changed_bricks(&self, other: &SparseGrid<T>) -> Vec<IVec3> {
+        let mut out: Vec<IVec3> = if self.background != other.background {
+            self.bricks.keys().chain(other.bricks.keys()).copied().collect()
+        } else {
+            let ours = self.bricks.iter().filter(|(b, brick)| match other.bricks.get(b) {
+                Some(theirs) => !brick.same_version(theirs),
+                None => true,
+            });
+            let theirs_only = other.bricks.keys().filter(|b| !self.bricks.contains_key(b));
+            ours.map(|(b, _)| *b).chain(theirs_only.copied()).collect()
+        };
+        out.sort_unstable_by_key(|b| (b.z, b.y, b.x));
+        out.dedup();
+        out
+    }
+
     /// Puts `data` at brick coordinate `brick`, replacing what was there.
     pub fn insert_brick(&mut self, brick: IVec3, data: Brick<T>) {
         self.bricks.insert(brick, data);
@@ -141,7 +212,8 @@ impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
         self.bricks.values().filter(|b| matches!(b, Brick::Dense(_))).count()
     }
 
-    /// Bytes held by bricks and the map (an estimate of the map's own overhead).
+    /// Bytes held by bricks and the map (an estimate of the map's own overhead). Dense
+    /// voxels shared with other versions are counted in full in each.
     pub fn memory_bytes(&self) -> u64 {
         let per_entry = (std::mem::size_of::<(IVec3, Brick<T>)>() + 1) as u64;
         let dense = self.dense_brick_count() as u64 * (BRICK_VOXELS * std::mem::size_of::<T>()) as u64;
@@ -208,22 +280,62 @@ pub fn brick_index_box(brick: IVec3) -> IndexBox {
     IndexBox::new(min, min + IVec3::splat(BRICK_DIM))
 }
 
-/// The main volume storage: a grid with a sparse density channel and an optional
+/// The main volume storage: a grid with a sparse scalar channel and an optional
 /// sparse colour channel (allocated only when something reads it).
+///
+/// The scalar channel is called `density` for history; what it holds is
+/// [`SparseVolume::density_kind`] (density, signed distance or binary occupancy), set
+/// by whoever fills it. Cloning a volume is cheap: dense bricks are shared
+/// copy-on-write (see [`Brick`]).
 #[derive(Debug, Clone)]
 pub struct SparseVolume {
     pub grid: Grid,
     pub density: SparseGrid<f32>,
     pub colour: Option<SparseGrid<Rgb>>,
+    /// What the `density` channel holds (never [`ChannelKind::Colour`] from volga's
+    /// producers). [`SparseVolume::new`] sets [`ChannelKind::Density`].
+    pub density_kind: ChannelKind,
 }
 
 impl SparseVolume {
+    /// An empty volume whose scalar channel holds densities.
     pub fn new(grid: Grid, background: f32, with_colour: bool) -> Self {
         SparseVolume {
             grid,
             density: SparseGrid::new(background),
             colour: with_colour.then(|| SparseGrid::new([0.0; 3])),
+            density_kind: ChannelKind::Density,
         }
+    }
+
+    /// The same volume with its scalar channel declared to hold `kind`.
+    pub fn with_density_kind(mut self, kind: ChannelKind) -> Self {
+        self.density_kind = kind;
+        self
+    }
+
+    /// Each channel present with what it holds: `("density", kind)` and, when the
+    /// colour channel exists, `("colour", ChannelKind::Colour)`.
+    pub fn channels(&self) -> Vec<(&'static str, ChannelKind)> {
+        let mut out = vec![("density", self.density_kind)];
+        if self.colour.is_some() {
+            out.push(("colour", ChannelKind::Colour));
+        }
+        out
+    }
+
+    /// Bricks of either channel that may differ from `earlier` (another version of this
+    /// volume), by pointer equality; see [`SparseGrid::changed_bricks`].
+    pub fn changed_bricks(&self, earlier: &SparseVolume) -> Vec<IVec3> {
+        let mut out = self.density.changed_bricks(&earlier.density);
+        match (&self.colour, &earlier.colour) {
+            (Some(a), Some(b)) => out.extend(a.changed_bricks(b)),
+            (Some(c), None) | (None, Some(c)) => out.extend(c.sorted_bricks()),
+            (None, None) => {}
+        }
+        out.sort_unstable_by_key(|b| (b.z, b.y, b.x));
+        out.dedup();
+        out
     }
 
     /// Brick coordinates covering the grid: `0 ≤ brick < ceil(dims / 8)`.
@@ -245,16 +357,18 @@ impl SparseVolume {
         let mut out = DenseVolume::new(self.grid, self.density.background(), self.colour.is_some())?;
         let shape = out.density.shape();
         let dims = shape.dims().as_ivec3();
-        let plane = (dims.x * dims.y) as usize;
+        let plane = shape.plane_len();
         out.density
             .as_mut_slice()
             .par_chunks_mut(plane)
             .enumerate()
             .for_each(|(z, slab)| {
-                for y in 0..dims.y {
-                    for x in 0..dims.x {
-                        slab[(x + dims.x * y) as usize] = self.density.get(IVec3::new(x, y, z as i32));
-                    }
+                let z = z as i32;
+                for (ijk, v) in IndexBox::new(IVec3::new(0, 0, z), IVec3::new(dims.x, dims.y, z + 1))
+                    .iter()
+                    .zip(slab.iter_mut())
+                {
+                    *v = self.density.get(ijk);
                 }
             });
         if let (Some(dst), Some(src)) = (out.colour.as_mut(), self.colour.as_ref()) {
@@ -300,15 +414,15 @@ pub fn brick_extent(dims: UVec3) -> IVec3 {
 pub fn gather_brick<T: Copy + PartialEq>(brick: IVec3, f: impl Fn(IVec3) -> T) -> Brick<T> {
     let base = brick * BRICK_DIM;
     let first = f(base);
-    let mut data = Box::new([first; BRICK_VOXELS]);
+    let mut data = [first; BRICK_VOXELS];
     for (i, ijk) in brick_index_box(brick).iter().enumerate() {
         data[i] = f(ijk);
     }
     debug_assert_eq!(
         Brick::<T>::local_offset(base + IVec3::new(1, 2, 3)),
-        1 + 8 * (2 + 8 * 3)
+        BRICK_SHAPE.linearize(IVec3::new(1, 2, 3))
     );
-    Brick::Dense(data).collapsed()
+    Brick::from_voxels(&data)
 }
 
 #[cfg(test)]
@@ -328,6 +442,69 @@ mod tests {
         assert_eq!(g.brick_count(), 1);
         g.prune();
         assert_eq!(g.brick_count(), 0);
+    }
+
+    #[test]
+    fn clones_share_bricks_and_writes_copy_only_the_written_brick() {
+        let mut g = SparseGrid::new(0.0f32);
+        for b in 0..4 {
+            g.set(IVec3::new(8 * b, 0, 0), 1.0 + b as f32);
+        }
+        g.insert_brick(IVec3::new(0, 1, 0), Brick::Uniform(5.0));
+        let before = g.clone();
+        assert!(matches!(g.brick(IVec3::ZERO), Some(b) if b.is_shared()));
+        assert!(g.changed_bricks(&before).is_empty());
+
+        // Write into one shared brick: it is copied, the old version keeps its value.
+        g.set(IVec3::new(9, 1, 1), 7.0);
+        assert_eq!(before.get(IVec3::new(9, 1, 1)), 0.0);
+        assert_eq!(g.get(IVec3::new(9, 1, 1)), 7.0);
+        assert_eq!(g.get(IVec3::new(8, 0, 0)), 2.0);
+        assert!(!g.brick(IVec3::new(1, 0, 0)).unwrap().is_shared());
+        assert!(g.brick(IVec3::new(2, 0, 0)).unwrap().is_shared());
+        // Writing the same brick again does not copy it again.
+        let data = match g.brick(IVec3::new(1, 0, 0)) {
+            Some(Brick::Dense(d)) => Arc::as_ptr(d),
+            _ => panic!("dense brick expected"),
+        };
+        g.brick_data_mut(IVec3::new(1, 0, 0))[0] = 3.0;
+        assert!(matches!(g.brick(IVec3::new(1, 0, 0)), Some(Brick::Dense(d)) if Arc::as_ptr(d) == data));
+
+        // Changed bricks: the written one, a new one, a removed one, a new uniform value.
+        g.set(IVec3::new(-1, 0, 0), 1.0);
+        g.remove_brick(IVec3::new(3, 0, 0));
+        g.insert_brick(IVec3::new(0, 1, 0), Brick::Uniform(6.0));
+        let expected = vec![
+            IVec3::new(-1, 0, 0),
+            IVec3::new(1, 0, 0),
+            IVec3::new(3, 0, 0),
+            IVec3::new(0, 1, 0),
+        ];
+        assert_eq!(g.changed_bricks(&before), expected);
+        assert_eq!(before.changed_bricks(&g), expected);
+        // Undo by swapping in the kept version: only the listed bricks differ.
+        for b in g.sorted_bricks().into_iter().chain(before.sorted_bricks()) {
+            if !expected.contains(&b) {
+                assert!(g.brick(b).unwrap().same_version(before.brick(b).unwrap()));
+            }
+        }
+    }
+
+    #[test]
+    fn volume_channels_say_what_they_hold() {
+        let grid = Grid::new(Transform::new(DVec3::ZERO, DVec3::ONE).unwrap(), UVec3::new(4, 4, 4)).unwrap();
+        let v = SparseVolume::new(grid, 0.0, true);
+        assert_eq!(v.density_kind, ChannelKind::Density);
+        assert_eq!(
+            v.channels(),
+            vec![("density", ChannelKind::Density), ("colour", ChannelKind::Colour)]
+        );
+        let d = SparseVolume::new(grid, 3.0, false).with_density_kind(ChannelKind::SignedDistance);
+        assert_eq!(d.channels(), vec![("density", ChannelKind::SignedDistance)]);
+        let mut e = d.clone();
+        assert!(e.changed_bricks(&d).is_empty());
+        e.density.set(IVec3::ONE, 0.0);
+        assert_eq!(e.changed_bricks(&d), vec![IVec3::ZERO]);
     }
 
     #[test]

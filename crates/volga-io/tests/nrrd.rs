@@ -21,7 +21,7 @@ fn test_volume(background: f32, with_colour: bool) -> SparseVolume {
     for (i, d) in dense.iter_mut().enumerate() {
         *d = -(i as f32) * 0.125 + 3.0;
     }
-    v.density.insert_brick(IVec3::new(1, 1, 0), Brick::Dense(dense));
+    v.density.insert_brick(IVec3::new(1, 1, 0), Brick::Dense(dense.into()));
     v.density.set(IVec3::new(12, 0, 4), -7.25);
     v.density.set(IVec3::new(3, 8, 2), f32::MIN_POSITIVE);
     // Outside the grid: must not be written.

@@ -130,8 +130,14 @@ fn union_runs(runs: &RowRuns, connectivity: Connectivity) -> Vec<u32> {
     let dims = runs.dims;
     let (ny, nz) = (dims.y as usize, dims.z as usize);
     let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
-    let in_slab: Vec<_> = connectivity.row_steps().iter().filter(|s| s.1 == 0).collect();
-    let across: Vec<_> = connectivity.row_steps().iter().filter(|s| s.1 == 1).collect();
+    let in_slab: Vec<_> = crate::connectivity::row_steps(connectivity)
+        .iter()
+        .filter(|s| s.1 == 0)
+        .collect();
+    let across: Vec<_> = crate::connectivity::row_steps(connectivity)
+        .iter()
+        .filter(|s| s.1 == 1)
+        .collect();
 
     let mut slabs = Vec::with_capacity(nz);
     let mut rest = parent.as_mut_slice();

@@ -104,6 +104,9 @@
 //! assert_eq!(report.euler_characteristic, 1);
 //! ```
 
+#[cfg(feature = "testing")]
+#[doc(hidden)]
+pub mod brute;
 mod components;
 mod connectivity;
 mod error;

@@ -59,7 +59,9 @@ pub struct TopologyReport {
     pub dims: UVec3,
     /// Black voxels.
     pub voxels: u64,
+    #[serde(serialize_with = "crate::connectivity::serialize_number")]
     pub connectivity: Connectivity,
+    #[serde(serialize_with = "crate::connectivity::serialize_number")]
     pub black_connectivity: Connectivity,
     pub black_component_count: u64,
     /// The first [`AnalyzeOptions::listed`] black components in label order.

@@ -2,7 +2,7 @@
 
 use glam::{IVec3, UVec3};
 use rayon::prelude::*;
-use volga_core::{Brick, DenseVolume, IndexBox, SparseVolume, BRICK_DIM};
+use volga_core::{Brick, DenseVolume, IndexBox, Shape3, SparseVolume, BRICK_DIM};
 
 use crate::TopologyError;
 
@@ -26,7 +26,7 @@ const FALLBACK_MEMORY_LIMIT: u64 = 1 << 40;
 /// 1024³ bits. Rows and voxels are each limited to 2³¹ − 1 (checked at construction).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct VoxelSet {
-    dims: UVec3,
+    shape: Shape3,
     /// `row_offsets[r]..row_offsets[r + 1]` indexes `xs` for row `r`.
     row_offsets: Vec<u64>,
     /// x of the black voxels, strictly increasing within a row.
@@ -36,9 +36,10 @@ pub struct VoxelSet {
 impl VoxelSet {
     /// The empty set (all voxels white) over a grid of `dims` voxels.
     pub fn empty(dims: UVec3) -> Result<Self, TopologyError> {
-        let rows = check_dims(dims)?;
+        let shape = check_dims(dims)?;
+        let rows = shape.row_count();
         Ok(VoxelSet {
-            dims,
+            shape,
             row_offsets: vec![0; rows + 1],
             xs: Vec::new(),
         })
@@ -47,7 +48,7 @@ impl VoxelSet {
     /// The set of the given voxels (duplicates allowed, any order); a voxel outside
     /// the grid is an error naming it.
     pub fn from_voxels(dims: UVec3, voxels: impl IntoIterator<Item = IVec3>) -> Result<Self, TopologyError> {
-        let rows = check_dims(dims)?;
+        let shape = check_dims(dims)?;
         let in_grid = IndexBox::new(IVec3::ZERO, dims.as_ivec3());
         let mut keys = Vec::new();
         for ijk in voxels {
@@ -57,21 +58,21 @@ impl VoxelSet {
                     dims: dims.to_array(),
                 });
             }
-            keys.push(linear_key(dims, ijk));
+            keys.push(shape.linearize(ijk) as u64);
         }
         keys.par_sort_unstable();
         keys.dedup();
-        Self::from_sorted_keys(dims, rows, &keys)
+        Self::from_sorted_keys(shape, &keys)
     }
 
     /// Voxels of `volume`'s grid whose density is `≥ threshold` (NaN is white).
     pub fn from_dense(volume: &DenseVolume, threshold: f32) -> Result<Self, TopologyError> {
         let dims = volume.grid.dims();
-        let rows = check_dims(dims)?;
+        let shape = check_dims(dims)?;
         let density = volume.density.as_slice();
         let (nx, ny) = (dims.x as usize, dims.y as usize);
         let slabs: Vec<(Vec<u64>, Vec<u32>)> = density
-            .par_chunks(nx * ny)
+            .par_chunks(shape.plane_len())
             .map(|slab| {
                 let mut counts = Vec::with_capacity(ny);
                 let mut xs = Vec::new();
@@ -83,7 +84,7 @@ impl VoxelSet {
                 (counts, xs)
             })
             .collect();
-        Self::from_slabs(dims, rows, slabs)
+        Self::from_slabs(shape, slabs)
     }
 
     /// Voxels of `volume`'s grid whose density is `≥ threshold` (NaN is white), read
@@ -91,7 +92,7 @@ impl VoxelSet {
     /// itself is black, in which case every voxel of the grid is visited.
     pub fn from_sparse(volume: &SparseVolume, threshold: f32) -> Result<Self, TopologyError> {
         let dims = volume.grid.dims();
-        let rows = check_dims(dims)?;
+        let shape = check_dims(dims)?;
         let grid_box = volume.grid.index_box();
         let extent = volume.brick_extent();
         let background_black = volume.density.background() >= threshold;
@@ -119,35 +120,36 @@ impl VoxelSet {
                         Some(brick) => brick.get_local(Brick::<f32>::local_offset(ijk)),
                     };
                     if value >= threshold {
-                        keys.push(linear_key(dims, ijk));
+                        keys.push(shape.linearize(ijk) as u64);
                     }
                 }
                 keys
             })
             .collect();
         keys.par_sort_unstable();
-        Self::from_sorted_keys(dims, rows, &keys)
+        Self::from_sorted_keys(shape, &keys)
     }
 
     /// Builds the rows from strictly increasing linear keys `x + X·(y + Y·z)`.
-    fn from_sorted_keys(dims: UVec3, rows: usize, keys: &[u64]) -> Result<Self, TopologyError> {
-        check_len(dims, keys.len() as u64)?;
-        let nx = dims.x as u64;
+    fn from_sorted_keys(shape: Shape3, keys: &[u64]) -> Result<Self, TopologyError> {
+        check_len(shape.dims(), keys.len() as u64)?;
+        let rows = shape.row_count();
         let mut row_offsets = vec![0u64; rows + 1];
         for &k in keys {
-            row_offsets[(k / nx) as usize + 1] += 1;
+            row_offsets[shape.split_row(k as usize).1 + 1] += 1;
         }
         for r in 0..rows {
             row_offsets[r + 1] += row_offsets[r];
         }
-        let xs = keys.par_iter().map(|&k| (k % nx) as u32).collect();
-        Ok(VoxelSet { dims, row_offsets, xs })
+        let xs = keys.par_iter().map(|&k| shape.split_row(k as usize).0 as u32).collect();
+        Ok(VoxelSet { shape, row_offsets, xs })
     }
 
     /// Concatenates per-z slabs of (per-row counts, xs).
-    fn from_slabs(dims: UVec3, rows: usize, slabs: Vec<(Vec<u64>, Vec<u32>)>) -> Result<Self, TopologyError> {
+    fn from_slabs(shape: Shape3, slabs: Vec<(Vec<u64>, Vec<u32>)>) -> Result<Self, TopologyError> {
         let len: u64 = slabs.iter().map(|(_, xs)| xs.len() as u64).sum();
-        check_len(dims, len)?;
+        check_len(shape.dims(), len)?;
+        let rows = shape.row_count();
         let mut row_offsets = Vec::with_capacity(rows + 1);
         row_offsets.push(0u64);
         let mut xs = Vec::with_capacity(len as usize);
@@ -159,12 +161,17 @@ impl VoxelSet {
             }
             xs.extend_from_slice(&slab_xs);
         }
-        Ok(VoxelSet { dims, row_offsets, xs })
+        Ok(VoxelSet { shape, row_offsets, xs })
     }
 
     /// Grid extent in voxels.
     pub fn dims(&self) -> UVec3 {
-        self.dims
+        self.shape.dims()
+    }
+
+    /// The dense layout of the grid (linear keys `x + X·(y + Y·z)`, rows `y + Y·z`).
+    pub fn shape(&self) -> Shape3 {
+        self.shape
     }
 
     /// Number of black voxels.
@@ -183,10 +190,10 @@ impl VoxelSet {
 
     /// Sorted x of the black voxels of row `(y, z)` (empty outside the grid).
     pub fn row(&self, y: i32, z: i32) -> &[u32] {
-        if y < 0 || z < 0 || y as u32 >= self.dims.y || z as u32 >= self.dims.z {
+        if y < 0 || z < 0 || y as u32 >= self.shape.dims().y || z as u32 >= self.shape.dims().z {
             return &[];
         }
-        self.row_at(y as usize + self.dims.y as usize * z as usize)
+        self.row_at(self.shape.row(IVec3::new(0, y, z)))
     }
 
     /// Sorted x of the black voxels of row index `r = y + dims.y · z`.
@@ -197,7 +204,7 @@ impl VoxelSet {
     /// Whether `ijk` is a voxel of the space `Σ` (inside the grid).
     #[inline]
     pub fn in_grid(&self, ijk: IVec3) -> bool {
-        ijk.cmpge(IVec3::ZERO).all() && ijk.as_uvec3().cmplt(self.dims).all()
+        ijk.cmpge(IVec3::ZERO).all() && ijk.as_uvec3().cmplt(self.shape.dims()).all()
     }
 
     /// Whether `ijk` is black (false outside the grid).
@@ -209,16 +216,16 @@ impl VoxelSet {
     /// Row `(y, z)` as [`VoxelSet::row`] and the position of its first voxel in
     /// [`VoxelSet::iter`] order (0 and empty outside the grid).
     pub(crate) fn row_with_start(&self, y: i32, z: i32) -> (usize, &[u32]) {
-        if y < 0 || z < 0 || y as u32 >= self.dims.y || z as u32 >= self.dims.z {
+        if y < 0 || z < 0 || y as u32 >= self.shape.dims().y || z as u32 >= self.shape.dims().z {
             return (0, &[]);
         }
-        let r = y as usize + self.dims.y as usize * z as usize;
+        let r = self.shape.row(IVec3::new(0, y, z));
         (self.row_offsets[r] as usize, self.row_at(r))
     }
 
     /// The black voxels in (z, y, x) lexicographic order.
     pub fn iter(&self) -> impl Iterator<Item = IVec3> + '_ {
-        let ny = self.dims.y as usize;
+        let ny = self.shape.dims().y as usize;
         (0..self.row_count()).flat_map(move |r| {
             let (y, z) = ((r % ny) as i32, (r / ny) as i32);
             self.row_at(r).iter().map(move |&x| IVec3::new(x as i32, y, z))
@@ -227,7 +234,7 @@ impl VoxelSet {
 
     /// Smallest box holding every black voxel, `None` for the empty set.
     pub fn bounding_box(&self) -> Option<IndexBox> {
-        let ny = self.dims.y as usize;
+        let ny = self.shape.dims().y as usize;
         let mut bbox: Option<IndexBox> = None;
         for r in 0..self.row_count() {
             let row = self.row_at(r);
@@ -249,7 +256,7 @@ impl VoxelSet {
     /// object is connected through the new border, so "touches the border" means
     /// "outside".
     pub fn padded(&self, layers: u32) -> Result<Self, TopologyError> {
-        let grown = self.dims.as_u64vec3() + glam::U64Vec3::splat(2 * layers as u64);
+        let grown = self.shape.dims().as_u64vec3() + glam::U64Vec3::splat(2 * layers as u64);
         if grown.max_element() > MAX_DIM as u64 {
             return Err(TopologyError::TooLarge {
                 dims: grown.min(glam::U64Vec3::splat(u32::MAX as u64)).as_uvec3().to_array(),
@@ -257,8 +264,8 @@ impl VoxelSet {
             });
         }
         let dims = grown.as_uvec3();
-        let rows = check_dims(dims)?;
-        let mut row_offsets = Vec::with_capacity(rows + 1);
+        let shape = check_dims(dims)?;
+        let mut row_offsets = Vec::with_capacity(shape.row_count() + 1);
         row_offsets.push(0u64);
         let mut xs = Vec::with_capacity(self.xs.len());
         let shift = layers as i32;
@@ -268,7 +275,7 @@ impl VoxelSet {
                 row_offsets.push(xs.len() as u64);
             }
         }
-        Ok(VoxelSet { dims, row_offsets, xs })
+        Ok(VoxelSet { shape, row_offsets, xs })
     }
 
     /// Makes `ijk` white; returns whether it was black. Costs O(rows + voxels): for
@@ -308,18 +315,13 @@ impl VoxelSet {
     }
 
     fn row_index(&self, ijk: IVec3) -> usize {
-        ijk.y as usize + self.dims.y as usize * ijk.z as usize
+        self.shape.row(ijk)
     }
 }
 
-/// Linear key `x + X·(y + Y·z)`; sorting keys sorts voxels in (z, y, x) order.
-fn linear_key(dims: UVec3, ijk: IVec3) -> u64 {
-    ijk.x as u64 + dims.x as u64 * (ijk.y as u64 + dims.y as u64 * ijk.z as u64)
-}
-
-/// Validates `dims` and returns the row count, refusing a row index that cannot be
-/// allocated (before allocating it).
-fn check_dims(dims: UVec3) -> Result<usize, TopologyError> {
+/// Validates `dims` and returns its layout, refusing a row index that cannot be
+/// allocated (before allocating it) or a grid whose linear keys do not fit in `usize`.
+fn check_dims(dims: UVec3) -> Result<Shape3, TopologyError> {
     if dims.cmpeq(UVec3::ZERO).any() {
         return Err(TopologyError::EmptyGrid(dims.to_array()));
     }
@@ -332,7 +334,10 @@ fn check_dims(dims: UVec3) -> Result<usize, TopologyError> {
             bytes,
         });
     }
-    Ok(rows as usize)
+    Shape3::new(dims).map_err(|_| TopologyError::TooLarge {
+        dims: dims.to_array(),
+        bytes,
+    })
 }
 
 fn check_len(dims: UVec3, len: u64) -> Result<(), TopologyError> {

@@ -191,13 +191,7 @@ struct TunnelRecord {
 
 impl TunnelRecord {
     fn locate(&self, set: &VoxelSet, connectivity: Connectivity, mesh: &SurfaceMesh) -> MeshTunnel {
-        let dims = set.dims();
-        let (nx, ny) = (dims.x as u64, dims.y as u64);
-        let a = IVec3::new(
-            (self.key % nx) as i32,
-            ((self.key / nx) % ny) as i32,
-            (self.key / (nx * ny)) as i32,
-        );
+        let a = set.shape().delinearize(self.key as usize);
         let d = forward_offsets(connectivity)[self.k as usize];
         let tri = mesh.triangles[self.triangle as usize];
         let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
@@ -222,15 +216,15 @@ impl TunnelRecord {
 /// The N-offsets after the origin in (z, y, x) order: each adjacent pair once, `a`
 /// before `b`.
 fn forward_offsets(connectivity: Connectivity) -> &'static [IVec3] {
-    let all = connectivity.offsets();
-    &all[all.len() / 2..]
+    connectivity.half_offsets()
 }
 
 fn tunnel_records(set: &VoxelSet, connectivity: Connectivity, mesh: &SurfaceMesh) -> Vec<TunnelRecord> {
     let forward = forward_offsets(connectivity);
     let grid = IndexBox::new(IVec3::ZERO, set.dims().as_ivec3());
     let dims = set.dims();
-    let key = |v: IVec3| v.x as u64 + dims.x as u64 * (v.y as u64 + dims.y as u64 * v.z as u64);
+    let shape = set.shape();
+    let key = |v: IVec3| shape.linearize(v) as u64;
     let mut records: Vec<TunnelRecord> = mesh
         .indexed()
         .filter(|(_, t)| is_finite(t))

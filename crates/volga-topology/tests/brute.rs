@@ -1,10 +1,8 @@
 //! The run-based algorithms against brute-force definitions on small random grids.
 
-mod common;
-
-use common::{bfs_components, brute_euler, brute_simple, grid_voxels, white_bfs};
 use glam::{IVec3, UVec3};
 use proptest::prelude::*;
+use volga_topology::brute::{bfs_components, brute_euler, brute_simple, grid_voxels, white_bfs};
 use volga_topology::{
     betti_numbers, black_components, euler_characteristic, is_simple, is_simple_local, simple_voxels, white_components,
     Components, Connectivity, VoxelSet,

@@ -1,9 +1,7 @@
 //! Hand-made voxel sets whose topology is known by construction.
 
-mod common;
-
-use common::grid_voxels;
 use glam::{IVec3, UVec3};
+use volga_topology::brute::grid_voxels;
 use volga_topology::{
     analyze, betti_numbers, black_components, euler_characteristic, is_minimal, is_simple, is_simple_local,
     leaks_if_removed, simple_voxels, tunnels, white_components, Betti, Connectivity, Region, VoxelSet,

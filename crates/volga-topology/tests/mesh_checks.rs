@@ -1,13 +1,11 @@
 //! Checks against a reference mesh: hand-made cases with known answers, and the
 //! surface-proportional search against brute force over every voxel and pair.
 
-mod common;
-
-use common::grid_voxels;
 use glam::{DVec3, IVec3, UVec3};
 use proptest::prelude::*;
 use volga_core::{Aabb, Transform};
 use volga_mesh::{segment_crosses_triangle, triangle_box_overlap};
+use volga_topology::brute::grid_voxels;
 use volga_topology::{
     analyze_with_mesh, check_mesh, cover, mesh_tunnels, triangle_meets_open_box, AnalyzeOptions, Connectivity,
     SurfaceMesh, VoxelSet,

@@ -48,51 +48,23 @@
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
-use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
+use volga_core::{
+    Adjacency, Brick, ChannelKind, Grid, IndexBox, Progress, Shape3, SparseVolume, BRICK_DIM, BRICK_VOXELS,
+};
 
 use crate::mask::BrickMask;
 use crate::tri_distance::{ceil_i32, floor_i32};
 
-/// Which white paths a voxelized surface must block (survey §17.2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Separability {
-    Six,
-    Eighteen,
-    TwentySix,
-}
+/// Which white paths a voxelized surface must block (survey §17.2): the one
+/// [`Adjacency`] type of `volga-core`, under the name the binary voxelizer has always
+/// used (the CLI and tests name it so). The plane thresholds are
+/// [`Adjacency::support`].
+pub type Separability = Adjacency;
 
-impl Separability {
-    /// Parses 6, 18 or 26.
-    pub fn from_number(n: u32) -> Option<Self> {
-        match n {
-            6 => Some(Separability::Six),
-            18 => Some(Separability::Eighteen),
-            26 => Some(Separability::TwentySix),
-            _ => None,
-        }
-    }
-
-    pub fn number(self) -> u32 {
-        match self {
-            Separability::Six => 6,
-            Separability::Eighteen => 18,
-            Separability::TwentySix => 26,
-        }
-    }
-
-    /// Support function of `K_N` (see the module doc): `max_{x ∈ K_N} a·x`.
-    #[inline]
-    pub fn support(self, a: DVec3) -> f64 {
-        let m = a.abs();
-        match self {
-            Separability::Six => 0.5 * m.max_element(),
-            Separability::Eighteen => 0.5 * (m.x + m.y + m.z - m.min_element()),
-            Separability::TwentySix => 0.5 * (m.x + m.y + m.z),
-        }
-    }
-
-    /// Face normals and edge directions of `K_N`: the separating-axis candidates.
-    fn polytope(self) -> (&'static [DVec3], &'static [DVec3]) {
+/// Face normals and edge directions of `K_N` (the hull of the half-steps of the
+/// N-neighbourhood, see the module doc): the separating-axis candidates.
+fn polytope(sep: Separability) -> (&'static [DVec3], &'static [DVec3]) {
+    {
         const AXES: [DVec3; 3] = [DVec3::X, DVec3::Y, DVec3::Z];
         const DIAGONALS: [DVec3; 4] = [
             DVec3::new(1.0, 1.0, 1.0),
@@ -117,7 +89,7 @@ impl Separability {
             DVec3::new(0.0, 1.0, 1.0),
             DVec3::new(0.0, 1.0, -1.0),
         ];
-        match self {
+        match sep {
             Separability::Six => (&DIAGONALS, &FACE_DIAGONALS),
             Separability::Eighteen => (&AXES_AND_DIAGONALS, &FACE_DIAGONALS),
             Separability::TwentySix => (&AXES, &AXES),
@@ -179,7 +151,7 @@ impl PreparedTriangle {
                 axis_count += 1;
             }
         };
-        let (faces, kedges) = sep.polytope();
+        let (faces, kedges) = polytope(sep);
         for &f in faces {
             push(f);
         }
@@ -658,18 +630,24 @@ fn voxelize_indexed(
         })
         .unwrap_or(21);
     let cells = ((cells + IVec3::splat((1 << shift) - 1)) >> shift).max(IVec3::ONE);
+    let Ok(cell_shape) = Shape3::new(cells.as_uvec3()) else {
+        // Not reached (at most `MAX_CELLS` cells of ≥ 1 per axis); the per-brick path
+        // handles any grid.
+        let index_triangles: Vec<[DVec3; 3]> = (0..count).into_par_iter().filter_map(finite).collect();
+        return voxelize_triangles_by_bricks(grid, &index_triangles, separability, progress);
+    };
     let cell_of: Vec<u32> = (0..count)
         .into_par_iter()
         .map(|i| match finite(i) {
             Some([a, ..]) => {
                 let c = (clamp_i(a).clamp(grid_box.min, grid_box.max - IVec3::ONE) >> (BRICK_LOG2 + shift))
                     .clamp(IVec3::ZERO, cells - IVec3::ONE);
-                (c.x + cells.x * (c.y + cells.y * c.z)) as u32
+                cell_shape.linearize(c) as u32
             }
             None => u32::MAX,
         })
         .collect();
-    let mut start = vec![0u32; (cells.x * cells.y * cells.z) as usize + 1];
+    let mut start = vec![0u32; cell_shape.len() + 1];
     for &c in cell_of.iter().filter(|&&c| c != u32::MAX) {
         start[c as usize + 1] += 1;
     }
@@ -708,22 +686,24 @@ fn voxelize_indexed(
             let (lo, hi) = voxel_range(lo, hi, hi);
             let lo = lo.max(grid_box.min) >> BRICK_LOG2;
             let hi = hi.min(grid_box.max - IVec3::ONE) >> BRICK_LOG2;
-            let size = (hi - lo + IVec3::ONE).max(IVec3::ZERO).as_i64vec3();
-            let masks: Vec<(u64, BrickMask)> = if size.x * size.y * size.z <= DENSE_BRICKS {
+            let size = (hi - lo + IVec3::ONE).max(IVec3::ZERO);
+            // A dense array of masks over the chunk's box of bricks when it is small
+            // (an empty box has no layout and takes the map, which stays empty).
+            let dense = (size.as_i64vec3().element_product() <= DENSE_BRICKS)
+                .then(|| Shape3::new(size.as_uvec3()).ok())
+                .flatten();
+            let masks: Vec<(u64, BrickMask)> = if let Some(shape) = dense {
                 let mut sink = DenseMasks {
                     lo,
-                    sx: size.x as i32,
-                    sxy: (size.x * size.y) as i32,
-                    masks: vec![BrickMask::EMPTY; (size.x * size.y * size.z) as usize],
+                    shape,
+                    masks: vec![BrickMask::EMPTY; shape.len()],
                 };
                 rasterize(&tris, separability, &grid_box, &mut sink);
-                let (sx, sxy) = (sink.sx, sink.sxy);
-                let brick = |i: i32| lo + IVec3::new(i % sx, (i % sxy) / sx, i / sxy);
                 sink.masks
                     .into_iter()
                     .enumerate()
                     .filter(|(_, m)| !m.is_empty())
-                    .map(|(i, m)| (brick_key(brick(i as i32)), m))
+                    .map(|(i, m)| (brick_key(lo + shape.delinearize(i)), m))
                     .collect()
             } else {
                 let mut sink = MapMasks {
@@ -748,16 +728,16 @@ fn voxelize_indexed(
         .par_iter()
         .map(|run| {
             let mask = run.iter().fold(BrickMask::EMPTY, |m, (_, r)| m.or(r));
-            let mut data = Box::new([0.0f32; BRICK_VOXELS]);
+            let mut data = [0.0f32; BRICK_VOXELS];
             let mut left = mask;
             while let Some(o) = left.first() {
                 data[o] = 1.0;
                 left.remove(o);
             }
-            (brick_of_key(run[0].0), Brick::Dense(data).collapsed())
+            (brick_of_key(run[0].0), Brick::from_voxels(&data))
         })
         .collect();
-    let mut volume = SparseVolume::new(*grid, 0.0, false);
+    let mut volume = SparseVolume::new(*grid, 0.0, false).with_density_kind(ChannelKind::Binary);
     for (b, brick) in bricks {
         volume.density.insert_brick(b, brick);
     }
@@ -781,8 +761,8 @@ fn rasterize(index_triangles: &[[DVec3; 3]], separability: Separability, region:
 /// A chunk's voxels as brick masks in a dense array over its box of bricks.
 struct DenseMasks {
     lo: IVec3,
-    sx: i32,
-    sxy: i32,
+    /// Layout of the box of bricks from `lo`.
+    shape: Shape3,
     masks: Vec<BrickMask>,
 }
 
@@ -790,10 +770,7 @@ impl DenseMasks {
     #[inline]
     fn slot(&self, ijk: IVec3) -> (usize, usize) {
         let b = (ijk >> BRICK_LOG2) - self.lo;
-        (
-            (b.x + self.sx * b.y + self.sxy * b.z) as usize,
-            Brick::<f32>::local_offset(ijk),
-        )
+        (self.shape.linearize(b), Brick::<f32>::local_offset(ijk))
     }
 }
 
@@ -899,7 +876,7 @@ fn voxelize_triangles_by_bricks(
         .filter_map(|group| {
             let brick = group[0].0;
             let region = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
-            let mut data = Box::new([0.0f32; BRICK_VOXELS]);
+            let mut data = [0.0f32; BRICK_VOXELS];
             let mut any = false;
             for &(_, i) in group.iter() {
                 PreparedTriangle::new(index_triangles[i as usize], separability).for_each_voxel(&region, |ijk| {
@@ -908,12 +885,12 @@ fn voxelize_triangles_by_bricks(
                 });
             }
             progress.inc(1);
-            any.then(|| (brick, Brick::Dense(data).collapsed()))
+            any.then(|| (brick, Brick::from_voxels(&data)))
         })
         .collect();
     progress.finish();
 
-    let mut volume = SparseVolume::new(*grid, 0.0, false);
+    let mut volume = SparseVolume::new(*grid, 0.0, false).with_density_kind(ChannelKind::Binary);
     for (b, brick) in bricks {
         volume.density.insert_brick(b, brick);
     }

@@ -43,7 +43,7 @@ mod tri_distance;
 
 pub use binary::{triangle_covers_voxel, voxelize_mesh_surface, voxelize_triangles, Separability};
 pub use field::AnalyticField;
-pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity};
+pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity, UnsupportedAdjacency};
 pub use mesh::MeshVoxelizer;
 pub use solids::{estimate_solid_bricks, merge_max, voxelize_solids, Solid};
 pub use surfaces::{voxelize_shapes, SurfaceMode};

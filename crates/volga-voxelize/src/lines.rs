@@ -1,31 +1,72 @@
 //! Binary voxelization of 3D segments and polylines (survey §17.3), in index space.
 //!
-//! * [`LineConnectivity::TwentySix`]: the thin digital line of 3D Bresenham between the
+//! * [`LineConnectivity::TWENTY_SIX`]: the thin digital line of 3D Bresenham between the
 //!   voxels containing the two endpoints (half-open rule `floor(x + ½)`): integer DDA
 //!   with exact rounding, one voxel per step along the dominant axis, so consecutive voxels
 //!   differ by 1 along it and by at most 1 along the others — 26-connected, with
 //!   `max |Δ| + 1` voxels. Being a line between voxel centres, it lies within half a voxel
 //!   diagonal of the exact segment.
-//! * [`LineConnectivity::Six`]: the supercover, every voxel whose closed cell
+//! * [`LineConnectivity::SIX`]: the supercover, every voxel whose closed cell
 //!   `[ijk − ½, ijk + ½]` the closed segment meets. It is 6-connected; where the segment
 //!   passes exactly through a cell edge or corner, every cell sharing it is included
 //!   (that is what keeps it 6-connected).
 //!
 //! A zero-length segment gives the voxel containing the point (26), or every voxel whose
 //! closed cell contains it (6).
+//!
+//! There is no 18-connected line here: the connectivity is an [`Adjacency`] checked
+//! once by [`LineConnectivity::new`], which refuses 18 with [`UnsupportedAdjacency`].
 
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
-use volga_core::{Brick, Grid, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
+use volga_core::{Adjacency, Brick, ChannelKind, Grid, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
 
 use crate::binary::clamp_i;
 
+/// The connectivity of a digital line: an [`Adjacency`] the line voxelizer supports
+/// (6 or 26), validated once by [`LineConnectivity::new`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum LineConnectivity {
+pub struct LineConnectivity(Adjacency);
+
+/// The line voxelizer has no line for this adjacency (18: the thin 26-line is not
+/// 18-connected and the 6-connected supercover is not thin, so neither is "the"
+/// 18-line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnsupportedAdjacency(pub Adjacency);
+
+impl std::fmt::Display for UnsupportedAdjacency {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "lines are 6- or 26-connected, not {}-connected", self.0)
+    }
+}
+
+impl std::error::Error for UnsupportedAdjacency {}
+
+impl LineConnectivity {
     /// Thin, 26-connected (3D Bresenham).
-    TwentySix,
+    pub const TWENTY_SIX: LineConnectivity = LineConnectivity(Adjacency::TwentySix);
     /// Every voxel the segment passes through; 6-connected.
-    Six,
+    pub const SIX: LineConnectivity = LineConnectivity(Adjacency::Six);
+
+    /// The line connectivity for `adjacency`: 6 or 26; 18 is refused.
+    pub fn new(adjacency: Adjacency) -> Result<Self, UnsupportedAdjacency> {
+        match adjacency {
+            Adjacency::Six | Adjacency::TwentySix => Ok(LineConnectivity(adjacency)),
+            Adjacency::Eighteen => Err(UnsupportedAdjacency(adjacency)),
+        }
+    }
+
+    pub fn adjacency(self) -> Adjacency {
+        self.0
+    }
+}
+
+impl TryFrom<Adjacency> for LineConnectivity {
+    type Error = UnsupportedAdjacency;
+
+    fn try_from(adjacency: Adjacency) -> Result<Self, Self::Error> {
+        LineConnectivity::new(adjacency)
+    }
 }
 
 #[inline]
@@ -38,9 +79,10 @@ pub fn segment_voxels(p: DVec3, q: DVec3, connectivity: LineConnectivity) -> Vec
     if !(p.is_finite() && q.is_finite()) {
         return Vec::new();
     }
-    match connectivity {
-        LineConnectivity::TwentySix => thin_line(p, q),
-        LineConnectivity::Six => supercover(p, q),
+    match connectivity.0 {
+        Adjacency::TwentySix => thin_line(p, q),
+        // `LineConnectivity::new` admits only 6 and 26.
+        Adjacency::Six | Adjacency::Eighteen => supercover(p, q),
     }
 }
 
@@ -172,15 +214,13 @@ pub fn voxelize_segments(
     progress.finish();
     voxels.par_sort_unstable_by_key(|v| (v.z >> 3, v.y >> 3, v.x >> 3, v.z, v.y, v.x));
     voxels.dedup();
-    let mut volume = SparseVolume::new(*grid, 0.0, false);
+    let mut volume = SparseVolume::new(*grid, 0.0, false).with_density_kind(ChannelKind::Binary);
     for group in voxels.chunk_by(|a, b| (*a >> 3) == (*b >> 3)) {
-        let mut data = Box::new([0.0f32; BRICK_VOXELS]);
+        let mut data = [0.0f32; BRICK_VOXELS];
         for v in group {
             data[Brick::<f32>::local_offset(*v)] = 1.0;
         }
-        volume
-            .density
-            .insert_brick(group[0] >> 3, Brick::Dense(data).collapsed());
+        volume.density.insert_brick(group[0] >> 3, Brick::from_voxels(&data));
     }
     debug_assert_eq!(BRICK_DIM, 8);
     volume

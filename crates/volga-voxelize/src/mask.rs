@@ -118,7 +118,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn offset(v: IVec3) -> usize {
-        (v.x + 8 * (v.y + 8 * v.z)) as usize
+        volga_core::BRICK_SHAPE.linearize(v)
     }
 
     fn voxels() -> Vec<IVec3> {

@@ -358,7 +358,7 @@ impl MeshVoxelizer {
     /// `band_world` on `grid`, plus the grid's brick count when the inside is filled
     /// (uniform bricks), computed from the triangles without allocating.
     pub fn estimate_bricks(mesh: &TriMesh, grid: &Grid, band_world: f64) -> (u64, u64) {
-        let h = grid.transform.spacing().min_element();
+        let h = grid.min_spacing();
         let band = band_world / h;
         let per_triangle: u64 = (0..mesh.triangles.len())
             .map(|i| {
@@ -529,8 +529,11 @@ impl MeshVoxelizer {
         inside
     }
 
-    /// Voxelizes the mesh in `mode` (`Solid`, `Shell` or `Distance`; binary surfaces
-    /// use [`crate::voxelize_triangles`]).
+    /// Voxelizes the mesh in `mode`. Every mode is served: `Binary(sep)` is the binary
+    /// surface of the triangles ([`crate::voxelize_triangles`], the same voxels as
+    /// [`crate::voxelize_mesh_surface`] on the mesh), the others come from the exact
+    /// narrow band. The result's [`SparseVolume::density_kind`] is
+    /// [`SurfaceMode::channel_kind`].
     pub fn voxelize(&self, grid: &Grid, mode: SurfaceMode, progress: &dyn Progress) -> SparseVolume {
         let spacing = grid.transform.spacing();
         let filter = OrientedBoxFilter::for_spacing(spacing);
@@ -540,10 +543,14 @@ impl MeshVoxelizer {
             SurfaceMode::Distance {
                 half_width_voxels,
                 signed,
-            } => (half_width_voxels * spacing.max_element(), signed),
+            } => (half_width_voxels * grid.max_spacing(), signed),
             // Binary inside: the distance band of one voxel decides the sign near the surface.
-            SurfaceMode::Inside => (spacing.max_element(), true),
-            SurfaceMode::Binary(_) => panic!("binary mesh surfaces are voxelize_triangles' job"),
+            SurfaceMode::Inside => (grid.max_spacing(), true),
+            // A union of per-triangle voxel sets: the triangles' (Morton) order does not
+            // change it.
+            SurfaceMode::Binary(separability) => {
+                return crate::voxelize_triangles(grid, &self.triangles, separability, progress)
+            }
         };
         let background = mode.background(grid);
         let inside_value = match mode {
@@ -559,8 +566,7 @@ impl MeshVoxelizer {
                     let d = if signed && inside { -d_unsigned } else { d_unsigned };
                     d.clamp(-band, band) as f32
                 }
-                SurfaceMode::Inside => inside as u8 as f32,
-                SurfaceMode::Binary(_) => unreachable!(),
+                SurfaceMode::Inside | SurfaceMode::Binary(_) => inside as u8 as f32,
             }
         };
 
@@ -582,7 +588,7 @@ impl MeshVoxelizer {
         progress.start("voxelize", bins.bricks.len() as u64);
         let band2 = band * band;
         // The band in index units on the finest axis (a superset on anisotropic grids).
-        let band_index = band / spacing.min_element();
+        let band_index = band / grid.min_spacing();
         let prepared = self.regions.prepare(t, &grid_box, band);
         let band_bricks: Vec<(IVec3, Brick<f32>)> = (0..bins.bricks.len())
             .into_par_iter()
@@ -612,7 +618,7 @@ impl MeshVoxelizer {
                 // band, so it cannot cross the surface); a pocket no band voxel reaches asks
                 // the winding number once.
                 let in_band = |o: usize| best_tri[o] != u32::MAX && best_d2[o] <= band2;
-                let mut data = Box::new([background; BRICK_VOXELS]);
+                let mut data = [background; BRICK_VOXELS];
                 let (mut inside_band, mut outside_band) = (BrickMask::EMPTY, BrickMask::EMPTY);
                 for z in region.min.z..region.max.z {
                     for y in region.min.y..region.max.y {
@@ -643,12 +649,12 @@ impl MeshVoxelizer {
                     }
                 }
                 progress.inc(1);
-                (brick, Brick::Dense(data).collapsed())
+                (brick, Brick::from_voxels(&data))
             })
             .collect();
         progress.finish();
 
-        let mut volume = SparseVolume::new(*grid, background, false);
+        let mut volume = SparseVolume::new(*grid, background, false).with_density_kind(mode.channel_kind());
         let touched: rustc_hash::FxHashSet<IVec3> = band_bricks.iter().map(|(b, _)| *b).collect();
         for (b, brick) in band_bricks {
             if brick != Brick::Uniform(background) {

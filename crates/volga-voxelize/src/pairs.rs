@@ -2,7 +2,7 @@
 
 use glam::IVec3;
 use rayon::prelude::*;
-use volga_core::IndexBox;
+use volga_core::{IndexBox, Shape3};
 
 /// Bits per axis of a packed brick key (2²¹ bricks = 16.7M voxels per axis).
 const KEY_BITS: u32 = 21;
@@ -70,13 +70,11 @@ pub(crate) fn bin_by_brick(ranges: &[IndexBox], brick_extent: IVec3) -> BrickBin
             (r.min.div_euclid(dim), (r.max - 1).div_euclid(dim) + 1)
         }
     };
-    let e = brick_extent.max(IVec3::ONE).as_u64vec3();
-    let packable =
-        e.x.checked_mul(e.y)
-            .and_then(|xy| xy.checked_mul(e.z))
-            .is_some_and(|n| n <= u32::MAX as u64)
-            && ranges.len() <= u32::MAX as usize;
-    if !packable {
+    // Packed keys need the brick layout to index fewer than 2³² bricks.
+    let packed = Shape3::new(brick_extent.max(IVec3::ONE).as_uvec3())
+        .ok()
+        .filter(|shape| shape.len() <= u32::MAX as usize && ranges.len() <= u32::MAX as usize);
+    let Some(shape) = packed else {
         let mut pairs: Vec<(IVec3, u32)> = ranges
             .par_iter()
             .enumerate()
@@ -99,7 +97,7 @@ pub(crate) fn bin_by_brick(ranges: &[IndexBox], brick_extent: IVec3) -> BrickBin
             bins.starts.push(bins.starts.last().copied().unwrap_or(0) + group.len());
         }
         return bins;
-    }
+    };
     let mut keys: Vec<u64> = ranges
         .par_iter()
         .enumerate()
@@ -107,10 +105,7 @@ pub(crate) fn bin_by_brick(ranges: &[IndexBox], brick_extent: IVec3) -> BrickBin
             let (lo, hi) = bricks_of(r);
             (lo.z..hi.z).flat_map(move |z| {
                 (lo.y..hi.y).flat_map(move |y| {
-                    (lo.x..hi.x).map(move |x| {
-                        let linear = (z as u64 * e.y + y as u64) * e.x + x as u64;
-                        linear << 32 | i as u64
-                    })
+                    (lo.x..hi.x).map(move |x| (shape.linearize(IVec3::new(x, y, z)) as u64) << 32 | i as u64)
                 })
             })
         })
@@ -123,12 +118,7 @@ pub(crate) fn bin_by_brick(ranges: &[IndexBox], brick_extent: IVec3) -> BrickBin
     };
     let mut start = 0;
     for group in keys.chunk_by(|a, b| a >> 32 == b >> 32) {
-        let linear = group[0] >> 32;
-        bins.bricks.push(IVec3::new(
-            (linear % e.x) as i32,
-            (linear / e.x % e.y) as i32,
-            (linear / (e.x * e.y)) as i32,
-        ));
+        bins.bricks.push(shape.delinearize((group[0] >> 32) as usize));
         start += group.len();
         bins.starts.push(start);
     }

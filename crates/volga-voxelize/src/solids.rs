@@ -178,8 +178,8 @@ fn sample_brick(
         }
     }
 
-    let mut density = Box::new([0.0f32; BRICK_VOXELS]);
-    let mut colour = with_colour.then(|| Box::new([[0.0f32; 3]; BRICK_VOXELS]));
+    let mut density = [0.0f32; BRICK_VOXELS];
+    let mut colour = with_colour.then(|| [[0.0f32; 3]; BRICK_VOXELS]);
     for (n, ijk) in volga_core::IndexBox::new(base, base + IVec3::splat(BRICK_DIM))
         .iter()
         .enumerate()
@@ -207,11 +207,11 @@ fn sample_brick(
             }
         }
     }
-    let density = Brick::Dense(density).collapsed();
+    let density = Brick::from_voxels(&density);
     if density == Brick::Uniform(0.0) {
         return None;
     }
-    Some((density, colour.map(|c| Brick::Dense(c).collapsed())))
+    Some((density, colour.map(|c| Brick::from_voxels(&c))))
 }
 
 #[cfg(test)]

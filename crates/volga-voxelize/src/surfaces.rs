@@ -11,7 +11,7 @@
 
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
-use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
+use volga_core::{Brick, ChannelKind, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
 
 use crate::binary::{dominant_axis, Separability};
 use crate::{OrientedBoxFilter, SignedDistance};
@@ -25,8 +25,8 @@ pub enum SurfaceMode {
     /// `|d| − thickness/2`.
     Shell { thickness: f64 },
     /// Narrow-band distance field in world units, clamped to ±`half_width_voxels` voxels
-    /// (voxel = the largest spacing); background `+half_width`, interior `−half_width`
-    /// when signed.
+    /// (voxel = the largest spacing, [`volga_core::Transform::max_spacing`]); background
+    /// `+half_width`, interior `−half_width` when signed.
     Distance { half_width_voxels: f64, signed: bool },
     /// Binary surface with the given separability: the plane thresholds of
     /// [`crate::binary`] applied to the surface's local tangent plane (distance and
@@ -46,10 +46,18 @@ impl SurfaceMode {
     /// Background value of the result.
     pub fn background(&self, grid: &Grid) -> f32 {
         match *self {
-            SurfaceMode::Distance { half_width_voxels, .. } => {
-                (half_width_voxels * grid.transform.spacing().max_element()) as f32
-            }
+            SurfaceMode::Distance { half_width_voxels, .. } => (half_width_voxels * grid.max_spacing()) as f32,
             _ => 0.0,
+        }
+    }
+
+    /// What the result's scalar channel holds: densities for the anti-aliased modes,
+    /// (signed or unsigned) distances for `Distance`, 0/1 for `Binary` and `Inside`.
+    pub fn channel_kind(&self) -> ChannelKind {
+        match self {
+            SurfaceMode::Solid | SurfaceMode::Shell { .. } => ChannelKind::Density,
+            SurfaceMode::Distance { .. } => ChannelKind::SignedDistance,
+            SurfaceMode::Binary(_) | SurfaceMode::Inside => ChannelKind::Binary,
         }
     }
 }
@@ -61,18 +69,16 @@ pub fn voxelize_shapes<S: SignedDistance + Sync>(
     mode: SurfaceMode,
     progress: &dyn Progress,
 ) -> SparseVolume {
-    let spacing = grid.transform.spacing();
-    let filter = OrientedBoxFilter::for_spacing(spacing);
-    let h_max = spacing.max_element();
+    let filter = OrientedBoxFilter::for_spacing(grid.transform.spacing());
     // World distance beyond which a voxel takes the mode's far value.
     let band = match mode {
         SurfaceMode::Solid => filter.half_width(),
         SurfaceMode::Shell { thickness } => 0.5 * thickness + filter.half_width(),
-        SurfaceMode::Distance { half_width_voxels, .. } => half_width_voxels * h_max,
+        SurfaceMode::Distance { half_width_voxels, .. } => half_width_voxels * grid.max_spacing(),
         SurfaceMode::Inside => 0.0,
         // Slab voxels lie within half a voxel diagonal; repair voxels within one
         // N-step (a voxel diagonal) of the surface.
-        SurfaceMode::Binary(_) => spacing.length(),
+        SurfaceMode::Binary(_) => grid.voxel_diagonal(),
     };
     let background = mode.background(grid);
 
@@ -119,7 +125,7 @@ pub fn voxelize_shapes<S: SignedDistance + Sync>(
         .collect();
     progress.finish();
 
-    let mut volume = SparseVolume::new(*grid, background, false);
+    let mut volume = SparseVolume::new(*grid, background, false).with_density_kind(mode.channel_kind());
     for (b, brick) in sampled {
         volume.density.insert_brick(b, brick);
     }
@@ -170,21 +176,6 @@ fn in_slab<S: SignedDistance>(s: &S, sep: Separability, band: f64, p: DVec3, d: 
     };
     let h = sep.support(n);
     -h <= along && along < h
-}
-
-/// The `N`-neighbourhood offsets of a separability.
-fn neighbour_offsets(sep: Separability) -> Vec<IVec3> {
-    IndexBox::new(IVec3::splat(-1), IVec3::splat(2))
-        .iter()
-        .filter(|o| {
-            let nonzero = o.cmpne(IVec3::ZERO).bitmask().count_ones();
-            match sep {
-                Separability::Six => nonzero == 1,
-                Separability::Eighteen => (1..=2).contains(&nonzero),
-                Separability::TwentySix => nonzero >= 1,
-            }
-        })
-        .collect()
 }
 
 /// Binary value of the union at voxel `ijk`: in some input's slab, or an inside voxel
@@ -283,15 +274,15 @@ fn sample_brick<S: SignedDistance>(
         SurfaceMode::Distance { .. } => band,
         _ => 0.0,
     };
-    let mut data = Box::new([background; BRICK_VOXELS]);
+    let mut data = [background; BRICK_VOXELS];
     if let SurfaceMode::Binary(sep) = mode {
-        let offsets = neighbour_offsets(sep);
+        let offsets = sep.offsets();
         for (n, ijk) in IndexBox::new(base, base + IVec3::splat(BRICK_DIM)).iter().enumerate() {
-            if grid_box.contains(ijk) && binary_voxel(grid, &relevant, sep, band, ijk, &offsets) {
+            if grid_box.contains(ijk) && binary_voxel(grid, &relevant, sep, band, ijk, offsets) {
                 data[n] = 1.0;
             }
         }
-        let brick = Brick::Dense(data).collapsed();
+        let brick = Brick::from_voxels(&data);
         return (brick != Brick::Uniform(background)).then_some(brick);
     }
     for (n, ijk) in IndexBox::new(base, base + IVec3::splat(BRICK_DIM)).iter().enumerate() {
@@ -305,6 +296,6 @@ fn sample_brick<S: SignedDistance>(
         }
         data[n] = v as f32;
     }
-    let brick = Brick::Dense(data).collapsed();
+    let brick = Brick::from_voxels(&data);
     (brick != Brick::Uniform(background)).then_some(brick)
 }

@@ -1,10 +1,16 @@
-//! Brute-force references over dense grids: what the sparse algorithms must equal.
-#![allow(dead_code)]
+//! Brute-force discrete topology by definition, on small grids: the references the
+//! run-based algorithms (this crate's tests) and the voxelizers' separability claims
+//! (the root integration tests) are checked against. One copy for both.
+//!
+//! Compiled only with the `testing` feature; hidden from the docs. Quadratic or worse:
+//! for grids of a few thousand voxels.
 
 use std::collections::{BTreeSet, VecDeque};
 
 use glam::{IVec3, UVec3};
-use volga_topology::{Connectivity, VoxelSet};
+use volga_core::{Adjacency, Shape3};
+
+use crate::VoxelSet;
 
 /// Every voxel of the grid in (z, y, x) order.
 pub fn grid_voxels(dims: UVec3) -> impl Iterator<Item = IVec3> {
@@ -21,7 +27,7 @@ pub fn in_grid(dims: UVec3, v: IVec3) -> bool {
 pub fn bfs_components(
     dims: UVec3,
     member: impl Fn(IVec3) -> bool,
-    connectivity: Connectivity,
+    adjacency: Adjacency,
 ) -> Vec<(IVec3, Vec<IVec3>, bool)> {
     let mut seen = BTreeSet::new();
     let mut out = Vec::new();
@@ -35,7 +41,7 @@ pub fn bfs_components(
         seen.insert(key(seed));
         while let Some(v) = queue.pop_front() {
             voxels.push(v);
-            for &d in connectivity.offsets() {
+            for &d in adjacency.offsets() {
                 let q = v + d;
                 if in_grid(dims, q) && member(q) && seen.insert(key(q)) {
                     queue.push_back(q);
@@ -52,18 +58,47 @@ pub fn bfs_components(
     out
 }
 
-pub fn white_bfs(set: &VoxelSet, connectivity: Connectivity) -> Vec<(IVec3, Vec<IVec3>, bool)> {
-    bfs_components(set.dims(), |v| !set.contains(v), connectivity)
+/// White components of `set` by BFS (see [`bfs_components`]).
+pub fn white_bfs(set: &VoxelSet, adjacency: Adjacency) -> Vec<(IVec3, Vec<IVec3>, bool)> {
+    bfs_components(set.dims(), |v| !set.contains(v), adjacency)
+}
+
+/// Which voxels of the `shape` grid an N-flood through white voxels (where `black` is
+/// false) reaches from the white voxels on the grid border, indexed by
+/// [`Shape3::linearize`]. A closed N-separating surface leaves its inside unreached.
+pub fn flood_from_border(shape: Shape3, black: impl Fn(IVec3) -> bool, adjacency: Adjacency) -> Vec<bool> {
+    let dims = shape.dims();
+    let mut seen = vec![false; shape.len()];
+    let mut stack = Vec::new();
+    for ijk in grid_voxels(dims) {
+        let border = ijk.cmpeq(IVec3::ZERO).any() || ijk.cmpeq(dims.as_ivec3() - 1).any();
+        if border && !black(ijk) {
+            seen[shape.linearize(ijk)] = true;
+            stack.push(ijk);
+        }
+    }
+    while let Some(p) = stack.pop() {
+        for &o in adjacency.offsets() {
+            let q = p + o;
+            if in_grid(dims, q) && !black(q) && !seen[shape.linearize(q)] {
+                seen[shape.linearize(q)] = true;
+                stack.push(q);
+            }
+        }
+    }
+    seen
 }
 
 /// Brute simplicity by definition: remove `v` and check that no new white component
-/// holds voxels of two old ones.
-pub fn brute_simple(set: &VoxelSet, v: IVec3, connectivity: Connectivity) -> bool {
-    let before = white_bfs(set, connectivity);
+/// holds voxels of two old ones. `false` if `v` is not black.
+pub fn brute_simple(set: &VoxelSet, v: IVec3, adjacency: Adjacency) -> bool {
+    let before = white_bfs(set, adjacency);
     let label_of = |q: IVec3| before.iter().position(|c| c.1.contains(&q));
     let mut after = set.clone();
-    assert!(after.remove(v));
-    white_bfs(&after, connectivity).iter().all(|(_, voxels, _)| {
+    if !after.remove(v) {
+        return false;
+    }
+    white_bfs(&after, adjacency).iter().all(|(_, voxels, _)| {
         let labels: BTreeSet<usize> = voxels.iter().filter_map(|&q| label_of(q)).collect();
         labels.len() <= 1
     })
