@@ -31,6 +31,7 @@
 pub mod binary;
 mod field;
 mod filter;
+mod job;
 pub mod lines;
 mod mask;
 pub mod measure;
@@ -45,6 +46,7 @@ mod tri_distance;
 pub use binary::{triangle_covers_voxel, voxelize_mesh_surface, voxelize_triangles, Separability};
 pub use field::AnalyticField;
 pub use filter::OrientedBoxFilter;
+pub use job::{parse_bytes_bound, JobError, JobEstimate, MeshJob, MeshJobMode};
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity};
 pub use mesh::MeshVoxelizer;
 pub use shapes::{Shape, SignedDistance};
