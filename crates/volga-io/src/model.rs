@@ -553,7 +553,7 @@ mod tests {
         let e = check_free_space(dir.path(), u64::MAX).unwrap_err();
         let m = e.to_string();
         assert!(
-            m.contains(&dir.path().display().to_string()) && m.contains("needs"),
+            m.contains(&dir.path().display().to_string()) && m.contains("the outputs need") && m.contains("available"),
             "{m}"
         );
         let nested = dir.path().join("not/yet/there/v.nrrd");
