@@ -20,7 +20,7 @@ use volga_core::{NoProgress, SparseVolume};
 use volga_scene::Stages;
 
 use crate::failure::{bad_input, failed, Failure};
-use crate::voxelize::{self, Format, JobArgs};
+use crate::voxelize::{output_format, write_outputs, JobArgs};
 
 #[derive(Subcommand)]
 pub enum BenchCommand {
@@ -49,15 +49,14 @@ pub struct BenchArgs {
 pub fn run(command: BenchCommand) -> Result<(), Failure> {
     let BenchCommand::Voxelize(args) = command;
     let job_args = &args.job;
-    let format = args
-        .out
-        .as_deref()
-        .map(|out| Format::of(out, job_args.is_binary()))
-        .transpose()?;
+    let binary = job_args.spec()?.is_binary();
+    if let Some(out) = &args.out {
+        output_format(out, binary)?;
+    }
     let job = job_args.prepare(&mut Stages::default())?;
     let once = || {
         let start = Instant::now();
-        let (volume, _, mode) = job_args.voxelize(&job, &NoProgress);
+        let (volume, _, mode) = job.voxelize(&NoProgress);
         (start.elapsed().as_secs_f64(), volume, mode)
     };
     let mut last: Option<(SparseVolume, String)> = None;
@@ -89,14 +88,14 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
                 (Some("run"), None) => {
                     drop(last.take()); // free the previous result first, as a fresh run would find it
                     let (t, volume, mode) = once();
-                    say(json!({ "t": t, "voxels": job_args.voxel_count(&volume) }))?;
+                    say(json!({ "t": t, "voxels": job.voxel_count(&volume) }))?;
                     last = Some((volume, mode));
                 }
                 (Some("dump"), Some(path)) if !path.is_empty() => {
                     let path = PathBuf::from(path);
                     let (volume, _) = last.as_ref().ok_or_else(|| bad_input("dump: nothing has run yet"))?;
-                    let format = Format::of(&path, job_args.is_binary())?;
-                    voxelize::write(&path, &format, volume).map_err(|e| failed(e.to_string()))?;
+                    output_format(&path, binary)?;
+                    write_outputs(&path, volume, None)?;
                     say(json!({ "ok": true }))?;
                 }
                 (None | Some(""), _) => {}
@@ -125,8 +124,8 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
     } else {
         0.5 * (sorted[sorted.len() / 2 - 1] + sorted[sorted.len() / 2])
     };
-    if let (Some(out), Some(format)) = (&args.out, &format) {
-        voxelize::write(out, format, &volume).map_err(|e| failed(e.to_string()))?;
+    if let Some(out) = &args.out {
+        write_outputs(out, &volume, None)?;
     }
     let report = json!({
         "mesh": job_args.mesh_path(),
@@ -136,7 +135,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
         "warmup": args.warmup,
         "times_s": times,
         "median_s": median,
-        "voxels": job_args.voxel_count(&volume),
+        "voxels": job.voxel_count(&volume),
     });
     println!("{}", serde_json::to_string_pretty(&report).expect("report serializes"));
     Ok(())

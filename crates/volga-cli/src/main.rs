@@ -17,7 +17,8 @@ use volga_scene::{build, load_scene, plan::plan, BuildOptions};
 #[derive(Parser)]
 #[command(name = "volga", version, about = "volga — a volume graphics modeling kernel")]
 struct Cli {
-    /// Worker threads (default: all cores). Results are identical for any count.
+    /// Worker threads (default: all cores), at most 4× the cores available (and at
+    /// least 16 are allowed). Results are identical for any count.
     #[arg(long, global = true)]
     threads: Option<usize>,
     #[command(subcommand)]
@@ -79,11 +80,26 @@ pub(crate) fn parse_size(s: &str) -> Result<u64, String> {
     Ok((n * mul as f64) as u64)
 }
 
+/// The most worker threads `--threads` accepts on a machine with `cores` available
+/// cores: 4× the cores, and never fewer than 16 (so results can be compared across
+/// counts on small machines).
+pub(crate) fn max_threads(cores: usize) -> usize {
+    cores.saturating_mul(4).max(16)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
         if n == 0 {
             eprintln!("error: --threads must be ≥ 1");
+            return ExitCode::from(2);
+        }
+        let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+        let cap = max_threads(cores);
+        if n > cap {
+            eprintln!(
+                "error: --threads {n} is more than this machine can run usefully: at most {cap} (4× its {cores} available cores, and at least 16)"
+            );
             return ExitCode::from(2);
         }
         if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
@@ -165,7 +181,14 @@ fn main() -> ExitCode {
 
 #[cfg(test)]
 mod tests {
-    use super::parse_size;
+    use super::{max_threads, parse_size};
+
+    #[test]
+    fn thread_cap() {
+        assert_eq!(max_threads(1), 16);
+        assert_eq!(max_threads(2), 16);
+        assert_eq!(max_threads(64), 256);
+    }
 
     #[test]
     fn sizes() {

@@ -12,13 +12,15 @@ use clap::{Args, ValueEnum};
 use glam::{DVec3, IVec3};
 use serde::Serialize;
 use volga_core::Transform;
+use volga_io::{VoxelModel, VoxelValues};
 use volga_topology::{
     analyze_with, analyze_with_mesh, AnalyzeOptions, Connectivity, SurfaceMesh, TopologyReport, VoxelSet,
 };
 
 #[derive(Args)]
 pub struct ValidateArgs {
-    /// Voxel model: .binvox (black = filled) or .nrrd (black = density ≥ 0.5).
+    /// Voxel model: .binvox (black = filled) or .nrrd of densities (black = density ≥ 0.5;
+    /// a NRRD of distances is refused).
     model: PathBuf,
     /// Reference surface (.obj, .gltf, .glb) in the model's world space: N-tunnels
     /// through it, cover and minimal cover.
@@ -64,6 +66,9 @@ fn parse_connectivity(s: &str) -> Result<Connectivity, String> {
 struct Output {
     model: PathBuf,
     format: &'static str,
+    /// What the model's values are: `occupancy` (binvox, or a NRRD of 0 and 1) or
+    /// `density` (a NRRD thresholded at 0.5).
+    values: &'static str,
     padded: bool,
     /// World position of voxel (0, 0, 0)'s centre and the voxel spacing of the grid
     /// analysed (the padded grid with --pad).
@@ -105,7 +110,7 @@ pub fn run(args: ValidateArgs) -> Result<bool, Failure> {
             args.model.display()
         )));
     }
-    let (format, set, transform) = read_model(&args.model)?;
+    let (format, values, set, transform) = read_model(&args.model)?;
     let (set, transform) = if args.pad {
         let padded = set
             .padded(1)
@@ -140,6 +145,7 @@ pub fn run(args: ValidateArgs) -> Result<bool, Failure> {
     let output = Output {
         model: args.model.clone(),
         format,
+        values: values.name(),
         padded: args.pad,
         origin: transform.origin().to_array(),
         spacing: transform.spacing().to_array(),
@@ -176,30 +182,32 @@ fn evaluate(r: Requirement, report: &TopologyReport, n: Connectivity) -> Require
     }
 }
 
-fn extension(path: &Path) -> Option<String> {
-    path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase)
-}
-
-/// The black voxels of a `.binvox` or `.nrrd` model and its world transform.
-fn read_model(path: &Path) -> Result<(&'static str, VoxelSet, Transform), Failure> {
+/// The black voxels of a `.binvox` or `.nrrd` model, its format, what its values mean
+/// and its world transform. A NRRD of densities is thresholded at 0.5 (black =
+/// density ≥ 0.5); a NRRD of distances is refused (bad input): its inside is `d ≤ 0`,
+/// not a density, and validating it as one would report nothing black.
+fn read_model(path: &Path) -> Result<(&'static str, VoxelValues, VoxelSet, Transform), Failure> {
     let named = |e: &dyn std::fmt::Display| bad_input(format!("{}: {e}", path.display()));
-    match extension(path).as_deref() {
-        Some("binvox") => {
-            let model = volga_io::read_binvox(path).map_err(|e| bad_input(e.to_string()))?;
+    match volga_io::read_voxel_model(path).map_err(|e| bad_input(e.to_string()))? {
+        VoxelModel::Binvox(model) => {
             let transform = model.transform().map_err(|e| named(&e))?;
             let set =
                 VoxelSet::from_voxels(model.dims(), model.filled().map(|v| v.as_ivec3())).map_err(|e| named(&e))?;
-            Ok(("binvox", set, transform))
+            Ok(("binvox", VoxelValues::Occupancy, set, transform))
         }
-        Some("nrrd") => {
-            let volume = volga_io::read_nrrd(path).map_err(|e| bad_input(e.to_string()))?;
-            let set = VoxelSet::from_dense(&volume, 0.5).map_err(|e| named(&e))?;
-            Ok(("nrrd", set, volume.grid.transform))
-        }
-        _ => Err(bad_input(format!(
-            "{}: unknown model format: expected .binvox or .nrrd",
+        VoxelModel::Nrrd {
+            values: VoxelValues::Distance { min, max, background },
+            ..
+        } => Err(bad_input(format!(
+            "{}: the file holds distances, not occupancy (values {min} … {max}, background {background}): \
+             validate checks binary models; write one with `volga voxelize --separability 6|18|26 --out X.binvox`, \
+             or threshold the field yourself (black = distance ≤ 0) into a .binvox",
             path.display()
         ))),
+        VoxelModel::Nrrd { volume, values } => {
+            let set = VoxelSet::from_dense(&volume, 0.5).map_err(|e| named(&e))?;
+            Ok(("nrrd", values, set, volume.grid.transform))
+        }
     }
 }
 
@@ -229,9 +237,14 @@ fn summary(o: &Output) -> String {
     let d = r.dims;
     let _ = writeln!(
         s,
-        "{} ({}{}): {}×{}×{} grid, {} black voxels, white {n}-adjacency, black {}",
+        "{} ({}{}{}): {}×{}×{} grid, {} black voxels, white {n}-adjacency, black {}",
         o.model.display(),
         o.format,
+        if o.values == "density" {
+            ", densities: black = density ≥ 0.5"
+        } else {
+            ""
+        },
         if o.padded { ", padded by one white layer" } else { "" },
         d.x,
         d.y,

@@ -6,14 +6,16 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use crate::failure::{bad_input, failed, Failure};
-use glam::{DVec3, UVec3};
 use serde::Serialize;
 use volga_core::memory::{self, Bytes};
-use volga_core::{Grid, Progress, SparseVolume, Transform};
+use volga_core::{Grid, Progress, SparseVolume};
+use volga_io::{StagedOutputs, VoxelFormat};
 use volga_scene::{StageReport, Stages};
-use volga_voxelize::{voxelize_mesh_surface, MeshVoxelizer, Separability, SurfaceMode};
+use volga_voxelize::{parse_bytes_bound, JobEstimate, MeshJob, MeshJobMode, Separability};
 
 /// What to voxelize and how: shared by `volga voxelize` and `volga bench voxelize`.
+/// Flags that a mode would ignore are refused (`--unsigned` goes only with `--distance`,
+/// `--thickness` only with an anti-aliased surface, `--solid` not with `--distance`).
 #[derive(Args)]
 pub struct JobArgs {
     /// Mesh file: .obj, .gltf or .glb.
@@ -30,16 +32,19 @@ pub struct JobArgs {
     /// Narrow-band signed distance field of this half-width (voxels); world units in the file.
     #[arg(long, value_name = "HALFWIDTH", group = "mode")]
     distance: Option<f64>,
-    /// Fill the inside (generalized winding number ≥ ½): a solid instead of a surface.
-    #[arg(long)]
+    /// Fill the inside (generalized winding number ≥ ½): a solid instead of a surface
+    /// (with --separability or --anti-aliased).
+    #[arg(long, conflicts_with = "distance")]
     solid: bool,
     /// Unsigned distances (with `--distance`).
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["separability", "anti_aliased"])]
     unsigned: bool,
-    /// Thickness of an anti-aliased surface, in voxels.
-    #[arg(long, default_value_t = 1.0)]
+    /// Thickness of an anti-aliased surface, in voxels (with --anti-aliased, without --solid).
+    #[arg(long, default_value_t = 1.0, conflicts_with_all = ["separability", "distance", "solid"])]
     thickness: f64,
-    /// Refuse runs estimated to need more memory than this (e.g. 8G).
+    /// Refuse runs estimated to need more memory than this (e.g. 8G); default: the
+    /// machine's available memory. Checked before reading the mesh (from the file's
+    /// size) and before voxelizing (from the triangles and the grid).
     #[arg(long, value_parser = crate::parse_size)]
     memory_limit: Option<u64>,
 }
@@ -63,7 +68,7 @@ fn parse_separability(s: &str) -> Result<Separability, String> {
         .ok_or_else(|| format!("`{s}`: separability must be 6, 18 or 26"))
 }
 
-#[derive(Serialize)]
+#[derive(Serialize, Clone)]
 struct Report {
     mesh: PathBuf,
     triangles: usize,
@@ -79,14 +84,14 @@ struct Report {
     outputs: Vec<PathBuf>,
 }
 
-#[derive(Serialize)]
+#[derive(Serialize, Clone)]
 struct GridReport {
     dims: [u32; 3],
     voxel_size: f64,
     origin: [f64; 3],
 }
 
-#[derive(Serialize)]
+#[derive(Serialize, Clone)]
 struct VoxelCounts {
     /// Voxels that differ from the background: black voxels of binary modes, non-zero
     /// density, or distances inside the band.
@@ -99,44 +104,34 @@ struct VoxelCounts {
     dense_bricks: usize,
 }
 
-pub enum Format {
-    Binvox,
-    Nrrd,
-}
-
-impl Format {
-    /// The format of an output path, from its extension; `.binvox` only for binary modes.
-    pub fn of(out: &Path, binary: bool) -> Result<Format, Failure> {
-        let format = match out
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
-            Some("binvox") => Format::Binvox,
-            Some("nrrd") => Format::Nrrd,
-            _ => {
-                return Err(bad_input(format!(
-                    "{}: output must end in .binvox or .nrrd",
-                    out.display()
-                )))
-            }
-        };
-        if matches!(format, Format::Binvox) && !binary {
-            return Err(bad_input(format!(
-                "{}: .binvox holds binary voxels; use --separability, or write .nrrd",
-                out.display()
-            )));
-        }
-        Ok(format)
+/// The format of an output path, from its extension; `.binvox` only for binary modes.
+pub fn output_format(out: &Path, binary: bool) -> Result<VoxelFormat, Failure> {
+    let format = VoxelFormat::from_path(out).map_err(|e| bad_input(e.to_string()))?;
+    if format == VoxelFormat::Binvox && !binary {
+        return Err(bad_input(format!(
+            "{}: .binvox holds binary voxels; use --separability, or write .nrrd",
+            out.display()
+        )));
     }
+    Ok(format)
 }
 
 /// A checked job: the mesh read, the grid laid out, the memory estimate under the limit.
 pub struct Job {
+    pub spec: MeshJob,
     pub mesh: volga_mesh::TriMesh,
     pub grid: Grid,
-    pub estimate: u64,
+    pub estimate: JobEstimate,
+    /// The bound checked before parsing the mesh file (0 when its size is unknown).
+    pub parse_bound: u64,
+}
+
+impl Job {
+    /// An upper bound on the run's peak memory: the larger of the parsing bound and the
+    /// job's estimate.
+    pub fn peak_bound(&self) -> u64 {
+        self.parse_bound.max(self.estimate.peak_bytes)
+    }
 }
 
 impl JobArgs {
@@ -144,70 +139,76 @@ impl JobArgs {
         &self.mesh
     }
 
-    pub fn is_binary(&self) -> bool {
-        self.separability.is_some()
-    }
-
-    /// Whether the job needs the inside of the mesh (winding numbers).
-    fn needs_inside(&self) -> bool {
-        self.solid || (self.distance.is_some() && !self.unsigned)
-    }
-
-    /// Checks the arguments, reads the mesh (in a stage named `read_mesh`), lays out the
-    /// grid and refuses a job estimated to need more memory than the limit.
-    pub fn prepare(&self, stages: &mut Stages) -> Result<Job, Failure> {
-        if !(self.thickness.is_finite() && self.thickness > 0.0) {
-            return Err(bad_input(format!(
-                "--thickness must be finite and > 0, got {}",
-                self.thickness
-            )));
-        }
-        if let Some(hw) = self.distance {
-            if !(hw.is_finite() && hw > 0.0 && hw <= 1000.0) {
-                return Err(bad_input(format!("--distance must lie in (0, 1000] voxels, got {hw}")));
+    /// The library job these arguments describe.
+    pub fn spec(&self) -> Result<MeshJob, Failure> {
+        let mode = match (self.separability, self.distance) {
+            (Some(separability), _) => MeshJobMode::Binary {
+                separability,
+                solid: self.solid,
+            },
+            (None, Some(half_width_voxels)) => MeshJobMode::Distance {
+                half_width_voxels,
+                signed: !self.unsigned,
+            },
+            (None, None) if self.anti_aliased => MeshJobMode::AntiAliased {
+                thickness_voxels: self.thickness,
+                solid: self.solid,
+            },
+            (None, None) => {
+                return Err(bad_input(
+                    "choose a mode: --separability 6|18|26, --anti-aliased or --distance HALFWIDTH",
+                ))
             }
-        }
-        if !self.is_binary() && !self.anti_aliased && self.distance.is_none() {
-            return Err(bad_input(
-                "choose a mode: --separability 6|18|26, --anti-aliased or --distance HALFWIDTH",
-            ));
+        };
+        let spec = MeshJob {
+            resolution: self.resolution,
+            mode,
+        };
+        spec.check().map_err(|e| bad_input(e.to_string()))?;
+        Ok(spec)
+    }
+
+    fn limit(&self) -> u64 {
+        self.memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX)
+    }
+
+    /// Checks the arguments, refuses a mesh file whose parsing could need more memory
+    /// than the limit, reads the mesh (in a stage named `read_mesh`), lays out the grid
+    /// and refuses a job estimated to need more memory than the limit.
+    pub fn prepare(&self, stages: &mut Stages) -> Result<Job, Failure> {
+        let spec = self.spec()?;
+        let limit = self.limit();
+        let mut parse_bound = 0;
+        if let Ok(meta) = std::fs::metadata(&self.mesh) {
+            let extension = self
+                .mesh
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase)
+                .unwrap_or_default();
+            let bound = parse_bytes_bound(meta.len(), &extension);
+            parse_bound = bound;
+            if bound > limit {
+                return Err(bad_input(format!(
+                    "{}: reading this {} file may need up to {}, more than the {} available (set --memory-limit to allow it)",
+                    self.mesh.display(),
+                    Bytes(meta.len() as u128),
+                    Bytes(bound as u128),
+                    Bytes(limit as u128)
+                )));
+            }
         }
 
         let mesh = stages
             .run("read_mesh", || volga_mesh::load_mesh(&self.mesh))
             .map_err(|e| bad_input(e.to_string()))?;
-
-        let bounds = mesh.bounds();
-        let h = bounds.size().max_element() / self.resolution as f64;
-        if !(h.is_finite() && h > 0.0) {
-            return Err(bad_input(format!(
-                "{}: the mesh has no extent to voxelize",
-                self.mesh.display()
-            )));
-        }
-        let band_voxels = match (self.distance, self.anti_aliased) {
-            (Some(hw), _) => hw,
-            (None, true) => 0.5 * self.thickness + 3f64.sqrt(),
-            _ => 1.0,
-        };
-        let pad = band_voxels.ceil() + 1.0;
-        let dims_f = (bounds.size() / h).ceil() + 2.0 * pad;
-        let dims = UVec3::new(dims_f.x as u32, dims_f.y as u32, dims_f.z as u32).max(UVec3::ONE);
-        let origin = bounds.min - DVec3::splat(pad * h) + DVec3::splat(0.5 * h);
-        let grid = Transform::new(origin, DVec3::splat(h))
-            .and_then(|t| Grid::new(t, dims))
-            .map_err(|e| bad_input(format!("--resolution {}: {e}", self.resolution)))?;
-
-        // Memory: every brick a triangle's band can touch (dense), plus one value per
-        // brick of the grid for filled interiors, plus the BVH and per-triangle data of
-        // the distance voxelizer (~2.4 KB a triangle with its feature regions; ~100
-        // bytes for a binary surface alone).
-        let (band_bricks, grid_bricks) = MeshVoxelizer::estimate_bricks(&mesh, &grid, band_voxels * h);
-        let uses_distance = self.solid || !self.is_binary();
-        let per_triangle = if uses_distance { 2400 } else { 100 };
-        let estimate = band_bricks * (2048 + 64) + grid_bricks * 48 + mesh.triangles.len() as u64 * per_triangle;
-        let limit = self.memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX);
-        if estimate > limit {
+        let grid = spec.layout(&mesh.bounds()).map_err(|e| match e.field {
+            "mesh" => bad_input(format!("{}: {e}", self.mesh.display())),
+            _ => bad_input(e.to_string()),
+        })?;
+        let estimate = spec.estimate(&mesh, &grid);
+        if estimate.peak_bytes > limit {
+            let dims = grid.dims();
             return Err(bad_input(format!(
                 "{}: voxelizing at --resolution {} ({}×{}×{} voxels) needs an estimated {}, more than the {} available",
                 self.mesh.display(),
@@ -215,78 +216,32 @@ impl JobArgs {
                 dims.x,
                 dims.y,
                 dims.z,
-                Bytes(estimate as u128),
+                Bytes(estimate.peak_bytes as u128),
                 Bytes(limit as u128)
             )));
         }
-        Ok(Job { mesh, grid, estimate })
+        Ok(Job {
+            spec,
+            mesh,
+            grid,
+            estimate,
+            parse_bound,
+        })
     }
+}
 
+impl Job {
     /// The voxelization itself, everything the `voxelize` stage times: the volume, the
     /// mesh's boundary-edge count when the job needed its topology, and the mode's name.
-    pub fn voxelize(&self, job: &Job, progress: &dyn Progress) -> (SparseVolume, Option<usize>, String) {
-        let (mesh, grid) = (&job.mesh, &job.grid);
-        let voxelizer = (self.needs_inside() || !self.is_binary()).then(|| MeshVoxelizer::new(mesh));
-        let boundary_edges = voxelizer.as_ref().map(|v| v.boundary_edge_count());
-        let (volume, mode) = match (self.separability, self.distance) {
-            (Some(sep), _) => {
-                let mut surface = voxelize_mesh_surface(grid, mesh, sep, progress);
-                if self.solid {
-                    let inside =
-                        voxelizer
-                            .as_ref()
-                            .expect("built for --solid")
-                            .voxelize(grid, SurfaceMode::Inside, progress);
-                    volga_voxelize::merge_max(&mut surface, &inside, [1.0; 3]);
-                }
-                (
-                    surface,
-                    format!(
-                        "binary {}-separating {}",
-                        sep.number(),
-                        if self.solid { "solid" } else { "surface" }
-                    ),
-                )
-            }
-            (None, Some(hw)) => (
-                voxelizer.as_ref().expect("built").voxelize(
-                    grid,
-                    SurfaceMode::Distance {
-                        half_width_voxels: hw,
-                        signed: !self.unsigned,
-                    },
-                    progress,
-                ),
-                format!(
-                    "{} distance, half-width {hw} voxels",
-                    if self.unsigned { "unsigned" } else { "signed" }
-                ),
-            ),
-            (None, None) => {
-                let mode = if self.solid {
-                    SurfaceMode::Solid
-                } else {
-                    SurfaceMode::Shell {
-                        thickness: self.thickness * grid.transform.spacing().x,
-                    }
-                };
-                (
-                    voxelizer.as_ref().expect("built").voxelize(grid, mode, progress),
-                    if self.solid {
-                        "anti-aliased solid".to_string()
-                    } else {
-                        format!("anti-aliased surface, thickness {} voxels", self.thickness)
-                    },
-                )
-            }
-        };
-        (volume, boundary_edges, mode)
+    pub fn voxelize(&self, progress: &dyn Progress) -> (SparseVolume, Option<usize>, String) {
+        let (volume, boundary_edges) = self.spec.run(&self.mesh, &self.grid, progress);
+        (volume, boundary_edges, self.spec.mode_name())
     }
 
     /// The voxel count a job reports: band voxels of distance fields (|d| < half-width,
     /// comparable to a level set's active voxels), else the active voxels.
     pub fn voxel_count(&self, volume: &SparseVolume) -> u64 {
-        if self.distance.is_some() {
+        if matches!(self.spec.mode, MeshJobMode::Distance { .. }) {
             band_voxel_count(volume)
         } else {
             volume.active_voxel_count()
@@ -294,17 +249,94 @@ impl JobArgs {
     }
 }
 
+/// Refuses a `--report` that is one of the model's files (the `.binvox`, or the
+/// `.nrrd` or its `.raw`): the model would silently become the report. Paths are
+/// compared canonicalized (their directory resolved, so `./a/../x.json` and symbolic
+/// links to the same directory compare equal).
+pub fn check_distinct_outputs(out: &Path, format: VoxelFormat, report: Option<&Path>) -> Result<(), Failure> {
+    let Some(report) = report else { return Ok(()) };
+    let real = |p: &Path| -> PathBuf {
+        let dir = p
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+        match p.file_name() {
+            Some(name) => {
+                let joined = dir.join(name);
+                joined.canonicalize().unwrap_or(joined)
+            }
+            None => dir,
+        }
+    };
+    let report_real = real(report);
+    for model_file in format.output_paths(out, false) {
+        if real(&model_file) == report_real {
+            return Err(bad_input(format!(
+                "--report {} is the same file as the model's {}: choose another report path",
+                report.display(),
+                model_file.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A report to write with the model: its path, and its JSON made from the model's
+/// final paths.
+pub type ReportOutput<'a> = (&'a Path, &'a dyn Fn(&[PathBuf]) -> Vec<u8>);
+
+/// Bytes a report may take on disk (the free-space check; reports are a few KiB).
+const REPORT_BYTES_BOUND: u64 = 1 << 20;
+
+/// Writes the model (and the report, when given one) all or nothing: both are staged
+/// first, and nothing is replaced unless every file could be written. The free space
+/// of each output's filesystem is checked first (exit 1 with the sizes when short).
+/// `report` is called with the model's final paths and the write's duration so far.
+pub fn write_outputs(
+    out: &Path,
+    volume: &SparseVolume,
+    report: Option<ReportOutput<'_>>,
+) -> Result<Vec<PathBuf>, Failure> {
+    let format = VoxelFormat::from_path(out).map_err(|e| bad_input(e.to_string()))?;
+    let mut needs: Vec<(PathBuf, u64)> = vec![(out.to_path_buf(), format.bytes_bound(volume))];
+    if let Some((path, _)) = report {
+        needs.push((path.to_path_buf(), REPORT_BYTES_BOUND));
+    }
+    volga_io::check_free_space_for(&needs).map_err(|e| failed(e.to_string()))?;
+    let mut staged = StagedOutputs::new();
+    let mut outputs = volga_io::write_voxel_model(out, volume, &mut staged).map_err(|e| failed(e.to_string()))?;
+    if let Some((path, make)) = report {
+        let json = make(&outputs);
+        staged
+            .stage(path, |w| w.write_all(&json))
+            .map_err(|e| failed(e.to_string()))?;
+        outputs = staged.commit().map_err(|e| failed(e.to_string()))?;
+        outputs.retain(|p| p != path);
+        Ok(outputs)
+    } else {
+        staged.commit().map_err(|e| failed(e.to_string()))
+    }
+}
+
 pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
     let job_args = &args.job;
-    let format = Format::of(&args.out, job_args.is_binary())?;
+    let format = output_format(&args.out, job_args.spec()?.is_binary())?;
+    check_distinct_outputs(&args.out, format, args.report.as_deref())?;
     let mut stages = Stages::default();
     let job = job_args.prepare(&mut stages)?;
-    let (volume, voxelizer_edges, mode) = stages.run("voxelize", || job_args.voxelize(&job, progress));
+    if format == VoxelFormat::Nrrd {
+        // A NRRD's size is known from the grid: refuse before voxelizing.
+        let d = job.grid.dims().as_u64vec3();
+        let bytes = (d.x * d.y * d.z).saturating_mul(4);
+        volga_io::check_free_space_for(&[(args.out.clone(), bytes)]).map_err(|e| failed(e.to_string()))?;
+    }
+    let (volume, voxelizer_edges, mode) = stages.run("voxelize", || job.voxelize(progress));
     // Binary surfaces need no topology of the mesh: count its boundary for the report
     // outside the timed stage.
     let boundary_edges = voxelizer_edges.unwrap_or_else(|| job.mesh.boundary_edge_count());
     let mut warnings = Vec::new();
-    if job_args.needs_inside() && boundary_edges > 0 {
+    if job.spec.needs_inside() && boundary_edges > 0 {
         let w = format!(
             "{} is not closed ({boundary_edges} boundary edges): inside means generalized winding number ≥ ½",
             job_args.mesh.display()
@@ -313,12 +345,8 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         warnings.push(w);
     }
 
-    let outputs = stages
-        .run("write", || write(&args.out, &format, &volume))
-        .map_err(|e| failed(e.to_string()))?;
-
     let grid = &job.grid;
-    let report = Report {
+    let mut report = Report {
         mesh: job_args.mesh.clone(),
         triangles: job.mesh.triangles.len(),
         boundary_edges,
@@ -330,21 +358,47 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
             voxel_size: grid.transform.spacing().x,
             origin: grid.transform.origin().to_array(),
         },
-        stages: stages.list,
+        stages: Vec::new(),
         voxels: VoxelCounts {
             active: volume.active_voxel_count(),
-            band: job_args.distance.map(|_| band_voxel_count(&volume)),
+            band: matches!(job.spec.mode, MeshJobMode::Distance { .. }).then(|| band_voxel_count(&volume)),
             bricks: volume.density.brick_count(),
             dense_bricks: volume.density.dense_brick_count(),
         },
-        estimated_memory_bytes: job.estimate,
+        estimated_memory_bytes: job.peak_bound(),
         warnings,
-        outputs,
+        outputs: Vec::new(),
     };
-    if let Some(path) = &args.report {
-        let json = serde_json::to_vec_pretty(&report).expect("report serializes");
-        volga_io::write_atomic(path, |w| w.write_all(&json)).map_err(|e| failed(e.to_string()))?;
-    }
+
+    // The model and the report are staged together; the report's `write` stage times
+    // the model's staging (the report itself is a few KiB).
+    let write_start = std::time::Instant::now();
+    let before = stages.list.clone();
+    let make_report = |outputs: &[PathBuf]| -> Vec<u8> {
+        let mut list = before.clone();
+        list.push(StageReport {
+            name: "write".into(),
+            wall_s: write_start.elapsed().as_secs_f64(),
+            peak_mem_bytes: volga_scene::peak_rss_bytes(),
+        });
+        let r = Report {
+            stages: list,
+            outputs: outputs.to_vec(),
+            ..report.clone()
+        };
+        serde_json::to_vec_pretty(&r).expect("report serializes")
+    };
+    let outputs = stages.run("write", || {
+        write_outputs(
+            &args.out,
+            &volume,
+            args.report
+                .as_deref()
+                .map(|p| (p, &make_report as &dyn Fn(&[PathBuf]) -> Vec<u8>)),
+        )
+    })?;
+    report.stages = stages.list;
+    report.outputs = outputs;
     println!(
         "{}: {} → {} ({} {}, {:.3} s voxelizing)",
         job_args.mesh.display(),
@@ -381,54 +435,4 @@ fn band_voxel_count(volume: &SparseVolume) -> u64 {
                 .count() as u64
         })
         .sum()
-}
-
-pub fn write(out: &Path, format: &Format, volume: &SparseVolume) -> Result<Vec<PathBuf>, volga_io::IoError> {
-    match format {
-        Format::Binvox => {
-            let g = &volume.grid;
-            let h = g.transform.spacing().x;
-            let dims = g.dims();
-            let filled = volume.density.sorted_bricks().into_iter().flat_map(|b| {
-                volga_core::brick_index_box(b)
-                    .intersection(&g.index_box())
-                    .iter()
-                    .filter(|ijk| volume.density.get(*ijk) > 0.5)
-                    .map(|ijk| ijk.as_uvec3())
-                    .collect::<Vec<_>>()
-            });
-            // binvox grids are cubes (`dim D D D`); other tools assume it, so the grid is
-            // padded with empty voxels to its largest extent (voxel 0 stays where it is).
-            let model = volga_io::Binvox::from_filled(
-                UVec3::splat(dims.max_element()),
-                g.transform.origin() - DVec3::splat(0.5 * h),
-                h * dims.max_element() as f64,
-                filled,
-            )
-            .map_err(|e| volga_io::IoError::Format {
-                path: out.to_owned(),
-                line: None,
-                message: e.to_string(),
-            })?;
-            volga_io::write_binvox(out, &model)?;
-            Ok(vec![out.to_owned()])
-        }
-        Format::Nrrd => {
-            let dir = out
-                .parent()
-                .filter(|p| !p.as_os_str().is_empty())
-                .unwrap_or(Path::new("."));
-            let stem = out
-                .file_stem()
-                .and_then(|s| s.to_str())
-                .ok_or_else(|| volga_io::IoError::Format {
-                    path: out.to_owned(),
-                    line: None,
-                    message: "the output name is not valid UTF-8".into(),
-                })?;
-            let mut staged = volga_io::StagedOutputs::new();
-            volga_io::write_nrrd(dir, stem, volume, &mut staged)?;
-            staged.commit()
-        }
-    }
 }

@@ -21,6 +21,10 @@
 //! outputs.commit().unwrap();
 //! assert_eq!(std::fs::read_to_string(&a).unwrap(), "replaced");
 //! ```
+//! * **Any voxel model** ([`VoxelFormat::from_path`], [`read_voxel_model`],
+//!   [`write_voxel_model`]): `.binvox` and `.nrrd` by extension, with what a NRRD's
+//!   values mean ([`VoxelValues`]: occupancy, density or distance) and the free-space
+//!   check before writing ([`check_free_space`], [`VoxelFormat::bytes_bound`]).
 //! * **PNG** images, 8-bit RGBA, non-interlaced ([`encode_png`], [`decode_png`],
 //!   [`write_png`]).
 //! * **NRRD** volumes with a detached header (`{stem}.nrrd` + `{stem}.raw`)
@@ -40,6 +44,7 @@
 
 mod atomic;
 mod binvox;
+mod model;
 mod nrrd_header;
 mod nrrd_read;
 mod nrrd_write;
@@ -49,6 +54,10 @@ use std::path::{Path, PathBuf};
 
 pub use atomic::{write_atomic, StagedOutputs};
 pub use binvox::{decode_binvox, encode_binvox, read_binvox, write_binvox, Binvox, BinvoxError};
+pub use model::{
+    binvox_from_volume, check_free_space, check_free_space_for, encode_binvox_volume, free_space, read_voxel_model,
+    write_voxel_model, VoxelFormat, VoxelModel, VoxelValues,
+};
 pub use nrrd_read::{read_nrrd, read_nrrd_with_colour};
 pub use nrrd_write::write_nrrd;
 pub use png_io::{decode_png, encode_png, write_png};
@@ -71,13 +80,19 @@ pub enum IoError {
         line: Option<usize>,
         message: String,
     },
+    /// The filesystem of directory `path` has less free space than the outputs need.
+    #[error(
+        "{}: not enough free space: the outputs need {} ({needed} bytes), the filesystem has {} ({available} bytes) available",
+        path.display(), volga_core::memory::Bytes(*needed as u128), volga_core::memory::Bytes(*available as u128)
+    )]
+    NoSpace { path: PathBuf, needed: u64, available: u64 },
 }
 
 impl IoError {
     /// The file the error concerns.
     pub fn path(&self) -> &Path {
         match self {
-            IoError::Io { path, .. } | IoError::Format { path, .. } => path,
+            IoError::Io { path, .. } | IoError::Format { path, .. } | IoError::NoSpace { path, .. } => path,
         }
     }
 

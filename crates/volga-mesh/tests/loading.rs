@@ -281,3 +281,47 @@ proptest! {
         }
     }
 }
+
+/// A crafted model whose buffer URI climbs out of its folder (or is absolute, or goes
+/// through a symbolic link to a file outside) must not be read, even though the file
+/// exists and holds a valid buffer.
+#[test]
+fn gltf_buffer_uris_outside_the_model_folder_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let outside = write(&dir, "outside.bin", &triangle_buffer());
+    std::fs::create_dir(dir.path().join("model")).unwrap();
+    let absolute = outside.display().to_string();
+    let mut uris = vec![
+        "../outside.bin".to_string(),
+        "sub/../../outside.bin".to_string(),
+        "%2e%2e/outside.bin".to_string(),
+        "../../../../../../../../etc/passwd".to_string(),
+        absolute.clone(),
+        format!("file://{absolute}"),
+    ];
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(&outside, dir.path().join("model/link.bin")).unwrap();
+        uris.push("link.bin".to_string());
+    }
+    for uri in uris {
+        let json = gltf_json(
+            &format!(r#"{{ "byteLength": 44, "uri": "{uri}" }}"#),
+            4,
+            r#""scene": 0,"#,
+        );
+        let path = dir.path().join("model/escape.gltf");
+        std::fs::write(&path, json).unwrap();
+        let message = message_naming(load_gltf(&path), &path, None);
+        assert!(
+            message.contains(&format!("`{uri}`")) && message.contains("model's folder"),
+            "{uri}: {message}"
+        );
+    }
+    // The same buffer inside the folder loads.
+    std::fs::copy(&outside, dir.path().join("model/inside.bin")).unwrap();
+    let json = gltf_json(r#"{ "byteLength": 44, "uri": "./inside.bin" }"#, 4, r#""scene": 0,"#);
+    let path = dir.path().join("model/inside.gltf");
+    std::fs::write(&path, json).unwrap();
+    assert_eq!(load_gltf(&path).unwrap().positions, EXPECTED_WORLD);
+}

@@ -31,6 +31,7 @@
 
 pub mod binary;
 mod field;
+mod job;
 pub mod lines;
 mod mask;
 pub mod measure;
@@ -43,6 +44,7 @@ mod tri_distance;
 
 pub use binary::{triangle_covers_voxel, voxelize_mesh_surface, voxelize_triangles, Separability};
 pub use field::AnalyticField;
+pub use job::{parse_bytes_bound, JobError, JobEstimate, MeshJob, MeshJobMode};
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity, UnsupportedAdjacency};
 pub use mesh::MeshVoxelizer;
 pub use solids::{estimate_solid_bricks, merge_max, voxelize_solids, Solid};

@@ -1,7 +1,7 @@
 //! glTF 2.0 (`.gltf` with external or embedded buffers, and binary `.glb`).
 
 use std::borrow::Cow;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DAffine3, DMat4, DVec3};
 use gltf::accessor::{DataType, Dimensions};
@@ -144,7 +144,7 @@ fn load_buffers<'a>(gltf: &'a gltf::Gltf, path: &Path) -> Result<Vec<Cow<'a, [u8
                     Cow::Owned(decode_base64(payload).map_err(|e| format!("buffer {i}: {e}"))?)
                 }
                 None => {
-                    let file = path.parent().unwrap_or(Path::new("")).join(percent_decode(uri));
+                    let file = resolve_uri(path, uri).map_err(|e| format!("buffer {i}: {e}"))?;
                     Cow::Owned(
                         std::fs::read(&file).map_err(|e| format!("buffer {i}: cannot read {}: {e}", file.display()))?,
                     )
@@ -387,6 +387,81 @@ fn decode_base64(text: &str) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
+/// The file an external (non-`data:`) URI of the glTF file `model` names, confined to
+/// the model's folder: the URI is percent-decoded and must be a relative path without a
+/// scheme (`file:`, `http:`…) whose normalised form stays inside the folder (`..` may
+/// step back only into it), and whose target, after following symbolic links, still
+/// lies inside the folder. So a model handed to a batch build can read its own
+/// buffers and nothing else. Errors quote the URI.
+pub(crate) fn resolve_uri(model: &Path, uri: &str) -> Result<PathBuf, String> {
+    use std::path::Component;
+    let decoded = percent_decode(uri);
+    let refuse = |why: &str| {
+        Err(format!(
+            "URI `{uri}` {why}; only files inside the model's folder are read"
+        ))
+    };
+    let scheme_len = decoded.find(':').filter(|&k| {
+        k > 0
+            && decoded[..k]
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "+.-".contains(c))
+    });
+    if scheme_len.is_some() {
+        return refuse("has a scheme (not a relative path)");
+    }
+    if decoded.is_empty() {
+        return refuse("is empty");
+    }
+    if decoded.starts_with(['/', '\\']) || Path::new(&decoded).is_absolute() || decoded.contains('\\') {
+        return refuse("is an absolute path or contains a backslash");
+    }
+    let mut relative = PathBuf::new();
+    let mut depth = 0usize;
+    for component in Path::new(&decoded).components() {
+        match component {
+            Component::Normal(part) => {
+                relative.push(part);
+                depth += 1;
+            }
+            Component::CurDir => {}
+            Component::ParentDir => {
+                if depth == 0 {
+                    return refuse("leaves the model's folder");
+                }
+                relative.pop();
+                depth -= 1;
+            }
+            Component::RootDir | Component::Prefix(_) => return refuse("is an absolute path"),
+        }
+    }
+    if depth == 0 {
+        return refuse("names the model's folder itself");
+    }
+    let folder = model
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let file = folder.join(&relative);
+    // Symbolic links may still point outside: compare the real paths.
+    let real_folder = folder.canonicalize().map_err(|e| {
+        format!(
+            "URI `{uri}`: cannot resolve the model's folder {}: {e}",
+            folder.display()
+        )
+    })?;
+    let real_file = file
+        .canonicalize()
+        .map_err(|e| format!("URI `{uri}`: cannot read {}: {e}", file.display()))?;
+    if !real_file.starts_with(&real_folder) {
+        return refuse(&format!(
+            "resolves to {} outside the model's folder (through a symbolic link)",
+            real_file.display()
+        ));
+    }
+    Ok(file)
+}
+
 /// Decodes `%XX` escapes of a relative URI; anything malformed is kept literally.
 fn percent_decode(uri: &str) -> String {
     let bytes = uri.as_bytes();
@@ -418,6 +493,47 @@ mod tests {
         assert_eq!(decode_base64("aGVsbG8gd29ybGQ=").unwrap(), b"hello world");
         assert_eq!(decode_base64("AAECAw").unwrap(), vec![0, 1, 2, 3]);
         assert!(decode_base64("a*b").is_err());
+    }
+
+    #[test]
+    fn uris_stay_in_the_model_folder() {
+        let dir = tempfile::tempdir().unwrap();
+        let model = dir.path().join("sub").join("m.gltf");
+        std::fs::create_dir_all(dir.path().join("sub/bin")).unwrap();
+        std::fs::write(dir.path().join("sub/bin/b.bin"), b"x").unwrap();
+        std::fs::write(dir.path().join("secret"), b"s").unwrap();
+        assert_eq!(
+            resolve_uri(&model, "bin/b.bin").unwrap(),
+            dir.path().join("sub/bin/b.bin")
+        );
+        assert_eq!(
+            resolve_uri(&model, "bin/../bin/./b.bin").unwrap(),
+            dir.path().join("sub/bin/b.bin")
+        );
+        for uri in [
+            "../secret",
+            "bin/../../secret",
+            "%2E%2E/secret",
+            "/etc/passwd",
+            "%2Fetc%2Fpasswd",
+            "file:///etc/passwd",
+            "http://example.com/b.bin",
+            "..\\secret",
+            "",
+            ".",
+        ] {
+            let e = resolve_uri(&model, uri).unwrap_err();
+            assert!(
+                e.contains(&format!("`{uri}`")) && e.contains("model's folder"),
+                "{uri}: {e}"
+            );
+        }
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(dir.path().join("secret"), dir.path().join("sub/link.bin")).unwrap();
+            let e = resolve_uri(&model, "link.bin").unwrap_err();
+            assert!(e.contains("symbolic link"), "{e}");
+        }
     }
 
     #[test]
