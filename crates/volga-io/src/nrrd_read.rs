@@ -168,7 +168,11 @@ impl Nrrd {
         data.seek(SeekFrom::Start(start)).map_err(io)?;
         let mut pos = start;
         for skipped in 0..header.line_skip {
-            let n = data.skip_until(b'\n').map_err(io)?;
+            // Bounded by the file's length: a device such as /dev/zero never ends a line.
+            let n = (&mut data)
+                .take(file_len.saturating_sub(pos))
+                .skip_until(b'\n')
+                .map_err(io)?;
             if n == 0 {
                 return Err(IoError::format(
                     path,

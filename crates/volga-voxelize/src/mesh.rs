@@ -366,7 +366,9 @@ impl MeshVoxelizer {
                 let lo = tri[0].min(tri[1]).min(tri[2]);
                 let hi = tri[0].max(tri[1]).max(tri[2]);
                 let span = ((hi - lo) / h + 2.0 * band) / BRICK_DIM as f64 + 2.0;
-                span.x.floor() as u64 * span.y.floor() as u64 * span.z.floor() as u64
+                // Saturating: a triangle far larger than the grid must not overflow.
+                let [x, y, z] = span.to_array().map(|s| s.floor() as u64);
+                x.saturating_mul(y).saturating_mul(z)
             })
             .fold(0u64, u64::saturating_add);
         let grid_bricks = volga_core::brick_extent(grid.dims()).as_u64vec3().element_product();

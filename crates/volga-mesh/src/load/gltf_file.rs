@@ -13,6 +13,9 @@ use crate::{MeshError, TriMesh};
 const MAX_NODE_DEPTH: usize = 256;
 /// Node instances visited per file, against hierarchies that share children.
 const MAX_NODE_VISITS: usize = 1 << 20;
+/// Triangles a file may produce once its instances are expanded (1.5 GiB of indices):
+/// a few KB of nodes sharing children can otherwise ask for terabytes.
+const MAX_INSTANCED_TRIANGLES: u64 = 1 << 27;
 
 /// Loads every triangle primitive of every node of the default scene (of all scenes
 /// when the file names no default), with each node's world transform applied.
@@ -77,7 +80,24 @@ fn parse_gltf(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
         buffers,
         mesh: TriMesh::default(),
         visits: 0,
+        counts: Some((0, 0)),
     };
+    // First count what the instances expand to, refusing before allocating.
+    for scene in &scenes {
+        for node in scene.nodes() {
+            builder.add_node(node, &DAffine3::IDENTITY, 0)?;
+        }
+    }
+    let (vertices, triangles) = builder.counts.take().unwrap_or_default();
+    if vertices > u32::MAX as u64 {
+        return Err(MeshError::TooManyVertices { path: path.to_owned() });
+    }
+    if triangles > MAX_INSTANCED_TRIANGLES {
+        return Err(fail(format!(
+            "the node instances expand to {triangles} triangles, more than the {MAX_INSTANCED_TRIANGLES} supported"
+        )));
+    }
+    builder.visits = 0;
     for scene in scenes {
         for node in scene.nodes() {
             builder.add_node(node, &DAffine3::IDENTITY, 0)?;
@@ -174,6 +194,8 @@ struct Builder<'a> {
     buffers: Vec<Cow<'a, [u8]>>,
     mesh: TriMesh,
     visits: usize,
+    /// `Some((vertices, triangles))` while counting the instances (nothing is read).
+    counts: Option<(u64, u64)>,
 }
 
 impl Builder<'_> {
@@ -218,6 +240,12 @@ impl Builder<'_> {
                 primitive: k,
                 mode: mode_name(primitive.mode()).to_owned(),
             });
+        }
+        if let Some((vertices, triangles)) = &mut self.counts {
+            let positions = primitive.get(&Semantic::Positions).map_or(0, |a| a.count() as u64);
+            *vertices = vertices.saturating_add(positions);
+            *triangles = triangles.saturating_add(primitive.indices().map_or(positions, |a| a.count() as u64) / 3);
+            return Ok(());
         }
         let path = self.path;
         let context = |e: String| MeshError::Gltf {

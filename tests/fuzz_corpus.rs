@@ -1,0 +1,109 @@
+//! Every reader against the committed fuzz corpus (`fuzz/corpus/<target>/`) and a fixed
+//! set of deterministic mutations of it: no input may panic. The long, coverage-guided
+//! runs are `fuzz/run.sh` (docs/FUZZING.md); this test keeps the readers from
+//! regressing on what those runs found, in a few seconds.
+
+#[path = "../fuzz/src/harness.rs"]
+mod harness;
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+
+use harness::{Harness, Mutator};
+
+/// Mutated inputs per target (each one to four mutations of a corpus file).
+const MUTATIONS: u64 = 1500;
+
+fn corpus(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus").join(target);
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|entry| entry.unwrap().path())
+        .collect();
+    files.sort();
+    assert!(!files.is_empty(), "{} holds no seeds", dir.display());
+    files
+        .into_iter()
+        .map(|path| {
+            let bytes = std::fs::read(&path).unwrap();
+            (path, bytes)
+        })
+        .collect()
+}
+
+/// Runs `target` on `data`; on a panic, saves the input and fails naming it.
+fn run_one(harness: &Harness, target: &str, data: &[u8], origin: &str) {
+    if catch_unwind(AssertUnwindSafe(|| harness.run(target, data))).is_err() {
+        let saved = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("fuzz-{target}-panic"));
+        std::fs::write(&saved, data).unwrap();
+        panic!(
+            "{target} panicked on {origin}; input saved as {} (reproduce with \
+             `cargo fuzz run {target} {0}` in fuzz/)",
+            saved.display()
+        );
+    }
+}
+
+fn check_target(target: &str) {
+    let harness = Harness::new();
+    let seeds = corpus(target);
+    for (path, bytes) in &seeds {
+        run_one(&harness, target, bytes, &path.display().to_string());
+    }
+    // Seeded by the target's name, so each target's sequence is fixed.
+    let seed = target.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+    });
+    let mut mutator = Mutator::new(seed);
+    for i in 0..MUTATIONS {
+        let (path, bytes) = &seeds[mutator.next() as usize % seeds.len()];
+        let (_, other) = &seeds[mutator.next() as usize % seeds.len()];
+        let data = mutator.mutate(bytes, other);
+        run_one(&harness, target, &data, &format!("mutation {i} of {}", path.display()));
+    }
+}
+
+#[test]
+fn obj_corpus_never_panics() {
+    check_target("obj");
+}
+
+#[test]
+fn gltf_corpus_never_panics() {
+    check_target("gltf");
+}
+
+#[test]
+fn binvox_corpus_never_panics() {
+    check_target("binvox");
+}
+
+#[test]
+fn nrrd_corpus_never_panics() {
+    check_target("nrrd");
+}
+
+#[test]
+fn scene_ron_corpus_never_panics() {
+    check_target("scene_ron");
+}
+
+#[test]
+fn scene_json_corpus_never_panics() {
+    check_target("scene_json");
+}
+
+/// The seeds are worth mutating: every seed of every target is accepted by its reader,
+/// except the OBJ heads (first lines of the shared meshes, faces may point past them).
+#[test]
+fn seeds_are_valid_inputs() {
+    let harness = Harness::new();
+    for target in ["obj", "gltf", "binvox", "nrrd", "scene_ron", "scene_json"] {
+        for (path, bytes) in corpus(target) {
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            if !name.ends_with("-head.obj") {
+                assert!(harness.run(target, &bytes), "{target}: seed {name} is refused");
+            }
+        }
+    }
+}
