@@ -179,7 +179,7 @@ fn sample_brick(
     }
 
     let mut density = [0.0f32; BRICK_VOXELS];
-    let mut colour = with_colour.then(|| [[0.0f32; 3]; BRICK_VOXELS]);
+    let mut colour = with_colour.then_some([[0.0f32; 3]; BRICK_VOXELS]);
     for (n, ijk) in volga_core::IndexBox::new(base, base + IVec3::splat(BRICK_DIM))
         .iter()
         .enumerate()
