@@ -217,3 +217,88 @@ fn failed_build_leaves_existing_outputs_intact() {
         "temporary files left behind"
     );
 }
+
+#[test]
+fn report_that_cannot_be_written_replaces_no_output() {
+    // `report.json` is a directory: before, the images and volume were committed first
+    // and only the report failed; now the report is staged with them.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), &small_hello());
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(out.join("report.json")).unwrap();
+    std::fs::write(out.join("hello_iso.png"), b"old image").unwrap();
+    let err = build(
+        &scene,
+        &BuildOptions {
+            out_dir: out.clone(),
+            memory_limit: None,
+        },
+        &volga::NoProgress,
+    )
+    .unwrap_err();
+    assert!(!err.is_bad_input(), "{err}");
+    assert_eq!(std::fs::read(out.join("hello_iso.png")).unwrap(), b"old image");
+    assert!(!out.join("hello_volume.png").exists());
+    assert!(!out.join("hello.nrrd").exists());
+}
+
+#[test]
+fn volumes_larger_than_the_free_space_are_refused_before_voxelizing() {
+    // A tiny sphere in a 100000 × 10 × 100000 grid: a few bricks of memory, but the
+    // dense raw volume would take 400 GB.
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"Scene(
+        grid: (bounds: (min: (0.0, 0.0, 0.0), max: (100000.0, 10.0, 100000.0)), voxel_size: 1.0),
+        objects: [(shape: Sphere(center: (5.0, 5.0, 5.0), radius: 3.0))],
+        cameras: [(name: "c", eye: (5.0, 5.0, 50.0), target: (5.0, 5.0, 5.0), projection: Orthographic(height: 10.0))],
+        outputs: (volumes: [(name: "huge")]),
+    )"#;
+    let scene = write_scene(dir.path(), text);
+    let start = std::time::Instant::now();
+    let err = build(
+        &scene,
+        &BuildOptions {
+            out_dir: dir.path().join("out"),
+            memory_limit: Some(1 << 30),
+        },
+        &volga::NoProgress,
+    )
+    .unwrap_err();
+    assert!(!err.is_bad_input(), "{err}");
+    let msg = err.to_string();
+    assert!(msg.contains("not enough free space"), "{msg}");
+    assert!(start.elapsed().as_secs() < 30, "refused only after working");
+    assert!(!dir.path().join("out/huge.raw").exists());
+}
+
+#[test]
+fn mesh_files_too_large_to_parse_are_refused_before_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    // 2 MB of OBJ text: parsing it is bounded by 24 MiB + 12 bytes a byte.
+    let mut obj = String::new();
+    while obj.len() < 2_000_000 {
+        obj.push_str("v 0.125 0.25 0.5\n");
+    }
+    obj.push_str("f 1 2 3\n");
+    std::fs::write(dir.path().join("big.obj"), obj).unwrap();
+    let text = small_hello().replace(
+        "    objects: [",
+        "    objects: [\n        (name: \"big\", shape: Mesh(path: \"big.obj\")),",
+    );
+    let scene = write_scene(dir.path(), &text);
+    let err = build(
+        &scene,
+        &BuildOptions {
+            out_dir: dir.path().join("out"),
+            memory_limit: Some(40 << 20),
+        },
+        &volga::NoProgress,
+    )
+    .unwrap_err();
+    assert!(err.is_bad_input(), "{err}");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("objects[0].shape.path") && msg.contains("big.obj"),
+        "{msg}"
+    );
+}

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use volga::scene::nodes::Node;
 use volga::scene::{build, load_scene, BuildOptions, SceneError};
-use volga::{Field, NoProgress};
+use volga::NoProgress;
 
 const TORUS: &str = include_str!("../scenes/torus.ron");
 

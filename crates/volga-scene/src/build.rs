@@ -70,7 +70,7 @@ pub fn validate_scene(path: &Path) -> Result<Scene, SceneError> {
 /// Parses, validates and resolves a scene file (loads the meshes it names).
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let mut scene = validate_scene(path)?;
-    scene.resolve()?;
+    scene.resolve(None)?;
     Ok(scene)
 }
 
@@ -89,8 +89,26 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
     let start = Instant::now();
     let mut stages = Stages::default();
     let mut scene = stages.run("load", || validate_scene(path))?;
-    stages.run("resolve", || scene.resolve())?;
+    stages.run("resolve", || scene.resolve(options.memory_limit))?;
     let plan = stages.run("plan", || plan(&scene, options.memory_limit))?;
+    // Volumes are written dense: check the disk before any work.
+    let voxels = scene.grid.voxel_count();
+    let disk: Vec<(PathBuf, u64)> = scene
+        .volumes
+        .iter()
+        .flat_map(|v| {
+            let density = (
+                options.out_dir.join(format!("{}.raw", v.name)),
+                voxels.saturating_mul(4),
+            );
+            let colour = (
+                options.out_dir.join(format!("{}_colour.raw", v.name)),
+                voxels.saturating_mul(12),
+            );
+            std::iter::once(density).chain(v.colour.then_some(colour))
+        })
+        .collect();
+    volga_io::check_free_space_for(&disk)?;
 
     // Only when an image renders the baked volume or a volume output writes it.
     let mut volume = match plan.voxelize.enabled {

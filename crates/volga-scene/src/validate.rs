@@ -33,12 +33,17 @@ pub struct Scene {
 
 impl Scene {
     /// The resolve stage: loads every file the nodes name (paths relative to the scene
-    /// file's folder).
-    pub fn resolve(&mut self) -> Result<(), SceneError> {
+    /// file's folder). Before parsing a file, an upper bound on what parsing it takes
+    /// (from its size) is checked against `memory_limit` (default: the machine's
+    /// available memory).
+    pub fn resolve(&mut self, memory_limit: Option<u64>) -> Result<(), SceneError> {
         let dir = self.source.parent().unwrap_or(Path::new(".")).to_owned();
         let cx = Resolve {
             scene: &self.source,
             dir: &dir,
+            memory_limit: memory_limit
+                .or_else(volga_core::memory::available_bytes)
+                .unwrap_or(u64::MAX),
         };
         self.root.resolve(&cx)
     }

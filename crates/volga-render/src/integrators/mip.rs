@@ -3,7 +3,7 @@
 use glam::Vec3;
 use volga_core::{Field, FieldKind};
 
-use super::{grey, Effect, Effects, Integrator, March};
+use super::{grey, Effects, Integrator, March};
 use crate::march::{index_after, midpoint_lattice_len};
 use crate::{CellClass, Ray, RenderError, RenderSettings, RenderStats};
 
@@ -22,13 +22,7 @@ impl Integrator for Mip {
     }
 
     fn effects(&self, settings: &RenderSettings) -> Effects {
-        Effects {
-            gradients: Effect::off("a projection image: no shading"),
-            colour: Effect::off("a projection reads values only"),
-            shadows: Effects::no_shadows(),
-            early_ray_termination: Effect::off("projections read the whole ray"),
-            empty_space_skipping: Effects::skipping(settings, "skip macro-cells that cannot raise the maximum"),
-        }
+        Effects::projection(Effects::skipping(settings, "skip macro-cells that cannot raise the maximum"))
     }
 
     /// Every cell stays active: whether it can be skipped depends on the maximum

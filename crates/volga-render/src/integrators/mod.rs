@@ -109,6 +109,17 @@ impl Effects {
     pub(crate) fn no_shadows() -> Effect {
         Effect::off("no mode casts shadow rays yet")
     }
+
+    /// A projection (MIP, X-ray): unlit, colourless, reading the whole ray.
+    pub(crate) fn projection(empty_space_skipping: Effect) -> Effects {
+        Effects {
+            gradients: Effect::off("a projection image: no shading"),
+            colour: Effect::off("a projection reads values only"),
+            shadows: Effects::no_shadows(),
+            early_ray_termination: Effect::off("projections read the whole ray"),
+            empty_space_skipping,
+        }
+    }
 }
 
 /// Per-image constants an integrator reads while marching one ray: the field (with

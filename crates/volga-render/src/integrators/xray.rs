@@ -22,13 +22,7 @@ impl Integrator for XRay {
     }
 
     fn effects(&self, _settings: &RenderSettings) -> Effects {
-        Effects {
-            gradients: Effect::off("a projection image: no shading"),
-            colour: Effect::off("a projection reads values only"),
-            shadows: Effects::no_shadows(),
-            early_ray_termination: Effect::off("projections read the whole ray"),
-            empty_space_skipping: Effect::off("an X-ray sums every sample"),
-        }
+        Effects::projection(Effect::off("an X-ray sums every sample"))
     }
 
     /// The mean needs every sample: no macro grid is built.

@@ -4,12 +4,13 @@
 use std::path::PathBuf;
 
 use glam::{DAffine3, DQuat, DVec3};
+use volga_core::memory::Bytes;
 use volga_core::{Aabb, Field, Grid, Progress, Rgb, SparseVolume};
 use volga_mesh::{Bvh, TriMesh};
 use volga_shapes::OrientedBoxFilter;
-use volga_voxelize::{MeshVoxelizer, SurfaceMode};
+use volga_voxelize::{parse_bytes_bound, MeshVoxelizer, SurfaceMode};
 
-use super::{grid_filter, Clipped, Estimate, Node, Resolve, Tinted};
+use super::{grid_filter, Clipped, Estimate, Node, Resolve};
 use crate::ctx::Ctx;
 use crate::model::ShapeSpec;
 use crate::SceneError;
@@ -111,6 +112,7 @@ impl Node for MeshNode {
         } = &self.source
         {
             let file = cx.dir.join(path);
+            check_parse_memory(cx, &file, field)?;
             let mesh = volga_mesh::load_mesh(&file).map_err(|e| SceneError::Invalid {
                 path: cx.scene.to_owned(),
                 field: field.clone(),
@@ -150,15 +152,38 @@ impl Node for MeshNode {
             bounds: mesh.bounds().expanded(DVec3::splat(filter.half_width())),
             step: grid.transform.spacing(),
         };
-        let tinted = Tinted {
-            field,
-            colour: self.colour,
-        };
-        Ok(Box::new(Clipped::new(tinted, grid.world_bounds())))
+        Ok(Box::new(Clipped::new(field, grid.world_bounds()).tinted(self.colour)))
     }
     fn bake(&self, grid: &Grid, _colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
         Ok(MeshVoxelizer::new(self.loaded()?).voxelize(grid, SurfaceMode::Solid, progress))
     }
+}
+
+/// Refuses a mesh file whose parsing may need more than the memory limit, before
+/// reading it (the bound grows with the file's size: `volga_voxelize::parse_bytes_bound`).
+fn check_parse_memory(cx: &Resolve, file: &std::path::Path, field: &str) -> Result<(), SceneError> {
+    let Ok(meta) = std::fs::metadata(file) else {
+        return Ok(()); // the loader names the missing file
+    };
+    let ext = file
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    let needed = parse_bytes_bound(meta.len(), &ext);
+    if needed > cx.memory_limit {
+        return Err(SceneError::TooLarge {
+            path: cx.scene.to_owned(),
+            needed: Bytes(needed as u128),
+            limit: Bytes(cx.memory_limit as u128),
+            detail: format!(
+                "field `{field}`: parsing {} ({} bytes) may take that much",
+                file.display(),
+                meta.len()
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// A mesh's filtered density evaluated per sample: exact distance to the nearest

@@ -52,6 +52,8 @@ pub struct Resolve<'a> {
     pub scene: &'a Path,
     /// Its folder: paths in the scene are relative to it.
     pub dir: &'a Path,
+    /// Bytes a file may take to parse (checked from its size before parsing).
+    pub memory_limit: u64,
 }
 
 /// One node of a validated scene. Fields are world space `f64`; baked volumes hold
@@ -110,17 +112,29 @@ pub fn leaf(cx: &Ctx, f: &str, index: usize, o: &ObjectSpec) -> Result<Box<dyn N
     })
 }
 
-/// A field restricted to a world box: outside it, the background.
+/// A leaf's lazy field: restricted to a world box (outside it, the background) and,
+/// when tinted, painted one colour.
 #[derive(Debug)]
 pub struct Clipped<F> {
     field: F,
     bounds: Aabb,
+    colour: Option<Rgb>,
 }
 
 impl<F: Field> Clipped<F> {
     pub fn new(field: F, world_box: Aabb) -> Self {
         let bounds = field.bounds().intersection(&world_box);
-        Clipped { field, bounds }
+        Clipped {
+            field,
+            bounds,
+            colour: None,
+        }
+    }
+
+    /// The same field with this colour everywhere.
+    pub fn tinted(mut self, colour: Rgb) -> Self {
+        self.colour = Some(colour);
+        self
     }
 }
 
@@ -147,47 +161,13 @@ impl<F: Field> Field for Clipped<F> {
         self.field.value_range(world_box)
     }
     fn has_colour(&self) -> bool {
-        self.field.has_colour()
+        self.colour.is_some() || self.field.has_colour()
     }
     fn colour(&self, world_pos: DVec3) -> Option<Vec3> {
-        self.field.colour(world_pos)
-    }
-    fn sample_spacing(&self) -> f64 {
-        self.field.sample_spacing()
-    }
-}
-
-/// A density field painted one colour.
-#[derive(Debug)]
-pub struct Tinted<F> {
-    pub field: F,
-    pub colour: Rgb,
-}
-
-impl<F: Field> Field for Tinted<F> {
-    fn bounds(&self) -> Aabb {
-        self.field.bounds()
-    }
-    fn kind(&self) -> FieldKind {
-        self.field.kind()
-    }
-    fn value(&self, world_pos: DVec3) -> f64 {
-        self.field.value(world_pos)
-    }
-    fn gradient(&self, world_pos: DVec3) -> DVec3 {
-        self.field.gradient(world_pos)
-    }
-    fn gradient_step(&self) -> DVec3 {
-        self.field.gradient_step()
-    }
-    fn value_range(&self, world_box: &Aabb) -> (f64, f64) {
-        self.field.value_range(world_box)
-    }
-    fn has_colour(&self) -> bool {
-        true
-    }
-    fn colour(&self, _world_pos: DVec3) -> Option<Vec3> {
-        Some(Vec3::from(self.colour))
+        match self.colour {
+            Some(c) => Some(Vec3::from(c)),
+            None => self.field.colour(world_pos),
+        }
     }
     fn sample_spacing(&self) -> f64 {
         self.field.sample_spacing()

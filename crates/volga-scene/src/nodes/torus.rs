@@ -5,7 +5,7 @@ use volga_core::{Aabb, Field, Grid, Progress, Rgb, SparseVolume};
 use volga_shapes::{FilteredDensity, SignedDistance, Torus};
 use volga_voxelize::{voxelize_shapes, SurfaceMode};
 
-use super::{bricks_within, grid_filter, Clipped, Estimate, Node, Tinted};
+use super::{bricks_within, grid_filter, Clipped, Estimate, Node};
 use crate::ctx::Ctx;
 use crate::model::ShapeSpec;
 use crate::SceneError;
@@ -65,11 +65,7 @@ impl Node for TorusNode {
     }
     fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError> {
         let density = FilteredDensity::new(self.torus, grid_filter(grid));
-        let field = Tinted {
-            field: density,
-            colour: self.colour,
-        };
-        Ok(Box::new(Clipped::new(field, grid.world_bounds())))
+        Ok(Box::new(Clipped::new(density, grid.world_bounds()).tinted(self.colour)))
     }
     fn bake(&self, grid: &Grid, _colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
         Ok(voxelize_shapes(grid, &[self.torus], SurfaceMode::Solid, progress))

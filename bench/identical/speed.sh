@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Speed before/after a change (issue 10): `volga bench voxelize` of the Stanford bunny
+# with two binaries, taking turns round by round, on the peer benchmark's two jobs
+# (signed distance ±3 voxels, 26-separating surface) at N = 128, 256, 512. Prints one
+# line per job with each binary's median of the round medians and their ratio. Since
+# the peers are not changed, unchanged volga medians mean unchanged peer ratios.
+#
+#   bench/identical/speed.sh BASE_BIN NEW_BIN [ROUNDS=3] [REPEAT=9]
+set -euo pipefail
+base="$(realpath "$1")"
+new="$(realpath "$2")"
+rounds="${3:-3}"
+repeat="${4:-9}"
+repo="$(cd "$(dirname "$0")/../.." && pwd)"
+mesh="$repo/../shared/data/stanford-bunny.obj"
+
+median() { python3 -c 'import sys,statistics; print(statistics.median(float(x) for x in sys.argv[1:]))' "$@"; }
+run() { "$1" bench voxelize "$mesh" --resolution "$2" $3 --repeat "$repeat" 2>/dev/null |
+    python3 -c 'import json,sys; print(json.load(sys.stdin)["median_s"])'; }
+
+for mode in "--distance 3" "--separability 26"; do
+    for n in 128 256 512; do
+        b=(); w=()
+        for _ in $(seq "$rounds"); do
+            b+=("$(run "$base" "$n" "$mode")")
+            w+=("$(run "$new" "$n" "$mode")")
+        done
+        mb=$(median "${b[@]}"); mw=$(median "${w[@]}")
+        python3 -c "print(f'{\"$mode\":18} N={$n:4}  base {$mb:.4f} s  new {$mw:.4f} s  new/base {$mw/$mb:.3f}')"
+    done
+done
