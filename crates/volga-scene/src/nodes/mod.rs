@@ -38,7 +38,7 @@ pub struct Estimate {
 }
 
 impl Estimate {
-    pub fn add(self, o: Estimate) -> Estimate {
+    pub fn plus(self, o: Estimate) -> Estimate {
         Estimate {
             bricks: self.bricks.saturating_add(o.bricks),
             extra_bytes: self.extra_bytes.saturating_add(o.extra_bytes),

@@ -116,7 +116,7 @@ impl Node for Union {
             bricks: estimate_solid_bricks(grid, &self.solids()),
             extra_bytes: 0,
         };
-        self.others().fold(solids, |e, c| e.add(c.estimate(grid)))
+        self.others().fold(solids, |e, c| e.plus(c.estimate(grid)))
     }
     fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError> {
         let solids = self.solids();
