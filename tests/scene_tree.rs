@@ -116,6 +116,8 @@ fn lazy_only_scene_voxelizes_nothing() {
     )
     .unwrap();
     assert!(!report.plan.voxelize.enabled, "{:?}", report.plan.voxelize);
+    // The lazy image reads colour from the nodes: no colour channel is planned.
+    assert!(!report.plan.colour_channel);
     assert_eq!(report.voxels.active, 0);
     assert_eq!(report.plan.memory.bricks_upper_bound, 0);
     assert!(report.stages.iter().all(|s| s.name != "voxelize"));

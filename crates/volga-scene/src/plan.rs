@@ -60,7 +60,8 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
     let colour_readers: Vec<&str> = scene
         .images
         .iter()
-        .filter(|i| i.reads_colour)
+        // Lazy images read colour from the nodes, not from a channel.
+        .filter(|i| i.reads_colour && i.source == RenderSource::Baked)
         .map(|i| i.name.as_str())
         .chain(scene.volumes.iter().filter(|v| v.colour).map(|v| v.name.as_str()))
         .collect();
