@@ -5,7 +5,7 @@ use volga_core::{Field, FieldKind};
 
 use super::{grey, Effects, Integrator, March};
 use crate::march::{index_after, midpoint_lattice_len};
-use crate::{CellClass, Ray, RenderError, RenderSettings, RenderStats};
+use crate::{CellClass, Ray, RenderSettings, RenderStats};
 
 /// Maximum intensity projection: grey = max value along the ray, clamped to
 /// \[0, 1\], drawn as white with that opacity.
@@ -15,10 +15,6 @@ pub struct Mip;
 impl Integrator for Mip {
     fn name(&self) -> &'static str {
         "mip"
-    }
-
-    fn validate(&self) -> Result<(), RenderError> {
-        Ok(())
     }
 
     fn effects(&self, settings: &RenderSettings) -> Effects {

@@ -19,8 +19,11 @@ pub trait Integrator: Sync + std::fmt::Debug {
     /// Short name for messages and reports, e.g. `"iso"`.
     fn name(&self) -> &'static str;
 
-    /// Checks the mode's own parameters; errors name them as `mode.<parameter>`.
-    fn validate(&self) -> Result<(), RenderError>;
+    /// Checks the mode's own parameters; errors name them as `mode.<parameter>`. Modes
+    /// without parameters keep the default.
+    fn validate(&self) -> Result<(), RenderError> {
+        Ok(())
+    }
 
     /// The effects the mode needs under `settings` (its lighting and sampling), so
     /// planners ask the mode instead of matching on it.

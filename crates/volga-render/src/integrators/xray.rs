@@ -5,7 +5,7 @@ use volga_core::{Field, FieldKind};
 
 use super::{grey, Effect, Effects, Integrator, March};
 use crate::march::midpoint_lattice_len;
-use crate::{CellClass, Ray, RenderError, RenderSettings, RenderStats};
+use crate::{CellClass, Ray, RenderSettings, RenderStats};
 
 /// The mean value of the samples inside the bounds, clamped to \[0, 1\], drawn as
 /// white with that opacity.
@@ -15,10 +15,6 @@ pub struct XRay;
 impl Integrator for XRay {
     fn name(&self) -> &'static str {
         "xray"
-    }
-
-    fn validate(&self) -> Result<(), RenderError> {
-        Ok(())
     }
 
     fn effects(&self, _settings: &RenderSettings) -> Effects {
