@@ -58,6 +58,13 @@ fn shapes_scene_builds_every_object_kind() {
         report.voxels.active
     );
     assert!(dir.path().join("out/shapes_iso.png").is_file());
+    // The plan's bound covers the volume built (the mesh's through MeshJob::estimate).
+    assert!(
+        report.plan.memory.volume_bytes >= report.voxels.volume_memory_bytes,
+        "{} < {}",
+        report.plan.memory.volume_bytes,
+        report.voxels.volume_memory_bytes
+    );
 }
 
 fn expect_field(text: &str, field: &str) -> String {

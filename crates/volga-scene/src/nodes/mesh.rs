@@ -8,7 +8,7 @@ use volga_core::memory::Bytes;
 use volga_core::{Aabb, Field, Grid, Progress, Rgb, SparseVolume};
 use volga_mesh::{Bvh, TriMesh};
 use volga_shapes::OrientedBoxFilter;
-use volga_voxelize::{parse_bytes_bound, MeshVoxelizer, SurfaceMode};
+use volga_voxelize::{parse_bytes_bound, MeshJob, MeshJobMode, MeshVoxelizer, SurfaceMode};
 
 use super::{grid_filter, Clipped, Estimate, Node, Resolve};
 use crate::ctx::Ctx;
@@ -131,16 +131,26 @@ impl Node for MeshNode {
             |m| m.bounds(),
         )
     }
+    /// The mesh-voxelize job's measured bound (`MeshJob::estimate`, the one `volga
+    /// voxelize` checks) for an anti-aliased solid on the scene's grid. The union merges
+    /// the result voxel by voxel, so every brick of the band and the inside may be dense
+    /// in the scene's volume until it is pruned: they count as bricks, the job's own
+    /// peak (mesh, voxelizer data, its volume) as extra bytes.
     fn estimate(&self, grid: &Grid) -> Estimate {
         let Some(mesh) = &self.mesh else {
             return Estimate::default();
         };
-        let (band, all) = MeshVoxelizer::estimate_bricks(mesh, grid, grid_filter(grid).half_width());
-        // Band bricks are dense, interior ones uniform (~1/40 of a dense brick's cost);
-        // the BVH, per-triangle data and feature regions cost ~2.4 KB a triangle.
+        let job = MeshJob {
+            resolution: grid.dims().max_element(),
+            mode: MeshJobMode::AntiAliased {
+                thickness_voxels: 1.0,
+                solid: true,
+            },
+        };
+        let e = job.estimate(mesh, grid);
         Estimate {
-            bricks: band + all / 40,
-            extra_bytes: mesh.triangles.len() as u64 * 2_500,
+            bricks: e.inside_bricks.max(e.band_bricks),
+            extra_bytes: e.voxelize_bytes,
         }
     }
     fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError> {
