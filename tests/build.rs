@@ -12,6 +12,22 @@ fn small_hello() -> String {
         .replace("width: 512, height: 512", "width: 64, height: 48")
 }
 
+/// Builds `scene` into `out` with an optional memory limit.
+fn build_to(
+    scene: &Path,
+    out: std::path::PathBuf,
+    memory_limit: Option<u64>,
+) -> Result<volga::scene::Report, BuildError> {
+    build(
+        scene,
+        &BuildOptions {
+            out_dir: out,
+            memory_limit,
+        },
+        &volga::NoProgress,
+    )
+}
+
 fn write_scene(dir: &Path, text: &str) -> std::path::PathBuf {
     let p = dir.join("scene.ron");
     std::fs::write(&p, text).unwrap();
@@ -23,15 +39,7 @@ fn build_writes_images_volume_and_report() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write_scene(dir.path(), &small_hello());
     let out = dir.path().join("out");
-    let report = build(
-        &scene,
-        &BuildOptions {
-            out_dir: out.clone(),
-            memory_limit: None,
-        },
-        &volga::NoProgress,
-    )
-    .unwrap();
+    let report = build_to(&scene, out.clone(), None).unwrap();
 
     for f in [
         "hello_iso.png",
@@ -102,15 +110,7 @@ fn unread_colour_channel_is_not_allocated_and_unlit_images_compute_no_gradients(
         );
     assert!(text.contains("lights: [],"));
     let scene = write_scene(dir.path(), &text);
-    let report = build(
-        &scene,
-        &BuildOptions {
-            out_dir: dir.path().join("out"),
-            memory_limit: None,
-        },
-        &volga::NoProgress,
-    )
-    .unwrap();
+    let report = build_to(&scene, dir.path().join("out"), None).unwrap();
     assert_eq!(report.voxels.colour_bricks, 0);
     assert!(
         !report
@@ -136,15 +136,7 @@ fn oversized_grid_is_refused_before_allocating() {
     let text = small_hello().replace("resolution: 48", "resolution: 100000");
     let scene = write_scene(dir.path(), &text);
     let before = volga::scene::peak_rss_bytes();
-    let err = build(
-        &scene,
-        &BuildOptions {
-            out_dir: dir.path().join("out"),
-            memory_limit: None,
-        },
-        &volga::NoProgress,
-    )
-    .unwrap_err();
+    let err = build_to(&scene, dir.path().join("out"), None).unwrap_err();
     match &err {
         BuildError::Scene(SceneError::TooLarge { needed, limit, .. }) => assert!(needed > limit),
         other => panic!("expected TooLarge, got {other:?}"),
@@ -167,15 +159,7 @@ fn oversized_grid_is_refused_before_allocating() {
 fn memory_limit_option_is_honoured() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write_scene(dir.path(), &small_hello());
-    let err = build(
-        &scene,
-        &BuildOptions {
-            out_dir: dir.path().join("out"),
-            memory_limit: Some(1 << 16),
-        },
-        &volga::NoProgress,
-    )
-    .unwrap_err();
+    let err = build_to(&scene, dir.path().join("out"), Some(1 << 16)).unwrap_err();
     assert!(matches!(err, BuildError::Scene(SceneError::TooLarge { .. })), "{err:?}");
 }
 
@@ -190,15 +174,7 @@ fn failed_build_leaves_existing_outputs_intact() {
     // A directory where the raw volume must go makes the build fail late, after the
     // images are rendered and staged.
     std::fs::create_dir(out.join("hello.raw")).unwrap();
-    let err = build(
-        &scene,
-        &BuildOptions {
-            out_dir: out.clone(),
-            memory_limit: None,
-        },
-        &volga::NoProgress,
-    )
-    .unwrap_err();
+    let err = build_to(&scene, out.clone(), None).unwrap_err();
     assert!(
         !err.is_bad_input(),
         "an output failure is a failed build (exit 1): {err}"
@@ -227,15 +203,7 @@ fn report_that_cannot_be_written_replaces_no_output() {
     let out = dir.path().join("out");
     std::fs::create_dir_all(out.join("report.json")).unwrap();
     std::fs::write(out.join("hello_iso.png"), b"old image").unwrap();
-    let err = build(
-        &scene,
-        &BuildOptions {
-            out_dir: out.clone(),
-            memory_limit: None,
-        },
-        &volga::NoProgress,
-    )
-    .unwrap_err();
+    let err = build_to(&scene, out.clone(), None).unwrap_err();
     assert!(!err.is_bad_input(), "{err}");
     assert_eq!(std::fs::read(out.join("hello_iso.png")).unwrap(), b"old image");
     assert!(!out.join("hello_volume.png").exists());
@@ -255,15 +223,7 @@ fn volumes_larger_than_the_free_space_are_refused_before_voxelizing() {
     )"#;
     let scene = write_scene(dir.path(), text);
     let start = std::time::Instant::now();
-    let err = build(
-        &scene,
-        &BuildOptions {
-            out_dir: dir.path().join("out"),
-            memory_limit: Some(1 << 30),
-        },
-        &volga::NoProgress,
-    )
-    .unwrap_err();
+    let err = build_to(&scene, dir.path().join("out"), Some(1 << 30)).unwrap_err();
     assert!(!err.is_bad_input(), "{err}");
     let msg = err.to_string();
     assert!(msg.contains("not enough free space"), "{msg}");
@@ -286,15 +246,7 @@ fn mesh_files_too_large_to_parse_are_refused_before_reading() {
         "    objects: [\n        (name: \"big\", shape: Mesh(path: \"big.obj\")),",
     );
     let scene = write_scene(dir.path(), &text);
-    let err = build(
-        &scene,
-        &BuildOptions {
-            out_dir: dir.path().join("out"),
-            memory_limit: Some(40 << 20),
-        },
-        &volga::NoProgress,
-    )
-    .unwrap_err();
+    let err = build_to(&scene, dir.path().join("out"), Some(40 << 20)).unwrap_err();
     assert!(err.is_bad_input(), "{err}");
     let msg = err.to_string();
     assert!(

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use volga_scene::{build, load_scene, plan::plan, BuildOptions};
+use volga_scene::{build, plan::plan, validate_scene, BuildOptions};
 
 #[derive(Parser)]
 #[command(name = "volga", version, about = "volga — a volume graphics modeling kernel")]
@@ -164,7 +164,11 @@ fn main() -> ExitCode {
             }
         },
         Command::Plan { scene, memory_limit } => {
-            let result = load_scene(&scene).and_then(|s| plan(&s, memory_limit));
+            // The same stages as `build` up to the plan, with the same memory limit.
+            let result = validate_scene(&scene).and_then(|mut s| {
+                s.resolve(memory_limit)?;
+                plan(&s, memory_limit)
+            });
             match result {
                 Ok(p) => {
                     println!("{}", serde_json::to_string_pretty(&p).expect("plan serializes"));

@@ -1,16 +1,11 @@
 //! The `volga` binary as a user runs it: outputs, exit codes, messages, threads.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+mod common;
+use common::{stderr, volga};
 
 const HELLO: &str = include_str!("../../../scenes/hello.ron");
-
-fn volga(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_volga"))
-        .args(args)
-        .output()
-        .expect("volga runs")
-}
 
 fn small_hello(dir: &Path) -> PathBuf {
     let text = HELLO
@@ -19,10 +14,6 @@ fn small_hello(dir: &Path) -> PathBuf {
     let p = dir.join("hello.ron");
     std::fs::write(&p, text).unwrap();
     p
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 #[test]

@@ -4,18 +4,9 @@
 //! to `validate`.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn volga(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_volga"))
-        .args(args)
-        .output()
-        .expect("volga runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{arg, stderr, volga};
 
 /// A closed tetrahedron, small enough to voxelize in milliseconds.
 fn tetrahedron(dir: &Path) -> PathBuf {
@@ -26,10 +17,6 @@ fn tetrahedron(dir: &Path) -> PathBuf {
     )
     .unwrap();
     path
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 #[test]
@@ -43,13 +30,13 @@ fn threads_beyond_the_cap_are_refused_at_once() {
             "--threads",
             n,
             "voxelize",
-            s(&mesh),
+            arg(&mesh),
             "--resolution",
             "8",
             "--separability",
             "26",
             "--out",
-            s(&out),
+            arg(&out),
         ]);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(
@@ -65,13 +52,13 @@ fn threads_beyond_the_cap_are_refused_at_once() {
         "--threads",
         "16",
         "voxelize",
-        s(&mesh),
+        arg(&mesh),
         "--resolution",
         "8",
         "--separability",
         "26",
         "--out",
-        s(&out),
+        arg(&out),
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
@@ -112,7 +99,7 @@ fn flags_a_mode_would_ignore_are_refused() {
         ),
     ];
     for (flags, out, named) in cases {
-        let mut args = vec!["voxelize", s(&mesh), "--resolution", "8", "--out", s(out)];
+        let mut args = vec!["voxelize", arg(&mesh), "--resolution", "8", "--out", arg(out)];
         args.extend(flags);
         let o = volga(&args);
         assert_eq!(o.status.code(), Some(2), "{flags:?}: {}", stderr(&o));
@@ -133,7 +120,7 @@ fn flags_a_mode_would_ignore_are_refused() {
         &["--separability", "6", "--solid"],
     ] {
         let out = if flags[0] == "--separability" { &binvox } else { &nrrd };
-        let mut args = vec!["voxelize", s(&mesh), "--resolution", "8", "--out", s(out)];
+        let mut args = vec!["voxelize", arg(&mesh), "--resolution", "8", "--out", arg(out)];
         args.extend(flags);
         let o = volga(&args);
         assert_eq!(o.status.code(), Some(0), "{flags:?}: {}", stderr(&o));
@@ -164,9 +151,9 @@ fn a_report_on_the_model_file_is_refused() {
         } else {
             dir.path().join("d/x.nrrd")
         };
-        let mut args = vec!["voxelize", s(&mesh), "--resolution", "8", "--out", s(&out)];
+        let mut args = vec!["voxelize", arg(&mesh), "--resolution", "8", "--out", arg(&out)];
         args.extend(&mode);
-        args.extend(["--report", s(&report)]);
+        args.extend(["--report", arg(&report)]);
         let o = volga(&args);
         assert_eq!(o.status.code(), Some(2), "{report:?}: {}", stderr(&o));
         assert!(stderr(&o).contains("same file"), "{}", stderr(&o));
@@ -187,15 +174,15 @@ fn an_unwritable_report_leaves_the_existing_model() {
     for report in [report_dir.clone(), dir.path().join("missing/r.json")] {
         let o = volga(&[
             "voxelize",
-            s(&mesh),
+            arg(&mesh),
             "--resolution",
             "8",
             "--separability",
             "26",
             "--out",
-            s(&binvox),
+            arg(&binvox),
             "--report",
-            s(&report),
+            arg(&report),
         ]);
         assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
         assert!(stderr(&o).contains("r.json"), "{}", stderr(&o));
@@ -205,15 +192,15 @@ fn an_unwritable_report_leaves_the_existing_model() {
     let nrrd = dir.path().join("v.nrrd");
     let o = volga(&[
         "voxelize",
-        s(&mesh),
+        arg(&mesh),
         "--resolution",
         "8",
         "--distance",
         "2",
         "--out",
-        s(&nrrd),
+        arg(&nrrd),
         "--report",
-        s(&report_dir),
+        arg(&report_dir),
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(!nrrd.exists() && !dir.path().join("v.raw").exists());
@@ -240,7 +227,7 @@ fn outputs_larger_than_the_free_space_are_refused_before_voxelizing() {
     let start = std::time::Instant::now();
     let o = volga(&[
         "voxelize",
-        s(&mesh),
+        arg(&mesh),
         "--resolution",
         "60000",
         "--distance",
@@ -249,7 +236,7 @@ fn outputs_larger_than_the_free_space_are_refused_before_voxelizing() {
         "--memory-limit",
         "1T",
         "--out",
-        s(&nrrd),
+        arg(&nrrd),
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let e = stderr(&o);
@@ -271,12 +258,12 @@ fn validate_says_a_nrrd_holds_distances() {
         (&["--distance", "2"], &distance),
         (&["--anti-aliased", "--solid"], &density),
     ] {
-        let mut args = vec!["voxelize", s(&mesh), "--resolution", "16", "--out", s(out)];
+        let mut args = vec!["voxelize", arg(&mesh), "--resolution", "16", "--out", arg(out)];
         args.extend(flags);
         let o = volga(&args);
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     }
-    let o = volga(&["validate", s(&distance)]);
+    let o = volga(&["validate", arg(&distance)]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let e = stderr(&o);
     assert!(
@@ -285,11 +272,11 @@ fn validate_says_a_nrrd_holds_distances() {
     );
 
     // A solid does not separate white (exit 1), but it is read: not bad input.
-    let o = volga(&["validate", s(&density), "--json"]);
+    let o = volga(&["validate", arg(&density), "--json"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(r["values"], "density");
     assert!(r["report"]["voxels"].as_u64().unwrap() > 0);
-    let o = volga(&["validate", s(&density)]);
+    let o = volga(&["validate", arg(&density)]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("black = density ≥ 0.5"));
 }

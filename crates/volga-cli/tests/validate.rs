@@ -4,28 +4,16 @@
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use glam::{DVec3, IVec3, UVec3};
 use serde_json::Value;
 
-fn volga(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_volga"))
-        .args(args)
-        .output()
-        .expect("volga runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{arg, stderr, volga};
 
 fn json(o: &Output) -> Value {
     serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&o.stdout)))
-}
-
-fn arg(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// A `.binvox` of `dims` voxels with the given black voxels; translate 0 and scale

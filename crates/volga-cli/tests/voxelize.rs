@@ -2,14 +2,10 @@
 //! warning, exit codes for bad input.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-fn volga(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_volga"))
-        .args(args)
-        .output()
-        .expect("volga runs")
-}
+mod common;
+use common::{stderr, volga};
 
 fn shared(name: &str) -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -19,10 +15,6 @@ fn shared(name: &str) -> Option<PathBuf> {
         eprintln!("skipping: {name} not found beside the repository");
         None
     })
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 #[test]

@@ -92,18 +92,18 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
     stages.run("resolve", || scene.resolve(options.memory_limit))?;
     let plan = stages.run("plan", || plan(&scene, options.memory_limit))?;
     // Volumes are written dense: check the disk before any work.
-    let voxels = scene.grid.voxel_count();
+    let grid_voxels = scene.grid.voxel_count();
     let disk: Vec<(PathBuf, u64)> = scene
         .volumes
         .iter()
         .flat_map(|v| {
             let density = (
                 options.out_dir.join(format!("{}.raw", v.name)),
-                voxels.saturating_mul(4),
+                grid_voxels.saturating_mul(4),
             );
             let colour = (
                 options.out_dir.join(format!("{}_colour.raw", v.name)),
-                voxels.saturating_mul(12),
+                grid_voxels.saturating_mul(12),
             );
             std::iter::once(density).chain(v.colour.then_some(colour))
         })
