@@ -44,16 +44,19 @@
 mod bvh;
 mod closest;
 mod error;
+mod intersect;
 mod load;
 mod mesh;
 mod overlap;
 mod segment;
 mod signed;
+pub mod unclean;
 mod winding;
 
-pub use bvh::{Bvh, Closest, FAR_FIELD_BETA};
+pub use bvh::{Bvh, Closest, WindingBound, FAR_FIELD_BETA};
 pub use closest::{closest_point_on_segment, closest_point_on_triangle, point_triangle_distance_squared, Feature};
 pub use error::{InvalidMesh, MeshError};
+pub use intersect::triangles_may_intersect;
 pub use load::{load_gltf, load_mesh, load_obj, read_gltf, read_obj};
 pub use mesh::{EdgeStats, TriMesh};
 pub use overlap::{triangle_box_overlap, triangle_meets_open_box};

@@ -15,12 +15,21 @@ use crate::TriMesh;
 /// normal `(b−a)×(c−a)` points away from `p`), so a closed outward-facing mesh sums to
 /// `4π` around an inside point. Finite for every input: `p` on a corner or in the
 /// triangle's plane gives `atan2(0, ·)`, and degenerate triangles give 0 away from them.
+///
+/// **On the triangle** (`p` in its plane, inside it: the numerator is exactly 0 and the
+/// denominator negative) the result is the principal value 0, the mean of the two
+/// one-sided limits ±2π, not whichever limit the sign of the zero picks; on an edge or
+/// a corner it is 0 as well. So the winding number of a mesh at a point of its surface
+/// is the principal value, the mean of the two sides.
 #[inline]
 pub fn solid_angle(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
     let (a, b, c) = (a - p, b - p, c - p);
     let (la, lb, lc) = (a.length(), b.length(), c.length());
     let numerator = a.dot(b.cross(c));
     let denominator = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+    if numerator == 0.0 {
+        return 0.0;
+    }
     2.0 * numerator.atan2(denominator)
 }
 
@@ -53,6 +62,18 @@ mod tests {
     }
 
     #[test]
+    fn on_the_triangle_the_principal_value_is_zero() {
+        let tri = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        for p in [DVec3::new(0.25, 0.25, 0.0), DVec3::new(0.5, 0.0, 0.0), DVec3::ZERO] {
+            assert_eq!(solid_angle(p, tri), 0.0, "{p}");
+            assert_eq!(solid_angle(p, [tri[0], tri[2], tri[1]]), 0.0, "{p}");
+        }
+        // Just off it: the one-sided limits ±2π.
+        assert!((solid_angle(DVec3::new(0.25, 0.25, -1e-12), tri) - 2.0 * PI).abs() < 1e-9);
+        assert!((solid_angle(DVec3::new(0.25, 0.25, 1e-12), tri) + 2.0 * PI).abs() < 1e-9);
+    }
+
+    #[test]
     fn cube_inside_outside() {
         let cube = TriMesh::from_aabb(&Aabb::new(DVec3::splat(-1.0), DVec3::ONE));
         for p in [DVec3::ZERO, DVec3::new(0.9, -0.9, 0.99), DVec3::new(-0.999, 0.5, 0.0)] {
@@ -68,5 +89,8 @@ mod tests {
         // On a corner or a face: finite.
         assert!(winding_number(&cube, DVec3::ONE).is_finite());
         assert!(winding_number(&cube, DVec3::new(1.0, 0.2, 0.3)).is_finite());
+        // On a face the principal value: the mean of inside (1) and outside (0).
+        assert!((winding_number(&cube, DVec3::new(1.0, 0.2, 0.3)) - 0.5).abs() < 1e-12);
+        assert!((winding_number(&cube, DVec3::new(0.25, -1.0, 0.5)) - 0.5).abs() < 1e-12);
     }
 }

@@ -222,3 +222,50 @@ fn signed_distance_on_the_open_bunny_follows_the_winding_number() {
     }
     assert!(inside > 0, "some samples fall inside the bunny");
 }
+
+/// The certified bound of `winding_number_bounded` contains the exact sum, on the first
+/// pass and after refining to a threshold, at random points and at points just off the
+/// surface (where the nearest leaves are summed exactly).
+fn bounded_winding_contains_exact(mesh: &TriMesh, count: usize, seed: u64) {
+    let bvh = Bvh::build(mesh);
+    let sample_box = padded_bounds(mesh, 0.1);
+    let mut rng = Rng(seed);
+    let (mut first_certain, mut refined) = (0, 0);
+    for k in 0..count {
+        let mut p = rng.point_in(&sample_box);
+        if k % 2 == 1 {
+            // Near the surface: 1e-3 of the box size off the nearest point.
+            let c = bvh.closest(p).unwrap();
+            p = c.point + (p - c.point).normalize_or_zero() * 1e-3 * sample_box.size().max_element();
+        }
+        let exact = bvh.winding_number_exact(p);
+        let first = bvh.winding_number_bounded(p, None, |_, _| true);
+        assert!(
+            (first.value - exact).abs() <= first.error,
+            "first pass at {p}: {first:?}, exact {exact}"
+        );
+        first_certain += first.side(0.5).is_some() as usize;
+        let decided = bvh.winding_number_bounded(p, None, |w, e| (w - 0.5).abs() > e);
+        assert!(
+            (decided.value - exact).abs() <= decided.error,
+            "{decided:?}, exact {exact}"
+        );
+        refined += (decided.refinements > 0) as usize;
+        if (exact - 0.5).abs() > 1e-9 {
+            assert_eq!(decided.side(0.5), Some(exact >= 0.5), "{decided:?}, exact {exact}");
+        }
+        let tight = bvh.winding_number_bounded(p, None, |_, e| e < 1e-6);
+        assert!(tight.error < 1e-6 && (tight.value - exact).abs() <= tight.error);
+    }
+    eprintln!("certified on the first pass: {first_certain} of {count}; refined: {refined}");
+}
+
+#[test]
+fn bounded_winding_number_is_certified_on_spot_and_the_bunny() {
+    if let Some(spot) = shared("spot.obj") {
+        bounded_winding_contains_exact(spot, 200, 3);
+    }
+    if let Some(bunny) = shared("stanford-bunny.obj") {
+        bounded_winding_contains_exact(bunny, 60, 4);
+    }
+}

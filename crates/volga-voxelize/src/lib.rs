@@ -30,6 +30,7 @@
 //! ```
 
 pub mod binary;
+pub mod check;
 mod field;
 mod job;
 pub mod lines;
@@ -38,6 +39,7 @@ pub mod measure;
 mod mesh;
 mod pairs;
 mod regions;
+mod sign;
 mod solids;
 pub mod surfaces;
 mod tri_distance;
@@ -47,6 +49,7 @@ pub use field::AnalyticField;
 pub use job::{parse_bytes_bound, JobError, JobEstimate, MeshJob, MeshJobMode};
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity, UnsupportedAdjacency};
 pub use mesh::MeshVoxelizer;
+pub use sign::SignStats;
 pub use solids::{estimate_solid_bricks, merge_max, voxelize_solids, Solid};
 pub use surfaces::{voxelize_shapes, SurfaceMode};
 /// The geometry layer, re-exported: shapes and the filter live in `volga-shapes`.

@@ -12,38 +12,32 @@
 //! edges and vertices it owns; see the `regions` module), about two evaluations per band
 //! voxel.
 //!
-//! ## Sign: inside means generalized winding number ≥ ½
+//! ## Sign: inside means generalized winding number ≥ ½, proven per voxel
 //! The documented answer for every mesh, closed or not, is the generalized winding
-//! number `w(p)` (Jacobson et al. 2013): inside iff `w(p) ≥ ½`. For a closed, consistently
+//! number `w(p)` (Jacobson et al. 2013): inside iff `w(p) ≥ ½`, with `w` on the surface
+//! itself its principal value (the mean of the two sides). For a closed, consistently
 //! oriented mesh that is the usual inside; for an open scan like the Stanford bunny it
-//! fills the holes the way the surface suggests, where the pseudo-normal sign of
-//! OpenVDB-style methods reads almost the whole band as outside.
-//!
-//! Evaluating `w` at every band voxel would dominate the cost, so it is evaluated once per
-//! triangle: `w̄_t`, the winding number at the centroid (its principal value on the
-//! surface). Just off the surface `w ≈ w̄ ± ½` on the two sides, and the side comes from
-//! the angle-weighted pseudo-normal of the nearest feature (Bærentzen & Aanæs 2005).
-//! Where that estimate is within 0.3 of the ½ threshold (near holes), where the nearest
-//! feature lies on a boundary or non-manifold edge, or where the side is undecided, `w(p)`
-//! itself is evaluated with the BVH's fast winding number (Barill et al. 2018).
-//! Voxels beyond the band but inside a brick the band reaches take their sign by flood
-//! fill from the band voxels (a 6-step is shorter than the band, so it cannot cross the
-//! surface), one 6-connected component at a time on 512-bit brick masks. A component
-//! that touches band voxels of both signs goes round the rim of a hole, where `w`
-//! passes ½ beyond the band; its voxels ask `w` one by one. Bricks the band does not reach take the sign of their centre. For a closed mesh `w` is
-//! constant off the surface, so face-connected bricks beyond the band share one answer
-//! (one query per component). For an open mesh `w` varies smoothly through the holes: it
-//! is evaluated per block of 2×2×2 bricks and refined per brick near ½; the level set
-//! `w = ½` can still cross a brick there, which only affects voxels outside the band.
+//! fills the holes the way the surface suggests; overlapping, self-intersecting,
+//! flipped and flat parts get their exact `w` too. Every sign is **proven**, not
+//! estimated (the `sign` module): a band voxel takes its nearest triangle's certified
+//! interval when the interval clears ½, else the caps' winding number, else the mesh's
+//! certified winding number refined until its error bound clears ½ (exactly summed at
+//! worst). Voxels beyond the band take their sign by flood fill from band voxels inside
+//! their brick (a 6-step is shorter than the band, so it crosses no sheet), trusted only
+//! as far as the gradient bound allows on open meshes; bricks the band does not reach are
+//! classified by certified queries per face-connected component (no boundary: `w` is
+//! constant between sheets) or per octree box, refined down to single voxels where the
+//! level set `w = ½` passes far from the surface (open meshes).
 
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
-use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
+use volga_core::{Aabb, Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
 use volga_mesh::{closest_point_on_triangle, Bvh, Feature, TriMesh};
 
 use crate::mask::BrickMask;
 use crate::regions::{EdgeUse, FeatureRegions};
+use crate::sign::{MeshTopology, SignOracle, SignStats};
 use crate::tri_distance::{BandColumns, Nearest, TriDistance};
 use crate::{OrientedBoxFilter, SurfaceMode};
 
@@ -63,34 +57,29 @@ pub struct MeshVoxelizer {
     /// whether the vertex touches a boundary or non-manifold edge.
     vertex_normal: Vec<[DVec3; 3]>,
     vertex_ambiguous: Vec<[bool; 3]>,
-    /// Winding number at each triangle's centroid (principal value).
-    w_bar: Vec<f64>,
     boundary_edges: usize,
-    /// No boundary or non-manifold edges.
-    closed: bool,
     distance: Vec<TriDistance>,
     /// Face, edge and vertex regions that bound where each triangle can be nearest.
     regions: FeatureRegions,
+    /// Certified signs: per-triangle principal values, caps, gradient bounds.
+    sign: SignOracle,
 }
 
-/// [`MeshVoxelizer`]'s parts that do not need the BVH (`w_bar` is `None` when the
-/// winding numbers need the whole mesh).
+/// [`MeshVoxelizer`]'s parts that do not need the BVH.
 struct WithoutBvh {
     triangles: Vec<[DVec3; 3]>,
     face_normal: Vec<DVec3>,
     edge_normal: Vec<[DVec3; 3]>,
-    edge_ambiguous: Vec<[bool; 3]>,
     vertex_normal: Vec<[DVec3; 3]>,
-    vertex_ambiguous: Vec<[bool; 3]>,
-    w_bar: Option<Vec<f64>>,
     boundary_edges: usize,
-    closed: bool,
     distance: Vec<TriDistance>,
     regions: FeatureRegions,
+    /// Voxelizer (Morton) order → mesh order.
+    order: Vec<u32>,
+    corners: Vec<[u32; 3]>,
+    welded_pos: Vec<DVec3>,
+    uses: Vec<EdgeUse>,
 }
-
-/// How far from ½ a block's winding number must be to classify its 2×2×2 bricks at once.
-const REFINE_MARGIN: f64 = 0.3;
 
 /// Welded positions, indexed by welded vertex.
 fn welded_positions(mesh: &TriMesh, welded: &[u32], count: usize) -> Vec<DVec3> {
@@ -99,106 +88,6 @@ fn welded_positions(mesh: &TriMesh, welded: &[u32], count: usize) -> Vec<DVec3> 
         out[w as usize] = mesh.positions[i];
     }
     out
-}
-
-/// The winding number's principal value at each triangle's centroid, `w̄_t`.
-///
-/// * Closed, consistently oriented: `w̄ = ±½` exactly (the sign of the enclosed volume).
-/// * Open with simple boundary loops: each loop is closed by a fan cap `C` oriented so
-///   that `M ∪ C` is closed and consistent; then `w̄_M = ±½ − w_C(centroid)`, and `w_C`
-///   is a fast winding query over the few cap triangles instead of the whole mesh.
-///
-/// `None` otherwise (non-manifold edges, branching boundaries): then
-/// [`direct_winding`] asks the whole mesh.
-fn cap_winding(
-    triangles: &[[DVec3; 3]],
-    welded_pos: &[DVec3],
-    corner: impl Fn(usize, usize) -> u32,
-    edge_count: &[[u32; 3]],
-) -> Option<Vec<f64>> {
-    if edge_count.iter().flatten().any(|&c| c > 2) {
-        return None;
-    }
-    let centroid = |[a, b, c]: &[DVec3; 3]| (*a + *b + *c) / 3.0;
-    // Boundary edges i → j as their triangle lists them; the cap runs j → i.
-    let mut next: FxHashMap<u32, u32> = FxHashMap::default();
-    for (t, counts) in edge_count.iter().enumerate() {
-        for (k, &count) in counts.iter().enumerate() {
-            let (i, j) = (corner(t, k), corner(t, (k + 1) % 3));
-            if count == 1 && next.insert(j, i).is_some() {
-                return None; // two boundary edges leave j: not a simple loop
-            }
-        }
-    }
-    let mut caps: Vec<[DVec3; 3]> = Vec::new();
-    let mut starts: Vec<u32> = next.keys().copied().collect();
-    starts.sort_unstable();
-    let mut visited = rustc_hash::FxHashSet::default();
-    for start in starts {
-        if visited.contains(&start) {
-            continue;
-        }
-        let mut ring = vec![start];
-        visited.insert(start);
-        let mut v = start;
-        loop {
-            let &n = next.get(&v)?;
-            if n == start {
-                break;
-            }
-            if !visited.insert(n) {
-                return None;
-            }
-            ring.push(n);
-            v = n;
-        }
-        let c = ring.iter().map(|&i| welded_pos[i as usize]).sum::<DVec3>() / ring.len() as f64;
-        for k in 0..ring.len() {
-            let (p, q) = (
-                welded_pos[ring[k] as usize],
-                welded_pos[ring[(k + 1) % ring.len()] as usize],
-            );
-            caps.push([c, p, q]);
-        }
-    }
-    // Orientation of the closed M ∪ C from its enclosed volume, measured from the
-    // centroid so that coordinates far from the origin (1e6) do not cancel.
-    let o = triangles.iter().flatten().sum::<DVec3>() / (3 * triangles.len().max(1)) as f64;
-    let volume: f64 = triangles
-        .iter()
-        .chain(&caps)
-        .map(|[a, b, c]| (*a - o).dot((*b - o).cross(*c - o)))
-        .sum();
-    let half = if volume >= 0.0 { 0.5 } else { -0.5 };
-    if caps.is_empty() {
-        return Some(vec![half; triangles.len()]);
-    }
-    let cap_mesh = TriMesh {
-        positions: caps.iter().flatten().copied().collect(),
-        triangles: (0..caps.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
-    };
-    let cap_bvh = Bvh::build(&cap_mesh);
-    Some(
-        triangles
-            .par_iter()
-            .map(|t| half - cap_bvh.winding_number(centroid(t)))
-            .collect(),
-    )
-}
-
-/// `w̄_t` from the whole mesh: `w_M` just off the centroid on the normal side plus ½ —
-/// crossing a sheet along its normal lowers `w` by exactly 1 (at the centroid itself
-/// the triangle's own solid angle is ±2π, not 0).
-fn direct_winding(triangles: &[[DVec3; 3]], face_normal: &[DVec3], bvh: &Bvh) -> Vec<f64> {
-    triangles
-        .par_iter()
-        .zip(face_normal)
-        .map(|(t, n)| {
-            let [a, b, c] = t;
-            let eps = 1e-6 * (*b - *a).length().max((*c - *a).length()).max(f64::MIN_POSITIVE);
-            bvh.winding_number((*a + *b + *c) / 3.0 + *n * eps) + 0.5
-        })
-        .collect()
 }
 
 /// Triangle order along a Morton (Z-order) curve of their centroids: neighbours in
@@ -219,30 +108,33 @@ fn morton_order(mesh: &TriMesh) -> Vec<u32> {
     keyed.into_iter().map(|(_, i)| i).collect()
 }
 
-/// Margin around ½ inside which the per-triangle estimate is not trusted.
-const SIGN_MARGIN: f64 = 0.3;
-
 impl MeshVoxelizer {
     pub fn new(mesh: &TriMesh) -> Self {
         // The BVH (for winding numbers) is built from the mesh as given, alongside
         // everything else, which needs it only for meshes without simple boundary loops.
         let (bvh, rest) = rayon::join(|| Bvh::build(mesh), || Self::without_bvh(mesh));
-        let w_bar = rest
-            .w_bar
-            .unwrap_or_else(|| direct_winding(&rest.triangles, &rest.face_normal, &bvh));
+        let sign = SignOracle::build(&MeshTopology {
+            triangles: &rest.triangles,
+            corners: &rest.corners,
+            welded_pos: &rest.welded_pos,
+            uses: &rest.uses,
+            bvh: &bvh,
+            to_bvh: &rest.order,
+        });
+        let edge_ambiguous = sign.edge_ok.iter().map(|ok| ok.map(|ok| !ok)).collect();
+        let vertex_ambiguous = sign.vertex_ok.iter().map(|ok| ok.map(|ok| !ok)).collect();
         MeshVoxelizer {
             triangles: rest.triangles,
             bvh,
             face_normal: rest.face_normal,
             edge_normal: rest.edge_normal,
-            edge_ambiguous: rest.edge_ambiguous,
+            edge_ambiguous,
             vertex_normal: rest.vertex_normal,
-            vertex_ambiguous: rest.vertex_ambiguous,
-            w_bar,
+            vertex_ambiguous,
             boundary_edges: rest.boundary_edges,
-            closed: rest.closed,
             distance: rest.distance,
             regions: rest.regions,
+            sign,
         }
     }
 
@@ -295,28 +187,17 @@ impl MeshVoxelizer {
 
         // Per triangle edge: how many faces use it, and the sum of their normals.
         let n_welded = weld.len();
-        let mut edge_count = vec![[0u32; 3]; triangles.len()];
         let mut edge_normal = vec![[DVec3::ZERO; 3]; triangles.len()];
-        let mut vambiguous = vec![false; n_welded];
-        let (mut boundary_edges, mut closed) = (0, true);
+        let mut boundary_edges = 0;
         for group in uses.chunk_by(|a, b| a.key == b.key) {
-            let count = group.len() as u32;
             let sum: DVec3 = group.iter().map(|u| face_normal[u.triangle as usize]).sum();
             for u in group {
-                edge_count[u.triangle as usize][u.corner as usize] = count;
                 edge_normal[u.triangle as usize][u.corner as usize] = sum;
             }
-            boundary_edges += (count == 1) as usize;
-            if count != 2 {
-                closed = false;
-                vambiguous[(group[0].key >> 32) as usize] = true;
-                vambiguous[(group[0].key & 0xffff_ffff) as usize] = true;
-            }
+            boundary_edges += (group.len() == 1) as usize;
         }
-        let edge_ambiguous: Vec<[bool; 3]> = edge_count.iter().map(|c| c.map(|c| c != 2)).collect();
-        // Degenerate corners (i == j) use no edge: ambiguous too, as before.
 
-        // Vertices: angle-weighted normals; ambiguous when on a boundary/non-manifold edge.
+        // Vertices: angle-weighted normals (which features may use them: `sign`).
         let mut vnormal = vec![DVec3::ZERO; n_welded];
         for (t, tri) in triangles.iter().enumerate() {
             for k in 0..3 {
@@ -330,27 +211,21 @@ impl MeshVoxelizer {
         let vertex_normal: Vec<[DVec3; 3]> = (0..triangles.len())
             .map(|t| [0, 1, 2].map(|k| vnormal[corner(t, k) as usize]))
             .collect();
-        let vertex_ambiguous: Vec<[bool; 3]> = (0..triangles.len())
-            .map(|t| [0, 1, 2].map(|k| vambiguous[corner(t, k) as usize]))
-            .collect();
-
-        let (w_bar, regions) = rayon::join(
-            || cap_winding(&triangles, &welded_pos, corner, &edge_count),
-            || FeatureRegions::build(&triangles, &uses, &welded_pos, &vnormal),
-        );
+        let regions = FeatureRegions::build(&triangles, &uses, &welded_pos, &vnormal);
         let distance = triangles.par_iter().map(|t| TriDistance::new(*t)).collect();
+        let corners = (0..triangles.len()).map(|t| [0, 1, 2].map(|k| corner(t, k))).collect();
         WithoutBvh {
             triangles,
             face_normal,
             edge_normal,
-            edge_ambiguous,
             vertex_normal,
-            vertex_ambiguous,
-            w_bar,
             boundary_edges,
-            closed,
             distance,
             regions,
+            order,
+            corners,
+            welded_pos,
+            uses,
         }
     }
 
@@ -384,43 +259,116 @@ impl MeshVoxelizer {
         &self.bvh
     }
 
-    /// Inside (winding number ≥ ½) for a point whose nearest triangle is `t`.
-    fn inside(&self, p: DVec3, t: usize) -> bool {
-        let (c, feature) = closest_point_on_triangle(p, self.triangles[t]);
-        let (normal, ambiguous) = match feature {
-            Feature::Face => (self.face_normal[t], false),
-            Feature::Edge(k) => (self.edge_normal[t][k], self.edge_ambiguous[t][k]),
-            Feature::Vertex(k) => (self.vertex_normal[t][k], self.vertex_ambiguous[t][k]),
-        };
-        let along = (p - c).dot(normal);
-        if !ambiguous && along != 0.0 && normal != DVec3::ZERO {
-            let estimate = self.w_bar[t] + if along < 0.0 { 0.5 } else { -0.5 };
-            if (estimate - 0.5).abs() >= SIGN_MARGIN {
-                return estimate >= 0.5;
-            }
-        }
-        self.bvh.winding_number(p) >= 0.5
+    /// How each sign was proven in the last call is returned by
+    /// [`MeshVoxelizer::voxelize_with_stats`]; this is what was learned while building:
+    /// unclean triangles and the boundary cycle.
+    pub fn sign_stats(&self) -> SignStats {
+        self.sign.stats
     }
 
-    /// The inside voxels of one brick. Band voxels come with their sign; each
-    /// 6-connected component of the voxels beyond the band (`unknown`) takes the sign
-    /// of the band voxels it touches (a 6-step is shorter than the band, so it cannot
-    /// cross the surface). A component touching both signs goes round a hole of an
-    /// open mesh, where `w` passes ½ beyond the band: each of its voxels asks the
-    /// winding number. A component touching no band voxel asks it once, at its first
-    /// voxel.
+    /// The sign of a band voxel at `p` whose nearest triangle is `t`, `d2` away (squared),
+    /// with its proven margin `|w − ½|` (a lower bound) and how it was proven. `slack` is
+    /// the half-width of `t`'s certified interval of `w` near `t` (see `sign`).
+    fn decide(&self, p: DVec3, t: usize, d2: f64, slack: f64, stats: &mut SignStats) -> (bool, f64) {
+        let sign = &self.sign;
+        let (c, feature) = closest_point_on_triangle(p, self.triangles[t]);
+        let (normal, ok) = match feature {
+            Feature::Face => (self.face_normal[t], true),
+            Feature::Edge(k) => (self.edge_normal[t][k], !self.edge_ambiguous[t][k]),
+            Feature::Vertex(k) => (self.vertex_normal[t][k], !self.vertex_ambiguous[t][k]),
+        };
+        let along = (p - c).dot(normal);
+        // The side is trusted well above the rounding of `p − c` and of the normal.
+        let tolerance = 1e-12 * (p.abs().max_element() + (p - c).length()) * normal.length();
+        if ok && sign.trusted[t] && along.abs() > tolerance && normal.length() > 1e-6 {
+            let behind = along < 0.0;
+            let mid = sign.w_bar[t] + if behind { 0.5 } else { -0.5 };
+            if mid - slack >= 0.5 {
+                stats.fast_voxels += 1;
+                return (true, mid - slack - 0.5);
+            }
+            if mid + slack < 0.5 {
+                stats.fast_voxels += 1;
+                return (false, 0.5 - mid - slack);
+            }
+            if !sign.closed && !sign.cap_within(p, d2.sqrt()) {
+                // No cap between `p` and its nearest point: `w(p) = I − w_C(p)` with the
+                // region's integer `I` on this side.
+                let threshold = (sign.front[t] + behind as i64) as f64 - 0.5;
+                let b = sign.cap_winding(p, threshold);
+                if b.value + b.error <= threshold {
+                    stats.cap_voxels += 1;
+                    return (true, threshold - b.value - b.error);
+                }
+                if b.value - b.error > threshold {
+                    stats.cap_voxels += 1;
+                    return (false, b.value - b.error - threshold);
+                }
+            }
+        }
+        self.exact_side(p, stats)
+    }
+
+    /// The whole mesh's certified winding number at `p`, refined until it proves its
+    /// side of ½ (a tie within rounding counts as inside, `w ≥ ½`).
+    fn exact_side(&self, p: DVec3, stats: &mut SignStats) -> (bool, f64) {
+        let b = self.bvh.winding_number_bounded(p, None, |w, e| (w - 0.5).abs() > e);
+        stats.exact_voxels += 1;
+        stats.exact_triangles += b.exact_triangles as u64;
+        (b.value >= 0.5, b.margin(0.5))
+    }
+
+    /// The inside voxels of one brick beyond the band (`unknown`). Each 6-connected
+    /// component takes the sign of the band voxels next to it: a 6-step from a voxel
+    /// beyond the band is shorter than the band, so it crosses no sheet. Without a
+    /// boundary (`w` constant between sheets) that is exact; otherwise `w` drifts by at
+    /// most the gradient bound times the path, and the component keeps the sign only
+    /// while the seeds' proven margin covers the drift. Components touching no band
+    /// voxel take a certified query at their first voxel on the same terms; the rest
+    /// ask every voxel.
+    #[allow(clippy::too_many_arguments)]
     fn flood_signs(
         &self,
         brick: IVec3,
         inside_band: BrickMask,
         outside_band: BrickMask,
+        margin: &[f64; BRICK_VOXELS],
         unknown: BrickMask,
         grid: &Grid,
+        stats: &mut SignStats,
     ) -> BrickMask {
         let (touches_inside, touches_outside) = (inside_band.dilate6(), outside_band.dilate6());
         let centre = |o: usize| {
             let ijk = brick * BRICK_DIM + IVec3::new(o as i32 % 8, o as i32 / 8 % 8, o as i32 / 64);
             grid.transform.voxel_center(ijk)
+        };
+        // `w` drifts by at most this much per 6-step inside the brick.
+        let step_drift = if self.sign.closed {
+            0.0
+        } else {
+            let lo = grid.transform.index_to_world((brick * BRICK_DIM).as_dvec3() - 0.5);
+            let hi = grid
+                .transform
+                .index_to_world(((brick + 1) * BRICK_DIM).as_dvec3() - 0.5);
+            self.sign.boundary.gradient_bound(&Aabb::new(lo.min(hi), lo.max(hi))) * grid.max_spacing()
+        };
+        // Steps from `start` to cover `component` (6-connected, so it ends).
+        let depth = |start: BrickMask, component: BrickMask| {
+            let (mut covered, mut steps) = (start, 1u32);
+            while covered != component {
+                covered = covered.dilate6().and(&component);
+                steps += 1;
+            }
+            steps as f64
+        };
+        let seed_margin = |seeds: BrickMask| {
+            let mut min = f64::INFINITY;
+            let mut left = seeds;
+            while let Some(o) = left.first() {
+                left.remove(o);
+                min = min.min(margin[o]);
+            }
+            min
         };
         let mut inside = inside_band;
         let mut rest = unknown;
@@ -429,22 +377,33 @@ impl MeshVoxelizer {
             component.insert(first);
             component = component.flood(&rest);
             rest = rest.and_not(&component);
-            match (
-                !component.and(&touches_inside).is_empty(),
-                !component.and(&touches_outside).is_empty(),
-            ) {
-                (true, false) => inside = inside.or(&component),
-                (false, true) => {}
-                (false, false) => {
-                    if self.bvh.winding_number(centre(first)) >= 0.5 {
-                        inside = inside.or(&component);
-                    }
+            let (by_inside, by_outside) = (component.and(&touches_inside), component.and(&touches_outside));
+            let decided = match (!by_inside.is_empty(), !by_outside.is_empty()) {
+                (true, false) => {
+                    let m = seed_margin(inside_band.and(&component.dilate6()));
+                    (step_drift == 0.0 || m > step_drift * depth(by_inside, component)).then_some(true)
                 }
-                (true, true) => {
+                (false, true) => {
+                    let m = seed_margin(outside_band.and(&component.dilate6()));
+                    (step_drift == 0.0 || m > step_drift * depth(by_outside, component)).then_some(false)
+                }
+                (false, false) => {
+                    let (is_inside, m) = self.exact_side(centre(first), stats);
+                    stats.region_queries += 1;
+                    let mut start = BrickMask::EMPTY;
+                    start.insert(first);
+                    (step_drift == 0.0 || m > step_drift * (depth(start, component) - 1.0)).then_some(is_inside)
+                }
+                (true, true) => None,
+            };
+            match decided {
+                Some(true) => inside = inside.or(&component),
+                Some(false) => {}
+                None => {
                     let mut left = component;
                     while let Some(o) = left.first() {
                         left.remove(o);
-                        if self.bvh.winding_number(centre(o)) >= 0.5 {
+                        if self.exact_side(centre(o), stats).0 {
                             inside.insert(o);
                         }
                     }
@@ -454,54 +413,15 @@ impl MeshVoxelizer {
         inside
     }
 
-    /// Open meshes: `w` varies smoothly away from the surface (through the holes), so
-    /// each brick is classified at its centre — first per block of 2×2×2 bricks, and per
-    /// brick only where the block's `w` is within [`REFINE_MARGIN`] of ½ or the block
-    /// touches the band.
-    fn inside_bricks_coarse_to_fine(
-        &self,
-        candidates: &[IVec3],
-        band: &rustc_hash::FxHashSet<IVec3>,
-        grid: &Grid,
-    ) -> Vec<IVec3> {
-        let t = &grid.transform;
-        let centre = |b: IVec3| t.index_to_world((b * BRICK_DIM).as_dvec3() + 3.5);
-        let mut blocks: Vec<IVec3> = candidates.iter().map(|b| b.div_euclid(IVec3::splat(2))).collect();
-        blocks.sort_unstable_by_key(|b| (b.z, b.y, b.x));
-        blocks.dedup();
-        let block_sign: FxHashMap<IVec3, Option<bool>> = blocks
-            .par_iter()
-            .map(|&k| {
-                let touches_band = IndexBox::new(k * 2, k * 2 + 2).iter().any(|b| band.contains(&b));
-                if touches_band {
-                    return (k, None);
-                }
-                let w = self
-                    .bvh
-                    .winding_number(t.index_to_world((k * 2 * BRICK_DIM).as_dvec3() + 7.5));
-                (k, ((w - 0.5).abs() > REFINE_MARGIN).then_some(w >= 0.5))
-            })
-            .collect();
-        let mut inside: Vec<IVec3> = candidates
-            .par_iter()
-            .copied()
-            .filter(|b| match block_sign[&b.div_euclid(IVec3::splat(2))] {
-                Some(sign) => sign,
-                None => self.bvh.winding_number(centre(*b)) >= 0.5,
-            })
-            .collect();
-        inside.sort_unstable_by_key(|b| (b.z, b.y, b.x));
-        inside
-    }
-
-    /// Closed meshes: `w` is constant (0 or 1) off the surface, so face-connected
-    /// bricks that no band reaches share their sign. Label them by flood fill and ask
-    /// the winding number once per component.
+    /// Boundary-free meshes: `w` is constant between sheets and 0 outside the mesh's
+    /// bounds, so face-connected bricks that no band reaches share their sign. Label
+    /// them by flood fill and prove the sign once per component.
     fn inside_bricks_by_components(
         &self,
         candidates: &[IVec3],
         band: &rustc_hash::FxHashSet<IVec3>,
         grid: &Grid,
+        stats: &mut SignStats,
     ) -> Vec<IVec3> {
         let set: rustc_hash::FxHashSet<IVec3> = candidates.iter().copied().collect();
         let mut label: FxHashMap<IVec3, bool> = FxHashMap::default();
@@ -511,7 +431,8 @@ impl MeshVoxelizer {
                 continue;
             }
             let centre = grid.transform.index_to_world((start * BRICK_DIM).as_dvec3() + 3.5);
-            let is_inside = self.bvh.winding_number(centre) >= 0.5;
+            let is_inside = self.exact_side(centre, stats).0;
+            stats.region_queries += 1;
             let mut stack = vec![start];
             label.insert(start, is_inside);
             while let Some(b) = stack.pop() {
@@ -531,12 +452,183 @@ impl MeshVoxelizer {
         inside
     }
 
+    /// Meshes with a boundary: `w` varies smoothly away from the surface (through the
+    /// holes, and outside the mesh's bounds where stacked sheets can reach ½), so the
+    /// whole grid beyond the band is classified by an octree of voxel boxes: a box no band
+    /// reaches takes the sign of its centre when the certified margin there exceeds the
+    /// gradient bound times the box's radius; otherwise it splits, down to single voxels.
+    /// Returns the wholly inside bricks and the partly inside ones as masks.
+    fn inside_by_octree(
+        &self,
+        touched: &rustc_hash::FxHashSet<IVec3>,
+        grid: &Grid,
+        stats: &mut SignStats,
+    ) -> (Vec<IVec3>, Vec<(IVec3, BrickMask)>) {
+        let extent = volga_core::brick_extent(grid.dims());
+        // Prefix sums of touched bricks: "does this box hold band" in O(1).
+        let (ex, ey, ez) = (extent.x as usize + 1, extent.y as usize + 1, extent.z as usize + 1);
+        let mut prefix = vec![0u32; ex * ey * ez];
+        let at = |x: usize, y: usize, z: usize| (z * ey + y) * ex + x;
+        for z in 1..ez {
+            for y in 1..ey {
+                for x in 1..ex {
+                    let own = touched.contains(&IVec3::new(x as i32 - 1, y as i32 - 1, z as i32 - 1)) as u32;
+                    prefix[at(x, y, z)] =
+                        own + prefix[at(x - 1, y, z)] + prefix[at(x, y - 1, z)] + prefix[at(x, y, z - 1)]
+                            - prefix[at(x - 1, y - 1, z)]
+                            - prefix[at(x - 1, y, z - 1)]
+                            - prefix[at(x, y - 1, z - 1)]
+                            + prefix[at(x - 1, y - 1, z - 1)];
+                }
+            }
+        }
+        let band_in = |lo: IVec3, hi: IVec3| {
+            let (l, h) = (lo.as_uvec3(), hi.as_uvec3());
+            let (l, h) = (
+                (l.x as usize, l.y as usize, l.z as usize),
+                (h.x as usize, h.y as usize, h.z as usize),
+            );
+            prefix[at(h.0, h.1, h.2)]
+                + prefix[at(l.0, l.1, h.2)]
+                + prefix[at(l.0, h.1, l.2)]
+                + prefix[at(h.0, l.1, l.2)]
+                - prefix[at(l.0, h.1, h.2)]
+                - prefix[at(h.0, l.1, h.2)]
+                - prefix[at(h.0, h.1, l.2)]
+                - prefix[at(l.0, l.1, l.2)]
+                > 0
+        };
+        let grid_box = grid.index_box();
+        let mut size = BRICK_DIM;
+        while size < grid.dims().max_element() as i32 {
+            size *= 2;
+        }
+        let results = [self.classify_box(
+            IndexBox::new(IVec3::ZERO, IVec3::splat(size)),
+            &grid_box,
+            &band_in,
+            grid,
+        )];
+        let mut full = Vec::new();
+        let mut partial: FxHashMap<IVec3, BrickMask> = FxHashMap::default();
+        for (boxes, local) in results {
+            stats.add(&local);
+            for b in boxes {
+                let bricks = IndexBox::new(
+                    b.min.div_euclid(IVec3::splat(BRICK_DIM)),
+                    (b.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM)),
+                );
+                for brick in bricks.iter() {
+                    let own = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
+                    if own.intersection(&b) == own {
+                        full.push(brick);
+                    } else {
+                        let mask = partial.entry(brick).or_default();
+                        *mask = mask.or(&BrickMask::of_region(brick, &b));
+                    }
+                }
+            }
+        }
+        full.sort_unstable_by_key(|b| (b.z, b.y, b.x));
+        let mut partial: Vec<(IVec3, BrickMask)> = partial.into_iter().collect();
+        partial.sort_unstable_by_key(|(b, _)| (b.z, b.y, b.x));
+        (full, partial)
+    }
+
+    /// One octree box (voxel index space, a power-of-two cube, clipped to the grid):
+    /// its inside voxels as boxes, and the queries it took.
+    fn classify_box(
+        &self,
+        cube: IndexBox,
+        grid_box: &IndexBox,
+        band_in: &(dyn Fn(IVec3, IVec3) -> bool + Sync),
+        grid: &Grid,
+    ) -> (Vec<IndexBox>, SignStats) {
+        let mut stats = SignStats::default();
+        let region = cube.intersection(grid_box);
+        if region.is_empty() {
+            return (Vec::new(), stats);
+        }
+        let size = (cube.max - cube.min).x;
+        if size >= BRICK_DIM {
+            let lo = region.min.div_euclid(IVec3::splat(BRICK_DIM));
+            let hi = (region.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM));
+            if band_in(lo, hi) {
+                if size > BRICK_DIM {
+                    return self.split(cube, grid_box, band_in, grid);
+                }
+                return (Vec::new(), stats); // a band brick: its voxels are the band's
+            }
+        }
+        // No band in the box: no sheet either, so straight paths inside it cross none.
+        let t = &grid.transform;
+        let (a, b) = (t.voxel_center(region.min), t.voxel_center(region.max - IVec3::ONE));
+        let (lo, hi) = (a.min(b), a.max(b));
+        let centre = 0.5 * (lo + hi);
+        let radius = 0.5 * (hi - lo).length();
+        let drift = self.sign.boundary.gradient_bound(&Aabb::new(lo, hi)) * radius;
+        if size == 1 {
+            let (inside, _) = self.exact_side(centre, &mut stats);
+            return (if inside { vec![region] } else { Vec::new() }, stats);
+        }
+        let w = self.bvh.winding_number_bounded(centre, None, |w, e| {
+            (w - 0.5).abs() - e > drift || e < 1e-3 * (w - 0.5).abs().max(1e-9)
+        });
+        stats.region_queries += 1;
+        if w.margin(0.5) > drift {
+            (if w.value >= 0.5 { vec![region] } else { Vec::new() }, stats)
+        } else {
+            let (boxes, more) = self.split(cube, grid_box, band_in, grid);
+            stats.add(&more);
+            (boxes, stats)
+        }
+    }
+
+    /// The eight octants of `cube`, in parallel while they are large.
+    fn split(
+        &self,
+        cube: IndexBox,
+        grid_box: &IndexBox,
+        band_in: &(dyn Fn(IVec3, IVec3) -> bool + Sync),
+        grid: &Grid,
+    ) -> (Vec<IndexBox>, SignStats) {
+        let half = (cube.max - cube.min).x / 2;
+        let octant = |k: i32| {
+            let lo = cube.min + IVec3::new(k & 1, (k >> 1) & 1, k >> 2) * half;
+            self.classify_box(IndexBox::new(lo, lo + half), grid_box, band_in, grid)
+        };
+        let parts: Vec<(Vec<IndexBox>, SignStats)> = if half >= 4 * BRICK_DIM {
+            (0..8).into_par_iter().map(octant).collect()
+        } else {
+            (0..8).map(octant).collect()
+        };
+        let mut stats = SignStats::default();
+        let mut boxes = Vec::new();
+        for (b, s) in parts {
+            boxes.extend(b);
+            stats.add(&s);
+        }
+        (boxes, stats)
+    }
+
     /// Voxelizes the mesh in `mode`. Every mode is served: `Binary(sep)` is the binary
     /// surface of the triangles ([`crate::voxelize_triangles`], the same voxels as
     /// [`crate::voxelize_mesh_surface`] on the mesh), the others come from the exact
     /// narrow band. The result's [`SparseVolume::density_kind`] is
     /// [`SurfaceMode::channel_kind`].
     pub fn voxelize(&self, grid: &Grid, mode: SurfaceMode, progress: &dyn Progress) -> SparseVolume {
+        self.voxelize_with_stats(grid, mode, progress).0
+    }
+
+    /// [`MeshVoxelizer::voxelize`], with how every sign was proven ([`SignStats`]:
+    /// fast, cap and exact voxels, region queries; plus the mesh's unclean triangles and
+    /// boundary cycle).
+    pub fn voxelize_with_stats(
+        &self,
+        grid: &Grid,
+        mode: SurfaceMode,
+        progress: &dyn Progress,
+    ) -> (SparseVolume, SignStats) {
         let spacing = grid.transform.spacing();
         let filter = OrientedBoxFilter::for_spacing(spacing);
         let (band, signed) = match mode {
@@ -551,13 +643,21 @@ impl MeshVoxelizer {
             // A union of per-triangle voxel sets: the triangles' (Morton) order does not
             // change it.
             SurfaceMode::Binary(separability) => {
-                return crate::voxelize_triangles(grid, &self.triangles, separability, progress)
+                return (
+                    crate::voxelize_triangles(grid, &self.triangles, separability, progress),
+                    SignStats::default(),
+                );
             }
         };
+        // Signs flow from the band to the voxels beyond it by 6-steps, which must be
+        // shorter than the band: a narrower distance band still searches one voxel (its
+        // values are clamped to the band, so the output is the same).
+        let value_band = band;
+        let band = if signed { band.max(grid.max_spacing()) } else { band };
         let background = mode.background(grid);
         let inside_value = match mode {
             SurfaceMode::Solid | SurfaceMode::Inside => 1.0,
-            SurfaceMode::Distance { .. } => -band as f32,
+            SurfaceMode::Distance { .. } => -value_band as f32,
             _ => background,
         };
         let value = |d_unsigned: f64, inside: bool| -> f32 {
@@ -566,7 +666,7 @@ impl MeshVoxelizer {
                 SurfaceMode::Shell { thickness } => filter.density(d_unsigned - 0.5 * thickness) as f32,
                 SurfaceMode::Distance { .. } => {
                     let d = if signed && inside { -d_unsigned } else { d_unsigned };
-                    d.clamp(-band, band) as f32
+                    d.clamp(-value_band, value_band) as f32
                 }
                 SurfaceMode::Inside | SurfaceMode::Binary(_) => inside as u8 as f32,
             }
@@ -592,7 +692,23 @@ impl MeshVoxelizer {
         // The band in index units on the finest axis (a superset on anisotropic grids).
         let band_index = band / grid.min_spacing();
         let prepared = self.regions.prepare(t, &grid_box, band);
-        let band_bricks: Vec<(IVec3, Brick<f32>)> = (0..bins.bricks.len())
+        // Half-width of each triangle's certified interval of `w` within the band: the
+        // error of `w̄` at its centroid plus the gradient bound times the farthest path
+        // (centroid → nearest point → voxel). Zero without a boundary.
+        let slack: Vec<f64> = if signed && !self.sign.closed {
+            (0..self.triangles.len())
+                .into_par_iter()
+                .map(|i| {
+                    let tri = &self.triangles[i];
+                    let b = volga_core::Aabb::new(tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]))
+                        .expanded(DVec3::splat(band));
+                    self.sign.w_bar_error[i] + self.sign.boundary.gradient_bound(&b) * (self.sign.radius[i] + band)
+                })
+                .collect()
+        } else {
+            vec![0.0; self.triangles.len()]
+        };
+        let band_bricks: Vec<(IVec3, Brick<f32>, SignStats)> = (0..bins.bricks.len())
             .into_par_iter()
             .map(|k| {
                 let brick = bins.bricks[k];
@@ -621,6 +737,8 @@ impl MeshVoxelizer {
                 // the winding number once.
                 let in_band = |o: usize| best_tri[o] != u32::MAX && best_d2[o] <= band2;
                 let mut data = [background; BRICK_VOXELS];
+                let mut stats = SignStats::default();
+                let mut margin = [0.0f64; BRICK_VOXELS];
                 let (mut inside_band, mut outside_band) = (BrickMask::EMPTY, BrickMask::EMPTY);
                 for z in region.min.z..region.max.z {
                     for y in region.min.y..region.max.y {
@@ -629,7 +747,12 @@ impl MeshVoxelizer {
                         for (o, x) in (first..).zip(region.min.x..region.max.x) {
                             if in_band(o) {
                                 let p = t.voxel_center(IVec3::new(x, y, z));
-                                let inside = signed && self.inside(p, best_tri[o] as usize);
+                                let tri = best_tri[o] as usize;
+                                let inside = signed && {
+                                    let (inside, m) = self.decide(p, tri, best_d2[o], slack[tri], &mut stats);
+                                    margin[o] = m;
+                                    inside
+                                };
                                 if inside {
                                     inside_band.insert(o);
                                 } else {
@@ -643,7 +766,7 @@ impl MeshVoxelizer {
                 if signed {
                     let region_mask = BrickMask::of_region(brick, &region);
                     let unknown = region_mask.and_not(&inside_band.or(&outside_band));
-                    let inside = self.flood_signs(brick, inside_band, outside_band, unknown, grid);
+                    let inside = self.flood_signs(brick, inside_band, outside_band, &margin, unknown, grid, &mut stats);
                     let mut fill = inside.and(&unknown);
                     while let Some(o) = fill.first() {
                         data[o] = inside_value;
@@ -651,42 +774,48 @@ impl MeshVoxelizer {
                     }
                 }
                 progress.inc(1);
-                (brick, Brick::from_voxels(&data))
+                (brick, Brick::from_voxels(&data), stats)
             })
             .collect();
         progress.finish();
 
+        let mut stats = self.sign.stats;
         let mut volume = SparseVolume::new(*grid, background, false).with_density_kind(mode.channel_kind());
-        let touched: rustc_hash::FxHashSet<IVec3> = band_bricks.iter().map(|(b, _)| *b).collect();
-        for (b, brick) in band_bricks {
+        let touched: rustc_hash::FxHashSet<IVec3> = band_bricks.iter().map(|(b, _, _)| *b).collect();
+        for (b, brick, brick_stats) in band_bricks {
+            stats.add(&brick_stats);
             if brick != Brick::Uniform(background) {
                 volume.density.insert_brick(b, brick);
             }
         }
         if signed && inside_value != background {
-            // Bricks no triangle band reaches: wholly inside or outside; only bricks in
-            // the mesh's bounds can be inside (outside its convex hull |w| < ½).
-            let bounds = self.bvh.bounds();
-            let lo = t
-                .world_to_index(bounds.min)
-                .floor()
-                .as_ivec3()
-                .div_euclid(IVec3::splat(BRICK_DIM));
-            let hi = t
-                .world_to_index(bounds.max)
-                .ceil()
-                .as_ivec3()
-                .div_euclid(IVec3::splat(BRICK_DIM))
-                + 1;
-            let ext = volume.brick_extent();
-            let candidates: Vec<IVec3> = IndexBox::new(lo.max(IVec3::ZERO), hi.min(ext))
-                .iter()
-                .filter(|b| !touched.contains(b))
-                .collect();
-            let inside: Vec<IVec3> = if self.closed {
-                self.inside_bricks_by_components(&candidates, &touched, grid)
+            // Bricks no triangle band reaches.
+            let (inside, partial) = if self.sign.closed {
+                // Constant between sheets and 0 outside the bounds: only bricks in the
+                // mesh's bounds can be inside, one query per component.
+                let bounds = self.bvh.bounds();
+                let lo = t
+                    .world_to_index(bounds.min)
+                    .floor()
+                    .as_ivec3()
+                    .div_euclid(IVec3::splat(BRICK_DIM));
+                let hi = t
+                    .world_to_index(bounds.max)
+                    .ceil()
+                    .as_ivec3()
+                    .div_euclid(IVec3::splat(BRICK_DIM))
+                    + 1;
+                let ext = volume.brick_extent();
+                let candidates: Vec<IVec3> = IndexBox::new(lo.max(IVec3::ZERO), hi.min(ext))
+                    .iter()
+                    .filter(|b| !touched.contains(b))
+                    .collect();
+                (
+                    self.inside_bricks_by_components(&candidates, &touched, grid, &mut stats),
+                    Vec::new(),
+                )
             } else {
-                self.inside_bricks_coarse_to_fine(&candidates, &touched, grid)
+                self.inside_by_octree(&touched, grid, &mut stats)
             };
             for b in inside {
                 let region = IndexBox::new(b * BRICK_DIM, (b + 1) * BRICK_DIM);
@@ -703,7 +832,18 @@ impl MeshVoxelizer {
                 };
                 volume.density.insert_brick(b, brick);
             }
+            for (b, mask) in partial {
+                let brick = volga_core::gather_brick(b, |ijk| {
+                    let o = Brick::<f32>::local_offset(ijk);
+                    if grid_box.contains(ijk) && mask.contains(o) {
+                        inside_value
+                    } else {
+                        background
+                    }
+                });
+                volume.density.insert_brick(b, brick);
+            }
         }
-        volume
+        (volume, stats)
     }
 }
