@@ -328,7 +328,11 @@ impl Bvh {
         }
         self.visit(0, p, skip, &mut acc);
         while !done(acc.total / (4.0 * PI), acc.error() / (4.0 * PI)) {
-            let Some(FarNode { bound, index, approx }) = acc.far.pop() else {
+            if acc.heap.is_none() {
+                // First refinement: order the first pass's far nodes (O(n) heapify).
+                acc.heap = Some(std::collections::BinaryHeap::from(std::mem::take(&mut acc.far)));
+            }
+            let Some(FarNode { bound, index, approx }) = acc.heap.as_mut().and_then(|h| h.pop()) else {
                 break;
             };
             acc.total -= approx;
@@ -368,7 +372,11 @@ impl Bvh {
                 acc.total += approx;
                 acc.far_error += bound;
                 acc.terms += 1;
-                acc.far.push(FarNode { bound, index, approx });
+                let far = FarNode { bound, index, approx };
+                match &mut acc.heap {
+                    Some(heap) => heap.push(far),
+                    None => acc.far.push(far),
+                }
             } else if node.is_leaf() {
                 self.sum_leaf(node, p, skip, acc);
             } else {
@@ -407,6 +415,8 @@ pub struct WindingBound {
     pub exact_triangles: u32,
     /// Far-field nodes opened after the first pass.
     pub refinements: u32,
+    /// Terms summed (far-field expansions and exact solid angles): the query's work.
+    pub terms: u32,
 }
 
 impl WindingBound {
@@ -457,7 +467,9 @@ impl Ord for FarNode {
 struct Accumulator {
     total: f64,
     far_error: f64,
-    far: std::collections::BinaryHeap<FarNode>,
+    /// Far nodes of the first pass; a heap (largest bound first) once refining.
+    far: Vec<FarNode>,
+    heap: Option<std::collections::BinaryHeap<FarNode>>,
     terms: u32,
     exact_triangles: u32,
     refinements: u32,
@@ -475,6 +487,7 @@ impl Accumulator {
             error: self.error() / (4.0 * PI),
             exact_triangles: self.exact_triangles,
             refinements: self.refinements,
+            terms: self.terms,
         }
     }
 }

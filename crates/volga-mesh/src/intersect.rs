@@ -22,7 +22,7 @@ pub fn triangles_may_intersect(t: [DVec3; 3], s: [DVec3; 3], tolerance: f64) -> 
     let sn = se[0].cross(se[1]);
     let separates = |axis: DVec3| -> bool {
         let length = axis.length();
-        if !(length > 0.0) || !length.is_finite() {
+        if length.is_nan() || length <= 0.0 || !length.is_finite() {
             return false;
         }
         let project = |tri: &[DVec3; 3]| {

@@ -56,7 +56,8 @@ pub fn check_signs(mesh: &TriMesh, grid: &Grid, half_width: f64, random: usize, 
         .collect();
     let (solid, solid_stats) = voxelizer.voxelize_with_stats(grid, SurfaceMode::Solid, &progress);
     let (inside, inside_stats) = voxelizer.voxelize_with_stats(grid, SurfaceMode::Inside, &progress);
-    let runs: [(&'static str, &SparseVolume, SignStats, fn(f32) -> Option<bool>); 3] = [
+    type Run<'a> = (&'static str, &'a SparseVolume, SignStats, fn(f32) -> Option<bool>);
+    let runs: [Run; 3] = [
         ("signed distance", &distance, distance_stats, |v| {
             Some(v.is_sign_negative())
         }),

@@ -296,6 +296,7 @@ impl MeshVoxelizer {
                 // region's integer `I` on this side.
                 let threshold = (sign.front[t] + behind as i64) as f64 - 0.5;
                 let b = sign.cap_winding(p, threshold);
+                stats.query_terms += b.terms as u64;
                 if b.value + b.error <= threshold {
                     stats.cap_voxels += 1;
                     return (true, threshold - b.value - b.error);
@@ -306,16 +307,89 @@ impl MeshVoxelizer {
                 }
             }
         }
-        self.exact_side(p, stats)
+        stats.exact_band_voxels += 1;
+        self.exact_side(p, None, stats)
     }
 
-    /// The whole mesh's certified winding number at `p`, refined until it proves its
-    /// side of ½ (a tie within rounding counts as inside, `w ≥ ½`).
-    fn exact_side(&self, p: DVec3, stats: &mut SignStats) -> (bool, f64) {
-        let b = self.bvh.winding_number_bounded(p, None, |w, e| (w - 0.5).abs() > e);
+    /// `I = w_M + w_C` at `p` (an integer off the mesh and its caps), when a bound
+    /// below ½ proves it; `None` without caps or on a sheet.
+    fn integer_at(&self, p: DVec3) -> (Option<f64>, u32) {
+        let Some(cap) = self.sign.cap.as_ref() else {
+            return (None, 0);
+        };
+        let c0 = cap.winding_number_bounded(p, None, |_, e| e < 0.05);
+        let m = self.bvh.winding_number_bounded(p, None, |w, e| {
+            let x = w + c0.value;
+            let off = (x - x.round()).abs();
+            off + e + c0.error < 0.45 || off - e - c0.error > 0.05
+        });
+        let x = m.value + c0.value;
+        (
+            ((x - x.round()).abs() + m.error + c0.error < 0.45).then(|| x.round()),
+            m.terms + c0.terms,
+        )
+    }
+
+    /// The whole mesh's certified winding number at `p`, refined until `stop` accepts.
+    ///
+    /// With a boundary, `w = I − w_C` where `I = w_M + w_C` is an integer off the
+    /// surface and the caps: `I` needs only an error below ½ (a few refinements of the
+    /// mesh's tree; or it is `known`, constant over a region free of both), and the
+    /// precision near ½ is bought on the caps' small tree. Where `I` cannot be proven an
+    /// integer (a point on a cap), the mesh's tree is refined directly.
+    fn certified(
+        &self,
+        p: DVec3,
+        known: Option<f64>,
+        mut stop: impl FnMut(f64, f64) -> bool,
+    ) -> volga_mesh::WindingBound {
+        let mut terms = 0;
+        if let Some(cap) = &self.sign.cap {
+            let i = known.or_else(|| {
+                let (i, t) = self.integer_at(p);
+                terms = t;
+                i
+            });
+            if let Some(i) = i {
+                let c = cap.winding_number_bounded(p, None, |w, e| stop(i - w, e));
+                return volga_mesh::WindingBound {
+                    value: i - c.value,
+                    error: c.error,
+                    exact_triangles: c.exact_triangles,
+                    refinements: c.refinements,
+                    terms: c.terms + terms,
+                };
+            }
+        }
+        let mut b = self.bvh.winding_number_bounded(p, None, stop);
+        b.terms += terms;
+        b
+    }
+
+    /// The certified winding number at `p`, refined until it proves its side of ½ (a
+    /// tie within rounding counts as inside, `w ≥ ½`).
+    fn exact_side(&self, p: DVec3, known: Option<f64>, stats: &mut SignStats) -> (bool, f64) {
+        let b = self.certified(p, known, |w, e| (w - 0.5).abs() > e);
         stats.exact_voxels += 1;
         stats.exact_triangles += b.exact_triangles as u64;
+        stats.query_terms += b.terms as u64;
         (b.value >= 0.5, b.margin(0.5))
+    }
+
+    /// The certified winding number at `p`, refined until its margin from ½ is proven
+    /// to exceed `needed`, or proven not to.
+    fn margin_query(&self, p: DVec3, known: Option<f64>, needed: f64) -> volga_mesh::WindingBound {
+        self.certified(p, known, |w, e| {
+            let gap = (w - 0.5).abs();
+            gap - e > needed || gap + e <= needed
+        })
+    }
+
+    /// `I` for a region free of the mesh whose box (centre, radius) no cap reaches.
+    fn region_integer(&self, centre: DVec3, radius: f64) -> Option<f64> {
+        (self.sign.cap.is_some() && !self.sign.cap_within(centre, radius))
+            .then(|| self.integer_at(centre).0)
+            .flatten()
     }
 
     /// The inside voxels of one brick beyond the band (`unknown`). Each 6-connected
@@ -388,27 +462,115 @@ impl MeshVoxelizer {
                     (step_drift == 0.0 || m > step_drift * depth(by_outside, component)).then_some(false)
                 }
                 (false, false) => {
-                    let (is_inside, m) = self.exact_side(centre(first), stats);
-                    stats.region_queries += 1;
                     let mut start = BrickMask::EMPTY;
                     start.insert(first);
-                    (step_drift == 0.0 || m > step_drift * (depth(start, component) - 1.0)).then_some(is_inside)
+                    let needed = if step_drift == 0.0 {
+                        0.0
+                    } else {
+                        step_drift * (depth(start, component) - 1.0)
+                    };
+                    let w = self.margin_query(centre(first), None, needed);
+                    stats.query_terms += w.terms as u64;
+                    stats.region_queries += 1;
+                    (w.margin(0.5) > needed || (needed == 0.0 && w.side(0.5).is_some())).then_some(w.value >= 0.5)
                 }
                 (true, true) => None,
             };
             match decided {
                 Some(true) => inside = inside.or(&component),
                 Some(false) => {}
-                None => {
+                None if self.sign.cap.is_some() => {
+                    // `I = w_M + w_C` is one integer on each connected set of these
+                    // voxels farther than a step from every cap (a step between two of
+                    // them crosses neither the mesh nor a cap): one integer query per
+                    // set, then boxes and voxels ask only the caps' small tree. Voxels
+                    // within a step of a cap ask the whole mesh.
+                    let step = grid.max_spacing();
+                    let mut far = BrickMask::EMPTY;
                     let mut left = component;
                     while let Some(o) = left.first() {
                         left.remove(o);
-                        if self.exact_side(centre(o), stats).0 {
+                        if !self.sign.cap_within(centre(o), step) {
+                            far.insert(o);
+                        }
+                    }
+                    let mut near = component.and_not(&far);
+                    while let Some(first) = far.first() {
+                        let mut set = BrickMask::EMPTY;
+                        set.insert(first);
+                        set = set.flood(&far);
+                        far = far.and_not(&set);
+                        let (known, terms) = self.integer_at(centre(first));
+                        stats.query_terms += terms as u64;
+                        stats.region_queries += 1;
+                        inside = inside.or(&self.prove_in_brick(brick, set, 0, 8, known, grid, stats));
+                    }
+                    while let Some(o) = near.first() {
+                        near.remove(o);
+                        if self.exact_side(centre(o), None, stats).0 {
                             inside.insert(o);
                         }
                     }
                 }
+                None => {
+                    // Octants of the brick wholly in the component are free of sheets:
+                    // prove them box by box, down to single voxels.
+                    inside = inside.or(&self.prove_in_brick(brick, component, 0, 8, None, grid, stats));
+                }
             }
+        }
+        inside
+    }
+
+    /// The inside voxels of `allowed` (voxels beyond the band of one brick) within the
+    /// cube of side `size` at brick-local corner `lo` (packed `x + 8y + 64z`). A cube
+    /// wholly in `allowed` holds no sheet, so it takes the sign of its centre when the
+    /// certified margin there exceeds the gradient bound times its radius; otherwise it
+    /// splits, and single voxels ask the certified winding number.
+    #[allow(clippy::too_many_arguments)]
+    fn prove_in_brick(
+        &self,
+        brick: IVec3,
+        allowed: BrickMask,
+        lo: usize,
+        size: usize,
+        known: Option<f64>,
+        grid: &Grid,
+        stats: &mut SignStats,
+    ) -> BrickMask {
+        let corner = IVec3::new((lo % 8) as i32, (lo / 8 % 8) as i32, (lo / 64) as i32);
+        let cube = IndexBox::new(corner, corner + size as i32);
+        let region = BrickMask::of_region(IVec3::ZERO, &cube);
+        let here = region.and(&allowed);
+        if here.is_empty() {
+            return BrickMask::EMPTY;
+        }
+        let t = &grid.transform;
+        let base = brick * BRICK_DIM;
+        if size == 1 {
+            let (inside, _) = self.exact_side(t.voxel_center(base + corner), known, stats);
+            return if inside { here } else { BrickMask::EMPTY };
+        }
+        if here == region {
+            let (a, b) = (
+                t.voxel_center(base + corner),
+                t.voxel_center(base + corner + size as i32 - 1),
+            );
+            let (p_lo, p_hi) = (a.min(b), a.max(b));
+            let radius = 0.5 * (p_hi - p_lo).length();
+            let drift = self.sign.boundary.gradient_bound(&Aabb::new(p_lo, p_hi)) * radius;
+            let w = self.margin_query(0.5 * (p_lo + p_hi), known, drift);
+            stats.query_terms += w.terms as u64;
+            stats.region_queries += 1;
+            if w.margin(0.5) > drift {
+                return if w.value >= 0.5 { here } else { BrickMask::EMPTY };
+            }
+        }
+        let half = size / 2;
+        let mut inside = BrickMask::EMPTY;
+        for k in 0..8 {
+            let o = (k & 1) * half + ((k >> 1) & 1) * half * 8 + (k >> 2) * half * 64;
+            inside = inside.or(&self.prove_in_brick(brick, allowed, lo + o, half, known, grid, stats));
         }
         inside
     }
@@ -431,7 +593,7 @@ impl MeshVoxelizer {
                 continue;
             }
             let centre = grid.transform.index_to_world((start * BRICK_DIM).as_dvec3() + 3.5);
-            let is_inside = self.exact_side(centre, stats).0;
+            let is_inside = self.exact_side(centre, None, stats).0;
             stats.region_queries += 1;
             let mut stack = vec![start];
             label.insert(start, is_inside);
@@ -504,6 +666,7 @@ impl MeshVoxelizer {
             size *= 2;
         }
         let results = [self.classify_box(
+            None,
             IndexBox::new(IVec3::ZERO, IVec3::splat(size)),
             &grid_box,
             &band_in,
@@ -539,6 +702,7 @@ impl MeshVoxelizer {
     /// its inside voxels as boxes, and the queries it took.
     fn classify_box(
         &self,
+        known: Option<f64>,
         cube: IndexBox,
         grid_box: &IndexBox,
         band_in: &(dyn Fn(IVec3, IVec3) -> bool + Sync),
@@ -555,7 +719,7 @@ impl MeshVoxelizer {
             let hi = (region.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM));
             if band_in(lo, hi) {
                 if size > BRICK_DIM {
-                    return self.split(cube, grid_box, band_in, grid);
+                    return self.split(None, cube, grid_box, band_in, grid);
                 }
                 return (Vec::new(), stats); // a band brick: its voxels are the band's
             }
@@ -568,17 +732,18 @@ impl MeshVoxelizer {
         let radius = 0.5 * (hi - lo).length();
         let drift = self.sign.boundary.gradient_bound(&Aabb::new(lo, hi)) * radius;
         if size == 1 {
-            let (inside, _) = self.exact_side(centre, &mut stats);
+            let (inside, _) = self.exact_side(centre, known, &mut stats);
             return (if inside { vec![region] } else { Vec::new() }, stats);
         }
-        let w = self.bvh.winding_number_bounded(centre, None, |w, e| {
-            (w - 0.5).abs() - e > drift || e < 1e-3 * (w - 0.5).abs().max(1e-9)
-        });
+        let w = self.margin_query(centre, known, drift);
+        stats.query_terms += w.terms as u64;
         stats.region_queries += 1;
         if w.margin(0.5) > drift {
             (if w.value >= 0.5 { vec![region] } else { Vec::new() }, stats)
         } else {
-            let (boxes, more) = self.split(cube, grid_box, band_in, grid);
+            // Free of the mesh; if no cap reaches it, `I` is one integer over it.
+            let known = known.or_else(|| self.region_integer(centre, radius));
+            let (boxes, more) = self.split(known, cube, grid_box, band_in, grid);
             stats.add(&more);
             (boxes, stats)
         }
@@ -587,6 +752,7 @@ impl MeshVoxelizer {
     /// The eight octants of `cube`, in parallel while they are large.
     fn split(
         &self,
+        known: Option<f64>,
         cube: IndexBox,
         grid_box: &IndexBox,
         band_in: &(dyn Fn(IVec3, IVec3) -> bool + Sync),
@@ -595,7 +761,7 @@ impl MeshVoxelizer {
         let half = (cube.max - cube.min).x / 2;
         let octant = |k: i32| {
             let lo = cube.min + IVec3::new(k & 1, (k >> 1) & 1, k >> 2) * half;
-            self.classify_box(IndexBox::new(lo, lo + half), grid_box, band_in, grid)
+            self.classify_box(known, IndexBox::new(lo, lo + half), grid_box, band_in, grid)
         };
         let parts: Vec<(Vec<IndexBox>, SignStats)> = if half >= 4 * BRICK_DIM {
             (0..8).into_par_iter().map(octant).collect()
@@ -696,13 +862,22 @@ impl MeshVoxelizer {
         // error of `w̄` at its centroid plus the gradient bound times the farthest path
         // (centroid → nearest point → voxel). Zero without a boundary.
         let slack: Vec<f64> = if signed && !self.sign.closed {
+            // One gradient bound per run of 32 triangles (Morton order: neighbours), over
+            // the box of their boxes grown by the band: an upper bound for each of them.
             (0..self.triangles.len())
                 .into_par_iter()
-                .map(|i| {
-                    let tri = &self.triangles[i];
-                    let b = volga_core::Aabb::new(tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]))
-                        .expanded(DVec3::splat(band));
-                    self.sign.w_bar_error[i] + self.sign.boundary.gradient_bound(&b) * (self.sign.radius[i] + band)
+                .chunks(32)
+                .flat_map_iter(|run| {
+                    let run_box = run.iter().fold(volga_core::Aabb::EMPTY, |b, &i| {
+                        let tri = &self.triangles[i];
+                        b.union(&volga_core::Aabb::new(
+                            tri[0].min(tri[1]).min(tri[2]),
+                            tri[0].max(tri[1]).max(tri[2]),
+                        ))
+                    });
+                    let g = self.sign.boundary.gradient_bound(&run_box.expanded(DVec3::splat(band)));
+                    run.into_iter()
+                        .map(move |i| self.sign.w_bar_error[i] + g * (self.sign.radius[i] + band))
                 })
                 .collect()
         } else {

@@ -41,10 +41,14 @@ pub struct SignStats {
     pub fast_voxels: u64,
     /// Band voxels decided by the caps' winding number `w_C(p)` alone.
     pub cap_voxels: u64,
-    /// Voxels (band or beyond) that asked the whole mesh's certified winding number.
+    /// Voxels that asked the whole mesh's certified winding number: in the band, and
+    /// beyond it (where a flood fill or an octree box could not prove its sign).
     pub exact_voxels: u64,
+    pub exact_band_voxels: u64,
     /// Of those, solid angles summed one by one (the cost of the fallback).
     pub exact_triangles: u64,
+    /// Terms (expansions and exact solid angles) summed by all certified queries.
+    pub query_terms: u64,
     /// Certified winding queries for regions of voxels or bricks beyond the band.
     pub region_queries: u64,
     /// Triangles another triangle (or a cap) crosses or touches off their shared
@@ -59,8 +63,10 @@ impl SignStats {
         self.fast_voxels += other.fast_voxels;
         self.cap_voxels += other.cap_voxels;
         self.exact_voxels += other.exact_voxels;
+        self.exact_band_voxels += other.exact_band_voxels;
         self.exact_triangles += other.exact_triangles;
         self.region_queries += other.region_queries;
+        self.query_terms += other.query_terms;
     }
 }
 
@@ -232,17 +238,23 @@ const TOUCH: f64 = 1e-9;
 /// Whether two triangles that share the welded corners in `ids_*` meet anywhere but
 /// their shared edge or corner, decided conservatively.
 fn adjacent_pair_crosses(t: [DVec3; 3], t_ids: [u32; 3], s: [DVec3; 3], s_ids: [u32; 3]) -> bool {
-    let shared: Vec<(usize, usize)> = (0..3)
-        .flat_map(|i| (0..3).map(move |j| (i, j)))
-        .filter(|&(i, j)| t_ids[i] == s_ids[j])
-        .collect();
+    let mut shared = [(0usize, 0usize); 9];
+    let mut count = 0;
+    for (i, ti) in t_ids.iter().enumerate() {
+        for (j, sj) in s_ids.iter().enumerate() {
+            if ti == sj {
+                shared[count] = (i, j);
+                count += 1;
+            }
+        }
+    }
     let scale = t
         .iter()
         .chain(&s)
         .map(|v| (*v - t[0]).length())
         .fold(0.0, f64::max)
         .max(f64::MIN_POSITIVE);
-    match shared.len() {
+    match count {
         0 => triangles_may_intersect(t, s, TOUCH * scale),
         1 => {
             let (i, j) = shared[0];
@@ -352,67 +364,68 @@ impl SignOracle {
         for (i, &b) in mesh.to_bvh.iter().enumerate() {
             from_bvh[b as usize] = i as u32;
         }
-        let crossings: Vec<Vec<u32>> = (0..n)
-            .into_par_iter()
+        let boxes: Vec<Aabb> = mesh
+            .triangles
+            .iter()
             .map(|t| {
-                let tri = mesh.triangles[t];
-                let mut crossed = Vec::new();
-                if degenerate(&tri) {
-                    crossed.push(t as u32);
-                    return crossed;
-                }
-                let scale = (tri[1] - tri[0]).length().max((tri[2] - tri[0]).length());
-                let query = Aabb::new(tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]))
-                    .expanded(DVec3::splat(2.0 * TOUCH * scale));
-                let mut near = Vec::new();
-                mesh.bvh.boxes_overlapping(&query, &mut near);
-                for b in near {
-                    let s = from_bvh[b as usize] as usize;
-                    if s > t && adjacent_pair_crosses(tri, mesh.corners[t], mesh.triangles[s], mesh.corners[s]) {
-                        crossed.push(t as u32);
-                        crossed.push(s as u32);
-                    }
-                }
-                if let Some(cap) = &cap {
-                    near = Vec::new();
-                    cap.boxes_overlapping(&query, &mut near);
-                    for c in near {
-                        let (s, ids) = caps[c as usize];
-                        let ids = ids.map(|i| if i == u32::MAX { apex_base + c } else { i });
-                        if adjacent_pair_crosses(tri, mesh.corners[t], s, ids) {
-                            crossed.push(t as u32);
-                        }
-                    }
-                }
-                crossed
+                let scale = (t[1] - t[0]).length().max((t[2] - t[0]).length());
+                Aabb::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
+                    .expanded(DVec3::splat(2.0 * TOUCH * scale))
             })
             .collect();
+        let pairs = candidate_pairs(&boxes, mesh.bvh, &from_bvh);
+        let mut crossings: Vec<u32> = pairs
+            .par_iter()
+            .filter(|&&(t, s)| {
+                let (t, s) = (t as usize, s as usize);
+                adjacent_pair_crosses(mesh.triangles[t], mesh.corners[t], mesh.triangles[s], mesh.corners[s])
+            })
+            .flat_map_iter(|&(t, s)| [t, s])
+            .collect();
+        crossings.par_extend(
+            (0..n as u32)
+                .into_par_iter()
+                .filter(|&t| degenerate(&mesh.triangles[t as usize])),
+        );
+        if let Some(cap) = &cap {
+            crossings.par_extend((0..n).into_par_iter().filter_map(|t| {
+                let mut near = Vec::new();
+                cap.boxes_overlapping(&boxes[t], &mut near);
+                near.into_iter()
+                    .any(|c| {
+                        let (s, ids) = caps[c as usize];
+                        let ids = ids.map(|i| if i == u32::MAX { apex_base + c } else { i });
+                        adjacent_pair_crosses(mesh.triangles[t], mesh.corners[t], s, ids)
+                    })
+                    .then_some(t as u32)
+            }));
+        }
         let mut clean = vec![true; n];
-        for t in crossings.iter().flatten() {
-            clean[*t as usize] = false;
+        for t in crossings {
+            clean[t as usize] = false;
         }
 
         // 4. Features: an edge may use its pseudo-normal when it is consistent and both
         // triangles are clean; a corner when its star is one clean, consistent fan.
-        let edge_ok: Vec<[bool; 3]> = (0..n)
-            .map(|t| {
-                [0, 1, 2].map(|k| {
-                    consistent[t][k] && clean[t] && {
-                        let (i, j) = (mesh.corners[t][k], mesh.corners[t][(k + 1) % 3]);
-                        let key = (i.min(j) as u64) << 32 | i.max(j) as u64;
-                        let at = mesh.uses.partition_point(|u| u.key < key);
-                        mesh.uses[at..at + 2].iter().all(|u| clean[u.triangle as usize])
-                    }
-                })
-            })
-            .collect();
+        let mut edge_ok = vec![[false; 3]; n];
+        for group in mesh.uses.chunk_by(|a, b| a.key == b.key) {
+            let (u, v) = (group[0], group[group.len() - 1]);
+            if group.len() == 2
+                && consistent[u.triangle as usize][u.corner as usize]
+                && clean[u.triangle as usize]
+                && clean[v.triangle as usize]
+            {
+                edge_ok[u.triangle as usize][u.corner as usize] = true;
+                edge_ok[v.triangle as usize][v.corner as usize] = true;
+            }
+        }
         let mut fan_root = vec![u32::MAX; mesh.welded_pos.len()];
         let mut vertex_bad = edge_bad_vertex;
-        for t in 0..n {
+        for (t, &is_clean) in clean.iter().enumerate() {
             for k in 0..3 {
                 let v = mesh.corners[t][k] as usize;
                 let root = fans.find((3 * t + k) as u32);
-                if !clean[t] || (fan_root[v] != u32::MAX && fan_root[v] != root) {
+                if !is_clean || (fan_root[v] != u32::MAX && fan_root[v] != root) {
                     vertex_bad[v] = true;
                 }
                 fan_root[v] = root;
@@ -464,25 +477,49 @@ impl SignOracle {
             .collect();
         region_queries += representatives.len() as u64;
 
-        // 6. Per triangle: w̄ at the centroid = I⁺ + ½ − w_C(centroid).
+        // 6. Per triangle: w̄ at the centroid = I⁺ + ½ − w_C(centroid). Runs of 32
+        // triangles in (Morton) order share one query at the centre of their bounding
+        // sphere when no cap reaches the sphere: `w_C` is smooth there, off by at most the
+        // gradient bound times the distance; triangles the shared value does not pin
+        // within 0.02 ask their own.
+        let (clean_ref, root_ref, front_ref) = (&clean, &root, &front_of_region);
         let per_triangle: Vec<(bool, i64, f64, f64, f64)> = (0..n)
             .into_par_iter()
-            .map(|t| {
-                let tri = mesh.triangles[t];
-                let c = centroid(t);
-                let radius = tri.iter().map(|v| (*v - c).length()).fold(0.0, f64::max);
-                let front = if clean[t] {
-                    front_of_region.get(&root[t]).copied().flatten()
-                } else {
-                    None
-                };
-                match front {
-                    Some(i) => {
-                        let (wc, ec) = cap_winding(c, 1e-4).map_or((0.0, 0.0), |b| (b.value, b.error));
-                        (true, i, i as f64 + 0.5 - wc, ec, radius)
+            .chunks(32)
+            .flat_map_iter(|run| {
+                let run_box = run
+                    .iter()
+                    .fold(Aabb::EMPTY, |b, &t| b.union(&Aabb::new(centroid(t), centroid(t))));
+                let (centre, reach) = (run_box.center(), 0.5 * run_box.size().length());
+                let shared = cap.as_ref().and_then(|c| {
+                    c.closest_within(centre, reach).is_none().then(|| {
+                        let b = c.winding_number_bounded(centre, None, |_, e| e <= 0.005);
+                        (b.value, b.error, boundary.gradient_bound(&run_box))
+                    })
+                });
+                run.into_iter().map(move |t| {
+                    let tri = mesh.triangles[t];
+                    let c = centroid(t);
+                    let radius = tri.iter().map(|v| (*v - c).length()).fold(0.0, f64::max);
+                    let front = if clean_ref[t] {
+                        front_ref.get(&root_ref[t]).copied().flatten()
+                    } else {
+                        None
+                    };
+                    match front {
+                        Some(i) => {
+                            let near = shared.and_then(|(w, e, g)| {
+                                let e = e + g * (c - centre).length();
+                                (e <= 0.02).then_some((w, e))
+                            });
+                            let (wc, ec) = near
+                                .or_else(|| cap_winding(c, 0.02).map(|b| (b.value, b.error)))
+                                .unwrap_or((0.0, 0.0));
+                            (true, i, i as f64 + 0.5 - wc, ec, radius)
+                        }
+                        None => (false, 0, 0.0, 0.0, radius),
                     }
-                    None => (false, 0, 0.0, 0.0, radius),
-                }
+                })
             })
             .collect();
 
@@ -516,6 +553,7 @@ impl SignOracle {
                 error: 0.0,
                 exact_triangles: 0,
                 refinements: 0,
+                terms: 0,
             },
         }
     }
@@ -526,6 +564,83 @@ impl SignOracle {
             .as_ref()
             .is_some_and(|c| c.closest_within(p, distance).is_some())
     }
+}
+
+/// Pairs `(t, s)`, `t < s`, of triangles whose boxes overlap: a uniform hash grid of
+/// cells about twice the median box size, each pair tested once, in the lowest cell both
+/// boxes reach. Boxes spanning more than 64 cells (rare, large triangles) query the BVH
+/// instead.
+fn candidate_pairs(boxes: &[Aabb], bvh: &Bvh, from_bvh: &[u32]) -> Vec<(u32, u32)> {
+    if boxes.is_empty() {
+        return Vec::new();
+    }
+    let mut sizes: Vec<f64> = boxes.iter().map(|b| b.size().max_element()).collect();
+    let mid = sizes.len() / 2;
+    sizes.select_nth_unstable_by(mid, f64::total_cmp);
+    let all = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+    let cell = (2.0 * sizes[mid])
+        .max(all.size().max_element() / 1e6)
+        .max(f64::MIN_POSITIVE);
+    let origin = all.min;
+    let range = |b: &Aabb| {
+        let lo = ((b.min - origin) / cell).floor().as_ivec3();
+        let hi = ((b.max - origin) / cell).floor().as_ivec3();
+        (lo, hi)
+    };
+    let key = |c: glam::IVec3| (c.x as u64) | (c.y as u64) << 21 | (c.z as u64) << 42;
+    let mut entries: Vec<(u64, u32)> = Vec::with_capacity(boxes.len() * 2);
+    let mut large = Vec::new();
+    for (i, b) in boxes.iter().enumerate() {
+        let (lo, hi) = range(b);
+        let span = (hi - lo + 1).as_i64vec3();
+        if span.x * span.y * span.z > 64 || hi.max_element() >= 1 << 21 {
+            large.push(i as u32);
+            continue;
+        }
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    entries.push((key(glam::IVec3::new(x, y, z)), i as u32));
+                }
+            }
+        }
+    }
+    entries.par_sort_unstable();
+    let groups: Vec<&[(u64, u32)]> = entries.chunk_by(|a, b| a.0 == b.0).collect();
+    let mut pairs: Vec<(u32, u32)> = groups
+        .par_iter()
+        .flat_map_iter(|group| {
+            let mut out = Vec::new();
+            let here = group[0].0;
+            for (k, &(_, a)) in group.iter().enumerate() {
+                for &(_, b) in &group[k + 1..] {
+                    let (ba, bb) = (&boxes[a as usize], &boxes[b as usize]);
+                    if ba.min.cmpgt(bb.max).any() || bb.min.cmpgt(ba.max).any() {
+                        continue;
+                    }
+                    // Test the pair only in the lowest cell both boxes reach.
+                    let first = range(ba).0.max(range(bb).0);
+                    if key(first) == here {
+                        out.push((a.min(b), a.max(b)));
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let large_set: rustc_hash::FxHashSet<u32> = large.iter().copied().collect();
+    for &t in &large {
+        let mut near = Vec::new();
+        bvh.boxes_overlapping(&boxes[t as usize], &mut near);
+        for b in near {
+            let s = from_bvh[b as usize];
+            // Pairs of two large boxes once; large with small from the large side.
+            if s != t && (!large_set.contains(&s) || t < s) {
+                pairs.push((t.min(s), t.max(s)));
+            }
+        }
+    }
+    pairs
 }
 
 /// Cap triangles `[apex, to, from]` for every directed boundary edge `from → to`, one
