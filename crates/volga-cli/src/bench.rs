@@ -56,7 +56,8 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
     let job = job_args.prepare(&mut Stages::default())?;
     let once = || {
         let start = Instant::now();
-        let (volume, _, mode) = job.voxelize(&NoProgress);
+        let (run, mode) = job.voxelize(&NoProgress);
+        let volume = run.volume;
         (start.elapsed().as_secs_f64(), volume, mode)
     };
     let mut last: Option<(SparseVolume, String)> = None;

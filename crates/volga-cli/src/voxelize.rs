@@ -11,7 +11,7 @@ use volga_core::memory::{self, Bytes};
 use volga_core::{Grid, Progress, SparseVolume};
 use volga_io::{StagedOutputs, VoxelFormat};
 use volga_scene::{StageReport, Stages};
-use volga_voxelize::{parse_bytes_bound, JobEstimate, MeshJob, MeshJobMode, Separability};
+use volga_voxelize::{parse_bytes_bound, JobEstimate, MeshJob, MeshJobMode, MeshRun, Separability, SignStats};
 
 /// What to voxelize and how: shared by `volga voxelize` and `volga bench voxelize`.
 /// Flags that a mode would ignore are refused (`--unsigned` goes only with `--distance`,
@@ -80,6 +80,11 @@ struct Report {
     stages: Vec<StageReport>,
     voxels: VoxelCounts,
     estimated_memory_bytes: u64,
+    /// Jobs that use the inside: how every voxel's sign was proven (fast per-triangle
+    /// interval, caps, or the certified whole-mesh winding number) and what made the
+    /// mesh hard (unclean triangles, boundary cycle).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sign: Option<SignStats>,
     warnings: Vec<String>,
     outputs: Vec<PathBuf>,
 }
@@ -232,10 +237,10 @@ impl JobArgs {
 
 impl Job {
     /// The voxelization itself, everything the `voxelize` stage times: the volume, the
-    /// mesh's boundary-edge count when the job needed its topology, and the mode's name.
-    pub fn voxelize(&self, progress: &dyn Progress) -> (SparseVolume, Option<usize>, String) {
-        let (volume, boundary_edges) = self.spec.run(&self.mesh, &self.grid, progress);
-        (volume, boundary_edges, self.spec.mode_name())
+    /// mesh's boundary-edge count when the job needed its topology, how the signs were
+    /// proven, and the mode's name.
+    pub fn voxelize(&self, progress: &dyn Progress) -> (MeshRun, String) {
+        (self.spec.run(&self.mesh, &self.grid, progress), self.spec.mode_name())
     }
 
     /// The voxel count a job reports: band voxels of distance fields (|d| < half-width,
@@ -331,7 +336,12 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         let bytes = (d.x * d.y * d.z).saturating_mul(4);
         volga_io::check_free_space_for(&[(args.out.clone(), bytes)]).map_err(|e| failed(e.to_string()))?;
     }
-    let (volume, voxelizer_edges, mode) = stages.run("voxelize", || job.voxelize(progress));
+    let (run, mode) = stages.run("voxelize", || job.voxelize(progress));
+    let MeshRun {
+        volume,
+        boundary_edges: voxelizer_edges,
+        sign,
+    } = run;
     // Binary surfaces need no topology of the mesh: count its boundary for the report
     // outside the timed stage.
     let boundary_edges = voxelizer_edges.unwrap_or_else(|| job.mesh.boundary_edge_count());
@@ -366,6 +376,7 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
             dense_bricks: volume.density.dense_brick_count(),
         },
         estimated_memory_bytes: job.peak_bound(),
+        sign,
         warnings,
         outputs: Vec::new(),
     };
@@ -416,6 +427,17 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
             .find(|s| s.name == "voxelize")
             .map_or(0.0, |s| s.wall_s)
     );
+    if let Some(sign) = &report.sign {
+        println!(
+            "signs proven: {} voxels by their nearest triangle, {} by the caps, {} by the whole mesh's certified winding number ({} in the band; {} unclean triangles, {} boundary-cycle edges)",
+            sign.fast_voxels,
+            sign.cap_voxels,
+            sign.exact_voxels,
+            sign.exact_band_voxels,
+            sign.unclean_triangles,
+            sign.boundary_cycle_edges
+        );
+    }
     Ok(())
 }
 

@@ -21,7 +21,7 @@ use glam::{DVec3, IVec3, UVec3};
 use volga_core::{Aabb, Grid, Progress, SparseVolume, Transform, BRICK_DIM};
 use volga_mesh::TriMesh;
 
-use crate::{merge_max, voxelize_mesh_surface, MeshVoxelizer, Separability, SurfaceMode};
+use crate::{merge_max, voxelize_mesh_surface, MeshVoxelizer, Separability, SignStats, SurfaceMode};
 
 /// What a mesh is voxelized into.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -261,35 +261,45 @@ impl MeshJob {
         }
     }
 
-    /// The voxelization: the volume and the mesh's boundary-edge count when the job
-    /// needed its topology (a [`MeshVoxelizer`] counts it while it is built).
-    pub fn run(&self, mesh: &TriMesh, grid: &Grid, progress: &dyn Progress) -> (SparseVolume, Option<usize>) {
+    /// The voxelization: the volume, the mesh's boundary-edge count when the job needed
+    /// its topology (a [`MeshVoxelizer`] counts it while it is built), and how the signs
+    /// were proven when the job used them.
+    pub fn run(&self, mesh: &TriMesh, grid: &Grid, progress: &dyn Progress) -> MeshRun {
         let voxelizer = self.uses_voxelizer().then(|| MeshVoxelizer::new(mesh));
         let boundary_edges = voxelizer.as_ref().map(|v| v.boundary_edge_count());
+        let mut sign = None;
+        let mut signed = |voxelizer: &MeshVoxelizer, mode: SurfaceMode| {
+            let (volume, stats) = voxelizer.voxelize_with_stats(grid, mode, progress);
+            sign = Some(stats);
+            volume
+        };
         let volume = match (self.mode, voxelizer) {
             (MeshJobMode::Binary { separability, .. }, None) => {
                 voxelize_mesh_surface(grid, mesh, separability, progress)
             }
             (MeshJobMode::Binary { separability, .. }, Some(voxelizer)) => {
                 let mut surface = voxelize_mesh_surface(grid, mesh, separability, progress);
-                let inside = voxelizer.voxelize(grid, SurfaceMode::Inside, progress);
+                let inside = signed(&voxelizer, SurfaceMode::Inside);
                 merge_max(&mut surface, &inside, [1.0; 3]);
                 surface
             }
             (
                 MeshJobMode::Distance {
                     half_width_voxels,
-                    signed,
+                    signed: is_signed,
                 },
                 Some(voxelizer),
-            ) => voxelizer.voxelize(
-                grid,
-                SurfaceMode::Distance {
+            ) => {
+                let mode = SurfaceMode::Distance {
                     half_width_voxels,
-                    signed,
-                },
-                progress,
-            ),
+                    signed: is_signed,
+                };
+                if is_signed {
+                    signed(&voxelizer, mode)
+                } else {
+                    voxelizer.voxelize(grid, mode, progress)
+                }
+            }
             (
                 MeshJobMode::AntiAliased {
                     thickness_voxels,
@@ -297,20 +307,31 @@ impl MeshJob {
                 },
                 Some(voxelizer),
             ) => {
-                let mode = if solid {
-                    SurfaceMode::Solid
+                if solid {
+                    signed(&voxelizer, SurfaceMode::Solid)
                 } else {
-                    SurfaceMode::Shell {
-                        thickness: thickness_voxels * grid.transform.spacing().x,
-                    }
-                };
-                voxelizer.voxelize(grid, mode, progress)
+                    let thickness = thickness_voxels * grid.transform.spacing().x;
+                    voxelizer.voxelize(grid, SurfaceMode::Shell { thickness }, progress)
+                }
             }
             // `uses_voxelizer` holds for every non-binary mode.
             (_, None) => MeshVoxelizer::new(mesh).voxelize(grid, SurfaceMode::Solid, progress),
         };
-        (volume, boundary_edges)
+        MeshRun {
+            volume,
+            boundary_edges,
+            sign,
+        }
     }
+}
+
+/// What [`MeshJob::run`] returns.
+pub struct MeshRun {
+    pub volume: SparseVolume,
+    /// Edges used by one triangle, when the job built the mesh's topology.
+    pub boundary_edges: Option<usize>,
+    /// How every sign was proven, for jobs that use the inside.
+    pub sign: Option<SignStats>,
 }
 
 /// The distance voxelizer's data per triangle (BVH, normals, feature regions, Morton

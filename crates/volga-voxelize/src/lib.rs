@@ -46,7 +46,7 @@ mod tri_distance;
 
 pub use binary::{triangle_covers_voxel, voxelize_mesh_surface, voxelize_triangles, Separability};
 pub use field::AnalyticField;
-pub use job::{parse_bytes_bound, JobError, JobEstimate, MeshJob, MeshJobMode};
+pub use job::{parse_bytes_bound, JobError, JobEstimate, MeshJob, MeshJobMode, MeshRun};
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity, UnsupportedAdjacency};
 pub use mesh::MeshVoxelizer;
 pub use sign::SignStats;

@@ -308,6 +308,16 @@ impl MeshVoxelizer {
             }
         }
         stats.exact_band_voxels += 1;
+        if d2.sqrt() <= 1e-12 * p.abs().max_element() + f64::MIN_POSITIVE {
+            // On the surface up to rounding, where a solid angle can take its principal
+            // value: so can a cap's at the mesh's boundary, and `w_M + w_C` is no longer
+            // an integer plus the caps. Ask the mesh's own tree.
+            let b = self.bvh.winding_number_bounded(p, None, |w, e| (w - 0.5).abs() > e);
+            stats.exact_voxels += 1;
+            stats.exact_triangles += b.exact_triangles as u64;
+            stats.query_terms += b.terms as u64;
+            return (b.value >= 0.5, b.margin(0.5));
+        }
         self.exact_side(p, None, stats)
     }
 
