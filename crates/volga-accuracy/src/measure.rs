@@ -278,6 +278,19 @@ mod tests {
         }
     }
 
+    /// Sums per brick in brick order: the same bits with 1 and 3 threads.
+    #[test]
+    fn figures_do_not_depend_on_the_thread_count() {
+        let shape = ReferenceShape::torus();
+        let grid = Grid::covering(&scene_box(), UVec3::splat(40)).unwrap();
+        let volume = voxelize_shapes(&grid, &[shape], SurfaceMode::Solid, &NoProgress);
+        let with = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| surface_errors(&volume, 0.5, &shape))
+        };
+        assert_eq!(with(1), with(3));
+    }
+
     #[test]
     fn angles() {
         assert!((angle_deg(DVec3::X, DVec3::Y) - 90.0).abs() < 1e-12);

@@ -24,8 +24,9 @@ const PANEL: (u32, u32) = (720, 480);
 pub fn plot_svg(result: &KnobResult) -> Result<String, String> {
     let mut svg = String::new();
     {
-        let panels = result.metrics.len().max(1);
-        let cols = panels.min(2);
+        // One panel per metric and one for the legend.
+        let panels = result.metrics.len() + 1;
+        let cols = 2;
         let rows = panels.div_ceil(cols);
         let size = (PANEL.0 * cols as u32, PANEL.1 * rows as u32 + 50);
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
@@ -35,9 +36,10 @@ pub fn plot_svg(result: &KnobResult) -> Result<String, String> {
             .map_err(|e| e.to_string())?;
         let areas = root.split_evenly((rows, cols));
         let times = time_range(result);
-        for (i, (metric, area)) in result.metrics.iter().zip(areas.iter()).enumerate() {
-            draw_panel(area, result, metric, times, i == 0)?;
+        for (metric, area) in result.metrics.iter().zip(areas.iter()) {
+            draw_panel(area, result, metric, times)?;
         }
+        draw_legend(&areas[result.metrics.len()], result)?;
         root.present().map_err(|e| e.to_string())?;
     }
     Ok(svg)
@@ -62,15 +64,16 @@ fn padded(values: impl Iterator<Item = f64>) -> (f64, f64) {
     }
 }
 
-/// Tick label of a log axis value: only 1, 2 and 5 times a power of ten are labelled
-/// (plain decimals where short, else `1e-3` style), so labels never overlap.
+/// Tick label of a log axis value: only whole multiples of a power of ten are labelled
+/// (plain decimals where short, else `1e-3` style); the axes ask for few labels, so
+/// they do not overlap.
 fn tick(v: f64) -> String {
     if v == 0.0 {
         return "0".into();
     }
     let a = v.abs();
     let mantissa = a / 10f64.powf(a.log10().floor());
-    if ![1.0, 2.0, 5.0, 10.0].iter().any(|m| (mantissa - m).abs() < 1e-6 * m) {
+    if (mantissa - mantissa.round()).abs() > 1e-6 * mantissa {
         return String::new();
     }
     if (1e-3..1e4).contains(&a) {
@@ -86,7 +89,6 @@ fn draw_panel(
     result: &KnobResult,
     metric: &Metric,
     (t0, t1): (f64, f64),
-    legend: bool,
 ) -> Result<(), String> {
     let err = |e: DrawingAreaErrorKind<_>| e.to_string();
     let values = result
@@ -106,6 +108,8 @@ fn draw_panel(
         .y_desc(metric.label)
         .axis_desc_style(("sans-serif", 15))
         .label_style(("sans-serif", 13))
+        .x_labels(8)
+        .y_labels(8)
         .x_label_formatter(&|v| tick(*v))
         .y_label_formatter(&|v| tick(*v))
         .light_line_style(WHITE)
@@ -143,17 +147,53 @@ fn draw_panel(
             }))
             .map_err(err)?;
     }
-    if legend {
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font(("sans-serif", 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(160, 160, 160))
-            .draw()
+    Ok(())
+}
+
+/// The legend in its own panel: a coloured line and the series name per row, then
+/// how to read the labels.
+fn draw_legend(area: &DrawingArea<SVGBackend, Shift>, result: &KnobResult) -> Result<(), String> {
+    let err = |e: DrawingAreaErrorKind<_>| e.to_string();
+    let font = ("sans-serif", 17).into_font().color(&BLACK);
+    let (x0, mut y) = (60, 50);
+    for (i, series) in result.series.iter().enumerate() {
+        let colour = PALETTE[i % PALETTE.len()];
+        area.draw(&PathElement::new(vec![(x0, y), (x0 + 40, y)], colour.stroke_width(4)))
             .map_err(err)?;
+        area.draw(&Circle::new((x0 + 20, y), 5, colour.filled())).map_err(err)?;
+        area.draw(&Text::new(series.name.clone(), (x0 + 55, y - 9), font.clone()))
+            .map_err(err)?;
+        y += 32;
+    }
+    let note = ("sans-serif", 15).into_font().color(&RGBColor(70, 70, 70));
+    y += 16;
+    for line in [
+        format!("Point labels: {}.", result.knob),
+        "Lower left is better: less error for less time.".to_string(),
+    ] {
+        for chunk in wrap(&line, 70) {
+            area.draw(&Text::new(chunk, (x0, y), note.clone())).map_err(err)?;
+            y += 22;
+        }
     }
     Ok(())
+}
+
+/// Splits `text` into lines of at most about `width` characters at spaces.
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines = vec![String::new()];
+    for word in text.split(' ') {
+        let last = lines.last_mut().expect("one line");
+        if !last.is_empty() && last.chars().count() + 1 + word.chars().count() > width {
+            lines.push(word.to_string());
+        } else {
+            if !last.is_empty() {
+                last.push(' ');
+            }
+            last.push_str(word);
+        }
+    }
+    lines
 }
 
 #[cfg(test)]
@@ -167,7 +207,14 @@ mod tests {
         assert_eq!(tick(0.0001), "1e-4");
         assert_eq!(tick(0.0), "0");
         assert_eq!(tick(0.002), "0.002");
-        assert_eq!(tick(0.003), "");
+        assert_eq!(tick(0.003), "0.003");
+        assert_eq!(tick(0.0035), "");
+    }
+
+    #[test]
+    fn wrapping_keeps_every_word() {
+        let lines = wrap("one two three four", 9);
+        assert_eq!(lines, ["one two", "three", "four"]);
     }
 
     #[test]

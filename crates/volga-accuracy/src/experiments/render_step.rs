@@ -14,7 +14,7 @@ use crate::{timed, KnobResult, Metric, Series, Setting};
 pub const EXPERIMENT: Experiment = Experiment { id: "render_step", run };
 
 /// Steps of the reference (in voxels of the 41³ sampling) and its pixel supersampling.
-pub(crate) const REFERENCE_STEP_VOXELS: f64 = 1.0 / 16.0;
+pub(crate) const REFERENCE_STEP_VOXELS: f64 = 1.0 / 32.0;
 const REFERENCE_SUPERSAMPLING: u32 = 2;
 
 /// A field seen only inside the scene box `[−1, 1]³` (background outside): the
@@ -129,6 +129,17 @@ fn hits<F: Field>(field: &F, size: u32, step_world: f64) -> Vec<Option<DVec3>> {
         .collect()
 }
 
+/// The image of `field` at `step_voxels` (timed) and its pixel-centre first hits.
+fn render_and_hits<F: Field>(field: &F, size: u32, step_voxels: f64) -> (Image, Vec<Option<DVec3>>, crate::Timing) {
+    let (image, timing) = timed(|| {
+        render(field, &camera(), &mode(), &settings(size, step_voxels), &NoProgress)
+            .expect("valid render")
+            .0
+    });
+    let hits = hits(field, size, step_voxels * MarschnerLobb::SPACING);
+    (image, hits, timing)
+}
+
 /// RMS over pixels and RGB channels of the difference of two images (linear [0, 1]).
 fn image_rms(a: &Image, b: &Image) -> f64 {
     let sum: f64 = a
@@ -167,45 +178,45 @@ fn run(ctx: &Context) -> KnobResult {
     let size = ctx.size.pick(48, 160);
     let steps: &[f64] = ctx.size.pick(&[1.0, 0.25], &[2.0, 1.0, 0.5, 0.25, 0.125, 0.0625]);
     let filters = [(Filter::Nearest, "nearest"), (Filter::Trilinear, "trilinear")];
-    ctx.start("render step", steps.len() * filters.len() + 1);
+    ctx.start("render step", steps.len() * (filters.len() + 1) + 1);
     let volume = marschner_lobb_volume();
     let reference = reference_image(size);
     let reference_hits = hits(&MarschnerLobb, size, REFERENCE_STEP_VOXELS * MarschnerLobb::SPACING);
     ctx.setting_done();
     let memory = volume.payload_bytes() + size as u64 * size as u64 * 16;
-    let series = filters
+    let measure = |field: &dyn Fn(f64) -> (Image, Vec<Option<DVec3>>, crate::Timing), step: f64| {
+        let (image, test_hits, timing) = field(step);
+        let (hit_rms, disagree) = hit_errors(&test_hits, &reference_hits);
+        ctx.setting_done();
+        Setting::new(format!("{step}"), &[("step_voxels", step)], timing, memory)
+            .error("image_rms", image_rms(&image, &reference))
+            .error("hit_rms_voxels", hit_rms)
+            .error("hit_disagreement", disagree)
+    };
+    let mut series: Vec<Series> = filters
         .iter()
         .map(|&(filter, name)| {
             let field = Clipped(Sampled::new(&volume, filter));
-            let settings = steps
-                .iter()
-                .map(|&step| {
-                    let (image, timing) = timed(|| {
-                        render(&field, &camera(), &mode(), &settings(size, step), &NoProgress)
-                            .expect("valid render")
-                            .0
-                    });
-                    let test_hits = hits(&field, size, step * MarschnerLobb::SPACING);
-                    let (hit_rms, disagree) = hit_errors(&test_hits, &reference_hits);
-                    ctx.setting_done();
-                    Setting::new(format!("{step}"), &[("step_voxels", step)], timing, memory)
-                        .error("image_rms", image_rms(&image, &reference))
-                        .error("hit_rms_voxels", hit_rms)
-                        .error("hit_disagreement", disagree)
-                })
-                .collect();
+            let run_at = |step: f64| render_and_hits(&field, size, step);
             Series {
                 name: name.to_string(),
-                settings,
+                settings: steps.iter().map(|&step| measure(&run_at, step)).collect(),
             }
         })
         .collect();
+    // The analytic signal at the same steps: the step's own error, without any
+    // reconstruction error.
+    let run_at = |step: f64| render_and_hits(&MarschnerLobb, size, step);
+    series.push(Series {
+        name: "analytic signal (step error alone)".to_string(),
+        settings: steps.iter().map(|&step| measure(&run_at, step)).collect(),
+    });
     ctx.finish();
     KnobResult {
         id: "render_step",
         title: "Render step and reconstruction filter (Marschner–Lobb)",
-        knob: "ray step Δs in voxels (labels) for nearest and trilinear reconstruction of the 41³ Marschner–Lobb volume, iso-surface ρ = ½, lit",
-        reference: "the analytic Marschner–Lobb signal rendered with step 1/16 voxel and 2×2 rays per pixel (image), and its first hits along the pixel-centre rays at step 1/16 voxel refined by bisection (hit positions)",
+        knob: "ray step Δs in voxels (labels) for nearest and trilinear reconstruction of the 41³ Marschner–Lobb volume, and for the analytic signal itself (the step's error alone); iso-surface ρ = ½, lit",
+        reference: "the analytic Marschner–Lobb signal rendered with step 1/32 voxel and 2×2 rays per pixel (image), and its first hits along the pixel-centre rays at step 1/32 voxel refined by bisection (hit positions)",
         timed: "render (iso mode, 160² pixels in the full run), all threads",
         metrics: vec![
             Metric {
