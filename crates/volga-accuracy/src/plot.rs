@@ -136,14 +136,12 @@ fn draw_panel(
             .label(series.name.as_str())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], colour.stroke_width(3)));
         chart
-            .draw_series(points.iter().map(|&(t, e, label)| {
+            .draw_series(points.iter().enumerate().map(|(k, &(t, e, label))| {
+                // Labels alternate above and below the curve, so neighbours do not overlap.
+                let offset = if k % 2 == 0 { (6, -17) } else { (6, 5) };
                 EmptyElement::at((t, e))
                     + Circle::new((0, 0), 4, colour.filled())
-                    + Text::new(
-                        label.to_string(),
-                        (6, -16),
-                        ("sans-serif", 12).into_font().color(&colour),
-                    )
+                    + Text::new(label.to_string(), offset, ("sans-serif", 12).into_font().color(&colour))
             }))
             .map_err(err)?;
     }
