@@ -84,9 +84,10 @@ pub struct Timing {
     pub peak_rss_bytes: Option<u64>,
 }
 
-/// Runs `op` and times it. Operations faster than 50 ms are repeated (at most 5 runs,
-/// at most 0.25 s in all) and the fastest run counts, so small settings are not all
-/// timer noise. `op` must be deterministic: the last result is returned.
+/// Runs `op` and times it. Operations faster than 0.2 s are repeated (at most 20 runs,
+/// at most about 1 s in all) and the fastest run counts, so small settings are not
+/// timer and machine-load noise. `op` must be deterministic: the last result is
+/// returned.
 pub fn timed<T>(mut op: impl FnMut() -> T) -> (T, Timing) {
     let reset = reset_peak_rss();
     let start = Instant::now();
@@ -94,7 +95,7 @@ pub fn timed<T>(mut op: impl FnMut() -> T) -> (T, Timing) {
     let mut best = start.elapsed().as_secs_f64();
     let mut total = best;
     let mut runs = 1;
-    while best < 0.05 && runs < 5 && total < 0.25 {
+    while best < 0.2 && runs < 20 && total < 1.0 {
         let t = Instant::now();
         result = op();
         let s = t.elapsed().as_secs_f64();

@@ -46,7 +46,7 @@ pub(crate) fn filtered_volume(shape: &ReferenceShape, n: u32, width_voxels: f64)
 }
 
 fn run(ctx: &Context) -> KnobResult {
-    let n = ctx.size.pick(32, 128);
+    let n = ctx.size.pick(32, 256);
     let standard = 2.0 * 3f64.sqrt();
     let widths = [1.0, 2.0, 3.0, standard, 4.5, 6.0, 8.0];
     let shape = ReferenceShape::torus();
