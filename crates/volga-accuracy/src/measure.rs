@@ -53,11 +53,12 @@ const TETRAHEDRA: [[usize; 4]; 6] = [
     [0, 5, 1, 7],
 ];
 
+/// Index-space offset of cell corner `c`.
 fn corner(c: usize) -> DVec3 {
     DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, ((c >> 2) & 1) as f64)
 }
 
-/// Calls `emit` with each triangle (index-space corners relative to the cell) of the
+/// Calls `emit` with each triangle (index-space corners relative to the cell's base voxel) of the
 /// `iso` level set of the linear interpolant on the cell's tetrahedra.
 fn cell_triangles(values: &[f64; 8], iso: f64, mut emit: impl FnMut([DVec3; 3])) {
     for tet in TETRAHEDRA {
@@ -154,29 +155,29 @@ pub fn surface_errors<S: SignedDistance + Sync>(volume: &SparseVolume, iso: f64,
             for z in lo.z..hi.z {
                 for y in lo.y..hi.y {
                     for x in lo.x..hi.x {
-                        let base = IVec3::new(x, y, z);
-                        let v = volume.density_cube(base).map(|v| v as f64);
+                        let ijk = IVec3::new(x, y, z);
+                        let v = volume.density_cube(ijk).map(|v| v as f64);
                         let (mn, mx) = v
                             .iter()
                             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &c| (a.min(c), b.max(c)));
                         if !(mn < iso && mx >= iso) {
                             continue;
                         }
-                        let with_normal = normal_cell(base, stride);
-                        cell_triangles(&v, iso, |tri| {
-                            let w = tri.map(|c| t.index_to_world(base.as_dvec3() + c));
+                        let with_normal = normal_cell(ijk, stride);
+                        cell_triangles(&v, iso, |index_tri| {
+                            let w = index_tri.map(|c| t.index_to_world(ijk.as_dvec3() + c));
                             let area = 0.5 * (w[1] - w[0]).cross(w[2] - w[0]).length();
-                            let centroid = (w[0] + w[1] + w[2]) / 3.0;
-                            let d = shape.signed_distance(centroid);
+                            let world_centroid = (w[0] + w[1] + w[2]) / 3.0;
+                            let d = shape.signed_distance(world_centroid);
                             sums.area += area;
                             sums.weighted_d2 += area * d * d;
-                            for p in w {
-                                sums.max_d = sums.max_d.max(shape.signed_distance(p).abs());
+                            for world_pos in w {
+                                sums.max_d = sums.max_d.max(shape.signed_distance(world_pos).abs());
                             }
                             sums.triangles += 1;
                             if with_normal {
                                 // Density rises inwards: the outward normal is −∇ρ.
-                                let angle = angle_deg(-field.gradient(centroid), shape.gradient(centroid));
+                                let angle = angle_deg(-field.gradient(world_centroid), shape.gradient(world_centroid));
                                 sums.normal_weighted_a2 += area * angle * angle;
                                 sums.normal_area += area;
                             }

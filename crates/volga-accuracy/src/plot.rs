@@ -64,6 +64,24 @@ fn padded(values: impl Iterator<Item = f64>) -> (f64, f64) {
     }
 }
 
+/// Ticks of a log axis over `[lo, hi]`: 1, 2 and 5 times the powers of ten inside
+/// it, or every whole multiple when that gives fewer than three.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let ticks = |mantissas: &[f64]| -> Vec<f64> {
+        let (k0, k1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+        (k0..=k1)
+            .flat_map(|k| mantissas.iter().map(move |m| m * 10f64.powi(k)))
+            .filter(|v| (lo..=hi).contains(v))
+            .collect()
+    };
+    let coarse = ticks(&[1.0, 2.0, 5.0]);
+    if coarse.len() >= 3 {
+        coarse
+    } else {
+        ticks(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
+    }
+}
+
 /// Tick label of a log axis value: only whole multiples of a power of ten are labelled
 /// (plain decimals where short, else `1e-3` style); the axes ask for few labels, so
 /// they do not overlap.
@@ -100,7 +118,10 @@ fn draw_panel(
         .margin(14)
         .x_label_area_size(48)
         .y_label_area_size(80)
-        .build_cartesian_2d((t0..t1).log_scale(), (y0..y1).log_scale())
+        .build_cartesian_2d(
+            (t0..t1).log_scale().with_key_points(log_ticks(t0, t1)),
+            (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
+        )
         .map_err(err)?;
     chart
         .configure_mesh()
@@ -108,8 +129,6 @@ fn draw_panel(
         .y_desc(metric.label)
         .axis_desc_style(("sans-serif", 15))
         .label_style(("sans-serif", 13))
-        .x_labels(8)
-        .y_labels(8)
         .x_label_formatter(&|v| tick(*v))
         .y_label_formatter(&|v| tick(*v))
         .light_line_style(WHITE)
@@ -207,6 +226,14 @@ mod tests {
         assert_eq!(tick(0.002), "0.002");
         assert_eq!(tick(0.003), "0.003");
         assert_eq!(tick(0.0035), "");
+    }
+
+    #[test]
+    fn log_ticks_are_round_and_inside() {
+        assert_eq!(log_ticks(0.15, 30.0), [0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0]);
+        let fine = log_ticks(0.12, 0.45);
+        assert_eq!(fine.len(), 3);
+        assert!((fine[0] - 0.2).abs() < 1e-12 && (fine[2] - 0.4).abs() < 1e-12);
     }
 
     #[test]

@@ -28,19 +28,20 @@ pub fn supersampled_binary<S: SignedDistance + Sync>(grid: &Grid, shape: &S, k: 
     );
     let bricks: Vec<IVec3> = brick_box.iter().collect();
     let grid_box = grid.index_box();
-    let offsets: Vec<DVec3> = IndexBox::new(IVec3::ZERO, IVec3::splat(k as i32))
+    // World offsets of the sub-cell centres from the voxel centre.
+    let world_offsets: Vec<DVec3> = IndexBox::new(IVec3::ZERO, IVec3::splat(k as i32))
         .iter()
         .map(|o| ((o.as_dvec3() + 0.5) / k as f64 - 0.5) * spacing)
         .collect();
-    let samples = offsets.len() as f64;
+    let samples = world_offsets.len() as f64;
     let filled: Vec<(IVec3, Brick<f32>)> = bricks
         .par_iter()
         .filter_map(|&b| {
             let base = b * BRICK_DIM;
             let half = (BRICK_DIM - 1) as f64 * 0.5;
-            let centre = t.index_to_world(base.as_dvec3() + half);
+            let world_centre = t.index_to_world(base.as_dvec3() + half);
             let radius = (spacing * half).length() + half_diagonal;
-            let d = shape.signed_distance(centre);
+            let d = shape.signed_distance(world_centre);
             let whole = grid_box.contains(base) && grid_box.contains(base + IVec3::splat(BRICK_DIM - 1));
             if d > radius {
                 return None;
@@ -53,14 +54,17 @@ pub fn supersampled_binary<S: SignedDistance + Sync>(grid: &Grid, shape: &S, k: 
                 if !grid_box.contains(ijk) {
                     continue;
                 }
-                let p = t.voxel_center(ijk);
-                let d = shape.signed_distance(p);
+                let world_pos = t.voxel_center(ijk);
+                let d = shape.signed_distance(world_pos);
                 data[n] = if d > half_diagonal {
                     0.0
                 } else if d < -half_diagonal {
                     1.0
                 } else {
-                    let inside = offsets.iter().filter(|&&o| shape.signed_distance(p + o) <= 0.0).count();
+                    let inside = world_offsets
+                        .iter()
+                        .filter(|&&o| shape.signed_distance(world_pos + o) <= 0.0)
+                        .count();
                     (inside as f64 / samples) as f32
                 };
             }
