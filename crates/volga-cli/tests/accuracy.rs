@@ -73,3 +73,29 @@ fn out_that_is_a_file_is_bad_input() {
     assert!(stderr(&o).contains("--out"), "{}", stderr(&o));
     assert_eq!(std::fs::read(&file).unwrap(), b"keep me");
 }
+
+/// Every error figure is a pure function of its setting: `--threads 1` and
+/// `--threads 2` give the same figures (times and memory peaks may differ).
+#[test]
+fn error_figures_do_not_depend_on_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let errors = |threads: &str| {
+        let out = dir.path().join(threads);
+        let o = volga(&["--threads", threads, "accuracy", "--quick", "--out", arg(&out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("accuracy.json")).unwrap()).unwrap();
+        assert_eq!(json["machine"]["threads"].as_u64(), Some(threads.parse().unwrap()));
+        json["experiments"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|e| e["series"].as_array().unwrap().clone())
+            .flat_map(|s| s["settings"].as_array().unwrap().clone())
+            .map(|p| p["errors"].clone())
+            .collect::<Vec<_>>()
+    };
+    let (one, two) = (errors("1"), errors("2"));
+    assert!(!one.is_empty());
+    assert_eq!(one, two);
+}
