@@ -92,7 +92,7 @@ fn run(ctx: &Context) -> KnobResult {
             },
             Metric {
                 id: "position_max",
-                label: "surface position error, max (world units)",
+                label: "surface position error, max both ways (world units)",
             },
         ],
         series: vec![Series {

@@ -137,7 +137,7 @@ pub(crate) fn solid_metrics() -> Vec<crate::Metric> {
         },
         Metric {
             id: "position_max",
-            label: "surface position error, max (world units)",
+            label: "surface position error, max both ways (world units)",
         },
     ]
 }
