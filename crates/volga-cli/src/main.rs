@@ -1,7 +1,9 @@
-//! `volga`: build scene files, voxelize meshes, validate voxel models, time jobs.
+//! `volga`: build scene files, voxelize meshes, validate voxel models, time jobs,
+//! measure what accuracy costs in time.
 //!
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
 
+mod accuracy;
 mod bench;
 mod failure;
 mod progress;
@@ -48,6 +50,9 @@ enum Command {
     /// Time a job warm, in one process (for benchmarks; see docs/BENCHMARKS.md).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Measure every accuracy knob against exact references: one Markdown table and one
+    /// SVG plot per knob, and a JSON of raw figures with the machine (docs/accuracy).
+    Accuracy(accuracy::AccuracyArgs),
     /// Validate a scene and print its plan (channels, effects, memory estimate) without building.
     Plan {
         /// Scene file (.ron or .json).
@@ -157,6 +162,13 @@ fn main() -> ExitCode {
             }
         },
         Command::Bench(command) => match bench::run(command) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(f) => {
+                eprintln!("error: {}", f.message);
+                ExitCode::from(f.code)
+            }
+        },
+        Command::Accuracy(args) => match accuracy::run(args) {
             Ok(()) => ExitCode::SUCCESS,
             Err(f) => {
                 eprintln!("error: {}", f.message);

@@ -1,0 +1,143 @@
+//! The registry of experiments: one function per knob, each with its exact reference.
+//!
+//! **Adding a knob** (cubic filters, pre-integration, shadow quality, ADF tolerance,
+//! octree depth…): write `experiments/<knob>.rs` with
+//! `pub const EXPERIMENT: Experiment = Experiment { id, run }`, whose `run` sweeps the
+//! knob at [`Size::Quick`] and [`Size::Full`] sizes and returns a [`KnobResult`] (every
+//! setting timed with [`crate::timed`], its errors measured against an exact
+//! reference, which a test of the same file checks against an independent
+//! computation), then add the module and one line to [`EXPERIMENTS`]. The table, the
+//! plot and the JSON follow from the result; `volga accuracy --quick` in the test suite
+//! runs it from then on.
+
+use volga_core::Progress;
+
+use crate::KnobResult;
+
+mod binary_vs_antialiased;
+mod filter_width;
+mod narrow_band;
+mod render_step;
+mod resolution;
+mod supersample;
+
+pub use supersample::supersampled_binary;
+
+/// How large an experiment's settings are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Size {
+    /// Every setting kind at small sizes: seconds, for the test suite.
+    Quick,
+    /// The sizes the committed tables and plots show: minutes.
+    Full,
+}
+
+impl Size {
+    pub fn name(self) -> &'static str {
+        match self {
+            Size::Quick => "quick",
+            Size::Full => "full",
+        }
+    }
+
+    /// `quick` at [`Size::Quick`], `full` at [`Size::Full`].
+    pub fn pick<T>(self, quick: T, full: T) -> T {
+        match self {
+            Size::Quick => quick,
+            Size::Full => full,
+        }
+    }
+}
+
+/// What an experiment is given: its size and where to report progress (one unit
+/// per setting).
+pub struct Context<'a> {
+    pub size: Size,
+    progress: &'a dyn Progress,
+}
+
+impl<'a> Context<'a> {
+    pub fn new(size: Size, progress: &'a dyn Progress) -> Self {
+        Context { size, progress }
+    }
+
+    /// Announces `settings` settings for the experiment `id`.
+    pub fn start(&self, id: &str, settings: usize) {
+        self.progress.start(id, settings as u64);
+    }
+
+    /// One more setting is measured.
+    pub fn setting_done(&self) {
+        self.progress.inc(1);
+    }
+
+    pub fn finish(&self) {
+        self.progress.finish();
+    }
+}
+
+/// One knob's experiment: `run` sweeps the knob and measures every setting.
+#[derive(Clone, Copy)]
+pub struct Experiment {
+    /// File stem of its outputs (`<id>.md`, `<id>.svg`).
+    pub id: &'static str,
+    pub run: fn(&Context) -> KnobResult,
+}
+
+/// Every experiment `volga accuracy` runs, in the order of the outputs.
+pub const EXPERIMENTS: &[Experiment] = &[
+    resolution::EXPERIMENT,
+    binary_vs_antialiased::EXPERIMENT,
+    filter_width::EXPERIMENT,
+    narrow_band::EXPERIMENT,
+    render_step::EXPERIMENT,
+];
+
+/// The grid of `n³` voxels whose cells tile the scene box `[−1, 1]³`.
+pub fn scene_grid(n: u32) -> volga_core::Grid {
+    volga_core::Grid::covering(&crate::references::scene_box(), glam::UVec3::splat(n)).expect("valid scene grid")
+}
+
+/// The solid-voxelization errors every voxelization experiment reports: position,
+/// normal, volume and area against the shape's exact distance, volume and area.
+pub(crate) fn solid_errors(
+    setting: crate::Setting,
+    volume: &volga_core::SparseVolume,
+    measured_volume: f64,
+    shape: &crate::references::ReferenceShape,
+) -> crate::Setting {
+    let e = crate::measure::surface_errors(volume, 0.5, shape);
+    setting
+        .error("position_rms", e.position_rms)
+        .error("position_max", e.position_max)
+        .error("normal_rms_deg", e.normal_rms_deg)
+        .error("volume_rel", (measured_volume / shape.volume() - 1.0).abs())
+        .error("area_rel", (e.area / shape.area() - 1.0).abs())
+}
+
+/// The metrics of [`solid_errors`], for tables and plots.
+pub(crate) fn solid_metrics() -> Vec<crate::Metric> {
+    use crate::Metric;
+    vec![
+        Metric {
+            id: "position_rms",
+            label: "surface position error, RMS (world units)",
+        },
+        Metric {
+            id: "normal_rms_deg",
+            label: "normal error, RMS (degrees)",
+        },
+        Metric {
+            id: "volume_rel",
+            label: "volume error (relative)",
+        },
+        Metric {
+            id: "area_rel",
+            label: "area error (relative)",
+        },
+        Metric {
+            id: "position_max",
+            label: "surface position error, max both ways (world units)",
+        },
+    ]
+}

@@ -1,0 +1,66 @@
+//! `volga accuracy`: runs every accuracy experiment and writes one Markdown table and
+//! one SVG plot per knob, and one JSON of raw figures, all or nothing.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use volga_accuracy::{run as run_experiments, Size};
+use volga_io::StagedOutputs;
+
+use crate::failure::{bad_input, failed, Failure};
+use crate::progress::BarProgress;
+
+#[derive(Args)]
+pub struct AccuracyArgs {
+    /// Run every experiment at small sizes (seconds; what the test suite runs). The
+    /// same files are written.
+    #[arg(long)]
+    quick: bool,
+    /// Output directory (created if missing).
+    #[arg(long, default_value = "docs/accuracy")]
+    out: PathBuf,
+}
+
+/// The command line as typed, for the report (`volga accuracy --out docs/accuracy`).
+fn command_line() -> String {
+    std::iter::once("volga".to_string())
+        .chain(std::env::args().skip(1))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+pub fn run(args: AccuracyArgs) -> Result<(), Failure> {
+    let out = &args.out;
+    // Checked before minutes of work, not after.
+    if out.exists() && !out.is_dir() {
+        return Err(bad_input(format!(
+            "--out {}: exists and is not a directory",
+            out.display()
+        )));
+    }
+    std::fs::create_dir_all(out)
+        .map_err(|e| bad_input(format!("--out {}: cannot create the directory: {e}", out.display())))?;
+    let size = if args.quick { Size::Quick } else { Size::Full };
+    let progress = BarProgress::new();
+    let report = run_experiments(size, &command_line(), &progress);
+    let files = report
+        .files()
+        .map_err(|e| failed(format!("cannot draw the plots: {e}")))?;
+    let mut staged = StagedOutputs::new();
+    for (name, bytes) in &files {
+        staged
+            .stage(&out.join(name), |w| w.write_all(bytes))
+            .map_err(|e| failed(e.to_string()))?;
+    }
+    let written = staged.commit().map_err(|e| failed(e.to_string()))?;
+    for path in written {
+        println!("wrote {}", path.display());
+    }
+    println!(
+        "{} experiments ({} size) in {:.1} s",
+        report.experiments.len(),
+        size.name(),
+        report.wall_time_s
+    );
+    Ok(())
+}
