@@ -114,13 +114,13 @@ def peer_peak_memory(tool, python, mesh, n):
 
 
 class Volga:
-    def __init__(self, exe, mesh, workdir):
+    def __init__(self, exe, mesh, workdir, name="volga"):
         self.mesh = mesh
         # Benchmark a private copy: a concurrent `cargo build` must not swap the
         # binary between rows of one table.
         self.exe = exe
         if os.path.exists(exe):
-            self.exe = os.path.join(workdir, "volga")
+            self.exe = os.path.join(workdir, name)
             shutil.copy2(exe, self.exe)
         self.missing = self._why_missing()
 
@@ -437,6 +437,9 @@ def main():
     ap.add_argument("--skip-trimesh-above", type=int, default=None, metavar="N",
                     help="skip trimesh for N above this (it takes ~40 s and 6 GiB at 512)")
     ap.add_argument("--volga", default=os.path.join(REPO, "target", "release", "volga"))
+    ap.add_argument("--volga-before", metavar="BIN",
+                    help="an earlier volga binary, served warm in the same rounds: rows 'volga before' "
+                         "with their own peer/volga ratios, to show a change's cost in one run")
     ap.add_argument("--system-python", default="/usr/bin/python3", help="interpreter with pyopenvdb")
     ap.add_argument("--docs", default=os.path.join(REPO, "docs", "BENCHMARKS.md"))
     ap.add_argument("--no-docs", action="store_true", help="print the table only")
@@ -450,6 +453,7 @@ def main():
     workdir = a.workdir or tempfile.mkdtemp(prefix="volga-peers-")
     os.makedirs(workdir, exist_ok=True)
     volga = Volga(os.path.abspath(a.volga), mesh, workdir)
+    before = Volga(os.path.abspath(a.volga_before), mesh, workdir, "volga-before") if a.volga_before else None
     if volga.missing:
         log(f"*** volga rows are MISSING: {volga.missing}. Running the peers alone. ***")
     vhelp = volga.has_validate()
@@ -485,12 +489,18 @@ def main():
         dist_args = ["--distance", str(HALF_WIDTH)]
         dist_out = os.path.join(workdir, f"volga_dist_{n}.nrrd")
         vsrv = None if volga.missing else volga.server(n, dist_args)
+        bsrv = before.server(n, dist_args) if before else None
         log(f"  (a) volga warm-up, then {a.repeats} rounds of volga (fresh process, warm server) + OpenVDB")
         reports = interleaved(a.repeats, volga_runner(n, dist_args, dist_out, f"dist{n}"),
-                              [s for s in (vsrv, vdb) if s])
+                              [s for s in (vsrv, bsrv, vdb) if s])
         vdb_npz = os.path.join(workdir, f"openvdb_{n}.npz")
         vdb.dump(vdb_npz)
         vdb.close()
+        if bsrv:
+            bsrv.close()
+            bt = statistics.median(bsrv.times)
+            rows.append(dict(n=n, task=task, tool="volga before (warm)", time=fmt_time(bt),
+                             ratio=f"OpenVDB/this {statistics.median(vdb.times) / bt:.2f}"))
         va = volga_summary(reports, vsrv, os.path.join(workdir, f"volga_dist_{n}_served.nrrd"), dist_out)
         t = statistics.median(vdb.times)
         if va:
@@ -521,10 +531,17 @@ def main():
         sep_args = ["--separability", "26"]
         sep_out = os.path.join(workdir, f"volga_sep26_{n}.binvox")
         vsrv = None if volga.missing else volga.server(n, sep_args)
+        bsrv = before.server(n, sep_args) if before else None
         log(f"  (b, c) volga warm-up, then {a.repeats} rounds of volga (fresh process, warm server) + "
             f"{' + '.join(tools)}")
         reports = interleaved(a.repeats, volga_runner(n, sep_args, sep_out, f"sep{n}"),
-                              [s for s in [vsrv] + servers if s])
+                              [s for s in [vsrv, bsrv] + servers if s])
+        if bsrv:
+            bsrv.close()
+            bt = statistics.median(bsrv.times)
+            rows.append(dict(n=n, task="(b) 26-separating surface", tool="volga before (warm)",
+                             time=fmt_time(bt),
+                             ratio=f"Open3D/this {statistics.median(servers[0].times) / bt:.2f}"))
         for s in servers:
             s.dump(os.path.join(workdir, f"{s.tool}_{n}.binvox"))
             s.close()
