@@ -503,7 +503,7 @@ mod tests {
                 let job = MeshJob { resolution, mode };
                 let grid = job.layout(&mesh.bounds()).unwrap();
                 let estimate = job.estimate(&mesh, &grid);
-                let (volume, _) = job.run(&mesh, &grid, &NoProgress);
+                let volume = job.run(&mesh, &grid, &NoProgress).volume;
                 let stored = volume.density.brick_count() as u64;
                 let bound = if job.needs_inside() {
                     estimate.inside_bricks
