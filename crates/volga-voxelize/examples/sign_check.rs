@@ -25,7 +25,11 @@ fn main() {
     };
     let sizes: Vec<u32> = args[1..].iter().filter_map(|a| a.parse().ok()).collect();
     // `--one-grid`: only the first grid (the one `volga voxelize` uses), for big meshes.
-    let shifts: &[f64] = if args.iter().any(|a| a == "--one-grid") { &[0.0] } else { &[0.0, 0.5] };
+    let shifts: &[f64] = if args.iter().any(|a| a == "--one-grid") {
+        &[0.0]
+    } else {
+        &[0.0, 0.5]
+    };
     let meshes: Vec<(String, TriMesh)> = if what == "corpus" {
         unclean::corpus().into_iter().map(|(n, m)| (n.to_string(), m)).collect()
     } else {
