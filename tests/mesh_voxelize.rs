@@ -268,3 +268,33 @@ proptest! {
         }
     }
 }
+
+/// A sliver 1e-9 wide (found by the soup proptest): Ericson's barycentric form cancels
+/// catastrophically inside it and gave distances 1 % too large; thin triangles now take
+/// the plane inside and the edges outside.
+#[test]
+fn sliver_distances_are_exact() {
+    let s = 9.95455286094981e-10;
+    let mesh = TriMesh::new(
+        vec![DVec3::new(0.0, 0.0, -0.1), DVec3::splat(s), DVec3::ZERO],
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    let grid = grid_for(mesh.bounds(), 14);
+    let h = grid.transform.spacing().x;
+    let v = MeshVoxelizer::new(&mesh).voxelize(
+        &grid,
+        SurfaceMode::Distance {
+            half_width_voxels: 2.5,
+            signed: false,
+        },
+        &NoProgress,
+    );
+    for ijk in grid.index_box().iter() {
+        let exact = brute_distance(&mesh, grid.transform.voxel_center(ijk));
+        if exact < 2.5 * h * 0.999 {
+            let value = v.density.get(ijk) as f64;
+            assert!((value - exact).abs() <= 1e-5 * h, "{ijk}: {value} vs exact {exact}");
+        }
+    }
+}

@@ -238,6 +238,10 @@ const TOUCH: f64 = 1e-9;
 /// Whether two triangles that share the welded corners in `ids_*` meet anywhere but
 /// their shared edge or corner, decided conservatively.
 fn adjacent_pair_crosses(t: [DVec3; 3], t_ids: [u32; 3], s: [DVec3; 3], s_ids: [u32; 3]) -> bool {
+    let repeats = |ids: [u32; 3]| ids[0] == ids[1] || ids[1] == ids[2] || ids[2] == ids[0];
+    if repeats(t_ids) || repeats(s_ids) {
+        return true; // a degenerate triangle is never clean, nor what touches it
+    }
     let mut shared = [(0usize, 0usize); 9];
     let mut count = 0;
     for (i, ti) in t_ids.iter().enumerate() {

@@ -20,6 +20,11 @@ pub(crate) struct TriDistance {
     lo: DVec3,
     hi: DVec3,
     degenerate: bool,
+    /// A sliver (`|ab × ac| < 1e-3 · longest²`): Ericson's barycentric cancellations lose
+    /// the interior case there (a 1e-8 sliver gave 1 % errors), so the distance is the
+    /// plane's inside the triangle (sign tests on edge cross products, which misjudge
+    /// only within rounding of an edge, where both answers agree) and the edges' outside.
+    thin: bool,
 }
 
 /// Edge of the bricks the voxelizers fill (voxels).
@@ -56,6 +61,7 @@ impl TriDistance {
         // NaN-safe: a NaN area counts as degenerate.
         let degenerate = n.length_squared().partial_cmp(&(1e-24 * scale * scale)) != Some(std::cmp::Ordering::Greater);
         let unit_normal = if degenerate { DVec3::ZERO } else { n.normalize() };
+        let thin = !degenerate && n.length_squared() < 1e-6 * scale * scale;
         TriDistance {
             a,
             b,
@@ -67,6 +73,7 @@ impl TriDistance {
             lo: a.min(b).min(c),
             hi: a.max(b).max(c),
             degenerate,
+            thin,
         }
     }
 
@@ -139,6 +146,17 @@ impl TriDistance {
     pub(crate) fn distance_squared(&self, p: DVec3) -> f64 {
         let TriDistance { a, b, c, ab, ac, .. } = *self;
         if self.degenerate {
+            return segment_d2(p, a, b).min(segment_d2(p, b, c)).min(segment_d2(p, c, a));
+        }
+        if self.thin {
+            let n = self.unit_normal;
+            let inside = ab.cross(p - a).dot(n) >= 0.0
+                && (c - b).cross(p - b).dot(n) >= 0.0
+                && (a - c).cross(p - c).dot(n) >= 0.0;
+            if inside {
+                let plane = n.dot(p - a);
+                return plane * plane;
+            }
             return segment_d2(p, a, b).min(segment_d2(p, b, c)).min(segment_d2(p, c, a));
         }
         let ap = p - a;
