@@ -3,6 +3,7 @@
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
 
 mod bench;
+mod bench_render;
 mod failure;
 mod progress;
 mod validate;
