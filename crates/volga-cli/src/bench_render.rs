@@ -5,7 +5,10 @@
 //! brain, ventricles and a dense lesion, the phantom's edges anti-aliased over one voxel),
 //! and `bunny`, `--mesh` voxelized as an anti-aliased solid at `--size` voxels along its
 //! longest side. Each is rendered three ways, in turns, `--warmup` untimed rounds then
-//! `--repeat` timed ones:
+//! `--repeat` timed ones. The renderers are prepared once per volume and mode
+//! ([`Renderer::new`]: validation and the empty-space skipping grid, what a viewer does
+//! once per volume), their preparation timed apart (`*_prepare_s`); a frame is one
+//! [`Renderer::render`] of the view:
 //!
 //! * `iso`: the shaded iso-surface at 0.5 (one white light, constant colour);
 //! * `dvr`: shaded semi-transparent volume rendering, early ray termination **off**,
@@ -30,7 +33,7 @@ use volga_core::{
     brick_index_box, Aabb, Brick, Field, Filter, Grid, NoProgress, Sampled, SparseVolume, BRICK_DIM, BRICK_VOXELS,
 };
 use volga_render::{
-    render, Camera, Image, Iso, Lighting, Material, Mode, Projection, RenderSettings, RenderStats, SurfaceColour,
+    Camera, Image, Iso, Lighting, Material, Projection, RenderSettings, RenderStats, Renderer, SurfaceColour,
     TransferFunction, Volume,
 };
 use volga_voxelize::{MeshJob, MeshJobMode};
@@ -152,16 +155,23 @@ fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failur
     let field = Sampled::new(&v.volume, Filter::Trilinear);
     let mut lit = RenderSettings::new(args.width, args.height);
     lit.sampling.step_voxels = args.step_voxels;
-    let iso_mode = Mode::Iso(Iso {
+    let iso_mode = Iso {
         value: 0.5,
         colour: SurfaceColour::Constant(Vec3::new(0.85, 0.8, 0.7)),
-    });
-    let dvr_mode = Mode::Volume(Volume::new(v.transfer.clone(), false));
+    };
+    let dvr_mode = Volume::new(v.transfer.clone(), false);
     let mut dvr = lit.clone();
     dvr.sampling.early_termination_alpha = 2.0; // off: every ray is integrated to its end
-    let plain = PlainDvr::new(&v.volume, &v.transfer, &dvr)?;
 
+    // Prepared once per volume and mode, as a viewer would (timed apart).
     let render_err = |e: volga_render::RenderError| failed(format!("{}: {e}", v.name));
+    let (iso_prepare_s, iso_renderer) = timed(|| Renderer::new(&field, &iso_mode, &lit));
+    let iso_renderer = iso_renderer.map_err(render_err)?;
+    let (dvr_prepare_s, dvr_renderer) = timed(|| Renderer::new(&field, &dvr_mode, &dvr));
+    let dvr_renderer = dvr_renderer.map_err(render_err)?;
+    let (baseline_prepare_s, plain) = timed(|| PlainDvr::new(&v.volume, &v.transfer, &dvr));
+    let plain = plain?;
+
     let mut iso_times = Vec::new();
     let mut dvr_times = Vec::new();
     let mut base_times = Vec::new();
@@ -169,15 +179,15 @@ fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failur
     type Round = ((Image, RenderStats), (Image, RenderStats), (Image, u64));
     let mut last: Option<Round> = None;
     for round in 0..args.warmup + args.repeat as usize {
-        let (ti, iso) = timed(|| render(&field, &v.camera, &iso_mode, &lit, &NoProgress));
-        let (td, dvr_out) = timed(|| render(&field, &v.camera, &dvr_mode, &dvr, &NoProgress));
+        let (ti, iso) = timed(|| iso_renderer.render(&v.camera, &NoProgress));
+        let (td, dvr_out) = timed(|| dvr_renderer.render(&v.camera, &NoProgress));
         let (tb, base) = timed(|| plain.render(&v.camera));
         if round >= args.warmup {
             iso_times.push(ti);
             dvr_times.push(td);
             base_times.push(tb);
         }
-        last = Some((iso.map_err(render_err)?, dvr_out.map_err(render_err)?, base));
+        last = Some((iso, dvr_out, base));
     }
     let ((iso_img, iso_stats), (dvr_img, dvr_stats), (base_img, base_samples)) = last.expect("at least one round");
     let max_diff = dvr_img
@@ -205,6 +215,9 @@ fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failur
         "baseline_samples_per_s": base_samples as f64 / base_t,
         "dvr_vs_volumepro500": dvr_stats.samples as f64 / dvr_t / VOLUMEPRO_500_SAMPLES_PER_S,
         "dvr_speedup_over_baseline": base_t / dvr_t,
+        "iso_prepare_s": iso_prepare_s,
+        "dvr_prepare_s": dvr_prepare_s,
+        "baseline_prepare_s": baseline_prepare_s,
         "iso_times_s": iso_times,
         "dvr_times_s": dvr_times,
         "baseline_times_s": base_times,
