@@ -17,6 +17,9 @@
 //!   volume — one trilinear sample at a time, no skipping, no early termination, the
 //!   same lattice, classification, opacity correction and shading (see [`plain_dvr`]).
 //!
+//! Each volume also reports the median CPU seconds per frame summed over threads
+//! (`*_cpu_s`, Linux): on a shared machine wall-clock frames stretch, CPU time much less.
+//!
 //! It prints one JSON object: the top-level `iso_fps`, `dvr_fps`, `baseline_fps`,
 //! `samples_per_s` (DVR samples per second) are the **minimum over the volumes** (the
 //! slower volume decides); `volumes` holds each volume's medians, counters and the
@@ -151,6 +154,30 @@ fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
     (start.elapsed().as_secs_f64(), out)
 }
 
+/// CPU time of the whole process so far (every thread), in nanoseconds, from
+/// `/proc/self/task/*/schedstat` (Linux); `None` elsewhere. On a machine shared with
+/// other work, wall-clock frames stretch while CPU time per frame stays near what the
+/// frame costs: both are reported.
+fn process_cpu_ns() -> Option<u64> {
+    let mut total = 0u64;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total)
+}
+
+/// [`timed`], plus the CPU seconds spent (all threads; NaN where unknown).
+fn timed_cpu<T>(f: impl FnOnce() -> T) -> (f64, f64, T) {
+    let cpu0 = process_cpu_ns();
+    let (t, out) = timed(f);
+    let cpu = match (cpu0, process_cpu_ns()) {
+        (Some(a), Some(b)) => b.saturating_sub(a) as f64 * 1e-9,
+        _ => f64::NAN,
+    };
+    (t, cpu, out)
+}
+
 fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failure> {
     let field = Sampled::new(&v.volume, Filter::Trilinear);
     let mut lit = RenderSettings::new(args.width, args.height);
@@ -175,17 +202,21 @@ fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failur
     let mut iso_times = Vec::new();
     let mut dvr_times = Vec::new();
     let mut base_times = Vec::new();
+    let mut cpu_times = [Vec::new(), Vec::new(), Vec::new()];
     /// The last round's images and counters: iso, DVR, baseline (with its sample count).
     type Round = ((Image, RenderStats), (Image, RenderStats), (Image, u64));
     let mut last: Option<Round> = None;
     for round in 0..args.warmup + args.repeat as usize {
-        let (ti, iso) = timed(|| iso_renderer.render(&v.camera, &NoProgress));
-        let (td, dvr_out) = timed(|| dvr_renderer.render(&v.camera, &NoProgress));
-        let (tb, base) = timed(|| plain.render(&v.camera));
+        let (ti, ci, iso) = timed_cpu(|| iso_renderer.render(&v.camera, &NoProgress));
+        let (td, cd, dvr_out) = timed_cpu(|| dvr_renderer.render(&v.camera, &NoProgress));
+        let (tb, cb, base) = timed_cpu(|| plain.render(&v.camera));
         if round >= args.warmup {
             iso_times.push(ti);
             dvr_times.push(td);
             base_times.push(tb);
+            for (list, c) in cpu_times.iter_mut().zip([ci, cd, cb]) {
+                list.push(c);
+            }
         }
         last = Some((iso, dvr_out, base));
     }
@@ -215,6 +246,9 @@ fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failur
         "baseline_samples_per_s": base_samples as f64 / base_t,
         "dvr_vs_volumepro500": dvr_stats.samples as f64 / dvr_t / VOLUMEPRO_500_SAMPLES_PER_S,
         "dvr_speedup_over_baseline": base_t / dvr_t,
+        "iso_cpu_s": median(&cpu_times[0]),
+        "dvr_cpu_s": median(&cpu_times[1]),
+        "baseline_cpu_s": median(&cpu_times[2]),
         "iso_prepare_s": iso_prepare_s,
         "dvr_prepare_s": dvr_prepare_s,
         "baseline_prepare_s": baseline_prepare_s,
