@@ -14,6 +14,10 @@ use crate::{Ray, RenderStats};
 /// cell, at most this many.
 pub(crate) const BATCH: usize = 32;
 
+/// Samples per run of the iso march: shorter, since a run's samples past the first
+/// crossing are read for nothing.
+const ISO_BATCH: usize = 8;
+
 /// Upper bound on lattice samples along one ray; the renderer rejects settings that
 /// would exceed it and [`first_hit`] coarsens its step to stay under it.
 pub(crate) const MAX_STEPS_PER_RAY: f64 = MAX_SAMPLES_PER_RAY as f64;
@@ -416,7 +420,7 @@ pub(crate) fn march_iso<F: Field + ?Sized>(
     let bg = field.background();
     // (ray parameter, value below iso) of the previous sample.
     let mut prev: Option<(f64, bool)> = (t0 > 0.0 && !bg.is_nan()).then_some((t0, inward * bg < iso));
-    let mut values = [0.0f64; BATCH];
+    let mut values = [0.0f64; ISO_BATCH];
     let mut walk = grid.map(|g| g.walk(ray, t0));
     let mut i = 0u64;
     while i <= k_end {
@@ -444,7 +448,7 @@ pub(crate) fn march_iso<F: Field + ?Sized>(
             values[0] = field.value(ray.at(t1));
             1
         } else {
-            let n = (end.min(k_end) - i).min(BATCH as u64) as usize;
+            let n = (end.min(k_end) - i).min(ISO_BATCH as u64) as usize;
             field.values_along(&line, i, &mut values[..n]);
             n
         };
