@@ -48,7 +48,14 @@ pub(crate) struct MacroGrid {
     dims: [usize; 3],
     class: Vec<CellClass>,
     hi: Vec<f64>,
+    /// Per cell, the largest `r ≤ MAX_REACH` such that every cell within Chebyshev
+    /// distance `r` (the `(2r + 1)³` block around it, clipped to the grid) is
+    /// [`CellClass::Outside`]: a ray in the cell may jump to the block's exit at once.
+    reach: Vec<u8>,
 }
+
+/// Largest jump of [`MacroGrid::reach`], in cells.
+const MAX_REACH: u8 = 8;
 
 /// Target macro cell edge in sample spacings, and the cap per axis (≤ 64³ cells).
 const CELL_SPACINGS: f64 = 8.0;
@@ -78,6 +85,7 @@ impl MacroGrid {
             dims,
             class: Vec::new(),
             hi: Vec::new(),
+            reach: Vec::new(),
         };
         let margin = DVec3::splat(spacing);
         let cells: Vec<(CellClass, f64)> = (0..dims[0] * dims[1] * dims[2])
@@ -95,7 +103,39 @@ impl MacroGrid {
             .collect();
         grid.class = cells.iter().map(|c| c.0).collect();
         grid.hi = cells.iter().map(|c| c.1).collect();
+        grid.reach = grid.outside_reach();
         grid
+    }
+
+    /// [`MacroGrid::reach`] by repeated erosion of the Outside cells with a 3×3×3
+    /// block (separable: a window of 3 along each axis in turn); cells beyond the grid
+    /// hold no samples and count as Outside.
+    fn outside_reach(&self) -> Vec<u8> {
+        let [nx, ny, nz] = self.dims;
+        let mut full: Vec<bool> = self.class.iter().map(|c| *c == CellClass::Outside).collect();
+        let mut reach = vec![0u8; full.len()];
+        for r in 1..=MAX_REACH {
+            for (axis, n, stride) in [(0, nx, 1), (1, ny, nx), (2, nz, nx * ny)] {
+                let prev = full.clone();
+                for (lin, f) in full.iter_mut().enumerate() {
+                    let i = [lin % nx, (lin / nx) % ny, lin / (nx * ny)][axis];
+                    let below = i == 0 || prev[lin - stride];
+                    let above = i + 1 >= n || prev[lin + stride];
+                    *f = prev[lin] && below && above;
+                }
+            }
+            let mut any = false;
+            for (re, f) in reach.iter_mut().zip(&full) {
+                if *f {
+                    *re = r;
+                    any = true;
+                }
+            }
+            if !any {
+                break;
+            }
+        }
+        reach
     }
 
     /// Number of macro cells.
@@ -166,10 +206,9 @@ impl MacroGrid {
             lin,
             t_exit: [f64::INFINITY; 3],
             inside: true,
+            relocate: false,
         };
-        for a in 0..3 {
-            walk.t_exit[a] = walk.plane_t(a);
-        }
+        walk.start_at(ijk, lin);
         walk
     }
 }
@@ -191,27 +230,43 @@ pub(crate) struct CellWalk<'g> {
     /// False once the walk has left the grid (rounding at the bounds): cells are then
     /// located point by point.
     inside: bool,
+    /// Set after a jump over a block of Outside cells: the next query locates its cell.
+    relocate: bool,
 }
 
 impl CellWalk<'_> {
-    /// Ray parameter where the ray crosses the far face of the current cell along `a`.
+    fn start_at(&mut self, ijk: [usize; 3], lin: usize) {
+        self.ijk = ijk;
+        self.lin = lin;
+        for a in 0..3 {
+            self.t_exit[a] = self.plane_t(a);
+        }
+    }
+
+    /// Ray parameter where the ray leaves, through its far face along `a`, the slab of
+    /// cells `index` on that axis.
     #[inline]
-    fn plane_t(&self, a: usize) -> f64 {
+    fn face_t(&self, a: usize, index: usize) -> f64 {
         let g = self.grid;
         let d = self.ray.dir[a];
         if d > 0.0 {
-            let plane = if self.ijk[a] + 1 >= g.dims[a] {
+            let plane = if index + 1 >= g.dims[a] {
                 g.max[a]
             } else {
-                g.min[a] + (self.ijk[a] + 1) as f64 * g.cell[a]
+                g.min[a] + (index + 1) as f64 * g.cell[a]
             };
             (plane - self.ray.origin[a]) / d
         } else if d < 0.0 {
-            let plane = g.min[a] + self.ijk[a] as f64 * g.cell[a];
-            (plane - self.ray.origin[a]) / d
+            (g.min[a] + index as f64 * g.cell[a] - self.ray.origin[a]) / d
         } else {
             f64::INFINITY
         }
+    }
+
+    /// Ray parameter where the ray crosses the far face of the current cell along `a`.
+    #[inline]
+    fn plane_t(&self, a: usize) -> f64 {
+        self.face_t(a, self.ijk[a])
     }
 
     /// The cell holding the sample at `t` (non-decreasing from call to call): its
@@ -219,6 +274,11 @@ impl CellWalk<'_> {
     #[inline]
     fn cell(&mut self, t: f64) -> (usize, f64) {
         let g = self.grid;
+        if self.relocate && self.inside {
+            self.relocate = false;
+            let (ijk, lin) = g.locate(self.ray.at(t));
+            self.start_at(ijk, lin);
+        }
         loop {
             let exit = self.t_exit[0].min(self.t_exit[1]).min(self.t_exit[2]);
             if !self.inside {
@@ -253,10 +313,31 @@ impl CellWalk<'_> {
 
     /// The class of the cell holding the sample at `t` and the ray parameter where the
     /// ray leaves that cell.
+    ///
+    /// In an Outside cell whose whole block of reach `r ≥ 2` is Outside, the exit is
+    /// that of the block (`r` cells on every side, clipped to the grid): every point of
+    /// the ray between the sample and it lies in the block, so the samples there are
+    /// Outside too, and the walk locates its cell afresh at the next query.
     #[inline]
     pub(crate) fn class_at(&mut self, t: f64) -> (CellClass, f64) {
         let (lin, exit) = self.cell(t);
-        (self.grid.class[lin], exit)
+        let class = self.grid.class[lin];
+        let r = self.grid.reach[lin] as usize;
+        if class != CellClass::Outside || r < 2 || !self.inside {
+            return (class, exit);
+        }
+        let g = self.grid;
+        let mut block_exit = f64::INFINITY;
+        for a in 0..3 {
+            let index = if self.ray.dir[a] > 0.0 {
+                (self.ijk[a] + r).min(g.dims[a] - 1)
+            } else {
+                self.ijk[a].saturating_sub(r)
+            };
+            block_exit = block_exit.min(self.face_t(a, index));
+        }
+        self.relocate = true;
+        (class, block_exit.max(exit))
     }
 
     /// The maximum of the conservative value range of the cell holding the sample at

@@ -164,10 +164,14 @@ fn volume_mode() -> Mode {
 /// A ball of radius 7 voxels, density blended over 2 voxels, in a 24³ grid with voxel
 /// (0, 0, 0) at `origin`.
 fn ball(origin: DVec3) -> SparseVolume {
-    let grid = Grid::new(Transform::new(origin, DVec3::ONE).unwrap(), UVec3::splat(24)).unwrap();
+    ball_in(origin, 24, DVec3::splat(11.5))
+}
+
+fn ball_in(origin: DVec3, size: u32, centre: DVec3) -> SparseVolume {
+    let grid = Grid::new(Transform::new(origin, DVec3::ONE).unwrap(), UVec3::splat(size)).unwrap();
     let mut volume = SparseVolume::new(grid, 0.0, false);
     for ijk in grid.index_box().iter() {
-        let d = (ijk.as_dvec3() - DVec3::splat(11.5)).length() - 7.0;
+        let d = (ijk.as_dvec3() - centre).length() - 7.0;
         let v = (0.5 - d / 2.0).clamp(0.0, 1.0) as f32;
         if v > 0.0 {
             volume.density.set(ijk, v);
@@ -266,6 +270,42 @@ fn a_grid_far_from_the_origin_renders_like_one_at_it() {
                 .fold(0.0f32, f32::max);
             assert!(diff < 1e-4, "{mode:?}: {diff}");
             assert!(a.pixels.iter().any(|p| p.w > 0.0), "{mode:?}: empty image");
+        }
+    }
+}
+
+/// A small ball in a corner of a 128³ grid (16 macro cells a side): rays cross blocks of
+/// empty cells in jumps. Every mode's image is the same with and without skipping, and
+/// the jumps make fewer skip steps than there are empty cells along the rays.
+#[test]
+fn jumps_across_empty_space_change_nothing() {
+    let volume = ball_in(DVec3::ZERO, 128, DVec3::new(100.0, 30.0, 90.0));
+    let field = Sampled::new(&volume, Filter::Trilinear);
+    let (w, h) = (40, 36);
+    for (eye, up) in [
+        (DVec3::new(-60.0, 140.0, -80.0), DVec3::Y),
+        (DVec3::new(100.0, 30.0, -200.0), DVec3::Y),
+        (DVec3::new(64.0, 300.0, 64.0), DVec3::Z),
+    ] {
+        let cam = Camera::look_at(
+            eye,
+            DVec3::new(100.0, 30.0, 90.0),
+            up,
+            Projection::Perspective { fov_y_deg: 20.0 },
+        )
+        .unwrap();
+        for mode in modes() {
+            let mut s = transparent(w, h);
+            let (on, st_on) = go(&field, &cam, &mode, &s);
+            s.sampling.empty_space_skipping = false;
+            let (off, _) = go(&field, &cam, &mode, &s);
+            assert_eq!(bits(&on), bits(&off), "{mode:?} from {eye}");
+            assert!(on.pixels.iter().any(|p| p.w > 0.0), "{mode:?}: empty image");
+            if let Mode::Iso(_) | Mode::Volume(_) = mode {
+                // Rays cross ≥ 16 cells of the grid, nearly all empty; with jumps of up
+                // to 8 cells they need a few skip steps each.
+                assert!(st_on.cells_skipped < 8 * st_on.rays, "{mode:?}: {st_on:?}");
+            }
         }
     }
 }
