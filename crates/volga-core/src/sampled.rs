@@ -293,17 +293,35 @@ impl<S: VoxelSource> Sampled<S> {
     }
 
     /// Central differences of the reconstruction one voxel apart along each index axis,
-    /// divided by the world distance: the world-space gradient.
+    /// divided by the world distance: the world-space gradient. For trilinear
+    /// reconstruction the six neighbours share the point's cell fractions, so the base
+    /// voxel is found once and the six 2×2×2 cubes are read around it.
     #[inline]
     fn gradient_at_index<R: VoxelReader>(&self, reader: &mut R, index_pos: DVec3) -> DVec3 {
         let spacing = self.source.grid().transform.spacing();
         let mut g = DVec3::ZERO;
-        for a in 0..3 {
-            let mut e = DVec3::ZERO;
-            e[a] = 1.0;
-            let forward = self.value_at_index(reader, index_pos + e);
-            let backward = self.value_at_index(reader, index_pos - e);
-            g[a] = (forward - backward) / (2.0 * spacing[a]);
+        match self.filter {
+            Filter::Trilinear => {
+                let base_pos = floor(index_pos);
+                let f = index_pos - base_pos;
+                let base = clamp_to_ivec3(base_pos);
+                for a in 0..3 {
+                    let mut e = IVec3::ZERO;
+                    e[a] = 1;
+                    let forward = trilerp(reader.density_cube(base + e), f);
+                    let backward = trilerp(reader.density_cube(base - e), f);
+                    g[a] = (forward - backward) / (2.0 * spacing[a]);
+                }
+            }
+            Filter::Nearest => {
+                for a in 0..3 {
+                    let mut e = DVec3::ZERO;
+                    e[a] = 1.0;
+                    let forward = self.value_at_index(reader, index_pos + e);
+                    let backward = self.value_at_index(reader, index_pos - e);
+                    g[a] = (forward - backward) / (2.0 * spacing[a]);
+                }
+            }
         }
         g
     }
