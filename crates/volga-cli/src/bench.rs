@@ -26,6 +26,8 @@ use crate::voxelize::{output_format, write_outputs, JobArgs};
 pub enum BenchCommand {
     /// Time `volga voxelize`'s voxelization warm, in one process (mesh read once).
     Voxelize(BenchArgs),
+    /// Frames per second of the raycaster (iso, DVR) against a plain raycaster, as JSON.
+    Render(crate::bench_render::RenderBenchArgs),
 }
 
 #[derive(Args)]
@@ -47,7 +49,10 @@ pub struct BenchArgs {
 }
 
 pub fn run(command: BenchCommand) -> Result<(), Failure> {
-    let BenchCommand::Voxelize(args) = command;
+    let args = match command {
+        BenchCommand::Voxelize(args) => args,
+        BenchCommand::Render(args) => return crate::bench_render::run(args),
+    };
     let job_args = &args.job;
     let binary = job_args.spec()?.is_binary();
     if let Some(out) = &args.out {

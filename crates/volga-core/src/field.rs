@@ -42,6 +42,24 @@ impl FieldKind {
     }
 }
 
+/// Equally spaced world points `origin + i·step`, `i = 0, 1, …`: the sample lattice of
+/// a ray, read in batches by [`Field::values_along`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Line {
+    /// World position of point 0.
+    pub origin: DVec3,
+    /// World offset from one point to the next.
+    pub step: DVec3,
+}
+
+impl Line {
+    /// World position of point `i`.
+    #[inline]
+    pub fn at(&self, i: u64) -> DVec3 {
+        self.origin + self.step * i as f64
+    }
+}
+
 /// The one sampling interface: everything the raycaster can render is a `Field`.
 ///
 /// Positions are **world space** (`f64`). Values are densities, distances or
@@ -64,6 +82,33 @@ pub trait Field: Sync {
 
     /// Value at a world position.
     fn value(&self, world_pos: DVec3) -> f64;
+
+    /// Values at the points `first + k` of `line`, `k < out.len()`: `out[k]` is the value
+    /// at `line.at(first + k)`.
+    ///
+    /// The batch form of [`Field::value`], for runs of samples along a ray: a sampled
+    /// field reads voxels brick by brick instead of looking each sample up. An
+    /// implementation may compute the points its own way (e.g. in index space), so values
+    /// may differ from `value(line.at(i))` by the rounding of the position, but each value
+    /// must be a function of `line` and the point's index `i = first + k` alone — never of
+    /// `first` or of the batch length — so a ray read in one batch or in many pieces gives
+    /// the same bits (what lets the renderer skip empty space without changing the
+    /// image). The default calls `value` at each point.
+    fn values_along(&self, line: &Line, first: u64, out: &mut [f64]) {
+        for (k, v) in out.iter_mut().enumerate() {
+            *v = self.value(line.at(first + k as u64));
+        }
+    }
+
+    /// Gradients at a batch of world points: `out[k]` is [`Field::gradient`] at
+    /// `world_pos[k]` (the default calls it; sampled fields share voxel look-ups across
+    /// the batch). Both slices have the same length.
+    fn gradients_at(&self, world_pos: &[DVec3], out: &mut [DVec3]) {
+        debug_assert_eq!(world_pos.len(), out.len());
+        for (g, p) in out.iter_mut().zip(world_pos) {
+            *g = self.gradient(*p);
+        }
+    }
 
     /// Gradient of the value with respect to world position. The default takes
     /// central differences of [`Field::value`] with steps [`Field::gradient_step`].
@@ -110,6 +155,12 @@ impl<F: Field + ?Sized> Field for &F {
     }
     fn value(&self, p: DVec3) -> f64 {
         (**self).value(p)
+    }
+    fn values_along(&self, line: &Line, first: u64, out: &mut [f64]) {
+        (**self).values_along(line, first, out)
+    }
+    fn gradients_at(&self, world_pos: &[DVec3], out: &mut [DVec3]) {
+        (**self).gradients_at(world_pos, out)
     }
     fn gradient(&self, p: DVec3) -> DVec3 {
         (**self).gradient(p)

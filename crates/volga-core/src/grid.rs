@@ -59,7 +59,22 @@ impl Transform {
     #[inline]
     pub fn nearest_voxel(&self, world_pos: DVec3) -> IVec3 {
         let index_pos = self.world_to_index(world_pos);
-        clamp_to_ivec3((index_pos + 0.5).floor())
+        clamp_to_ivec3((index_pos + 0.5).map(fast_floor))
+    }
+}
+
+/// `x.floor()` without a libm call. The workspace builds for baseline x86-64, without
+/// SSE4.1's `roundsd`, where `f64::floor` is a function call: it took a tenth of a
+/// render's time in the samplers. Truncation by conversion, corrected for negatives:
+/// equal to `floor` for |x| < 2⁶³ (every index or lattice coordinate); beyond, it
+/// saturates at ±2⁶³, and NaN gives 0.
+#[inline]
+pub fn fast_floor(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t > x {
+        t - 1.0
+    } else {
+        t
     }
 }
 
@@ -214,6 +229,30 @@ mod tests {
         assert!(Transform::new(DVec3::new(f64::NAN, 0.0, 0.0), DVec3::ONE).is_err());
         let t = Transform::new(DVec3::ZERO, DVec3::ONE).unwrap();
         assert!(Grid::new(t, UVec3::new(4, 0, 4)).is_err());
+    }
+
+    #[test]
+    fn fast_floor_is_floor() {
+        for x in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999,
+            -2.999,
+            1e15 + 0.5,
+            -1e15 - 0.5,
+            4.5e15,
+            1e-300,
+            -1e-300,
+        ] {
+            assert_eq!(fast_floor(x), x.floor(), "{x}");
+        }
+        assert_eq!(fast_floor(f64::NAN), 0.0);
+        assert_eq!(fast_floor(1e300), 2f64.powi(63));
+        assert_eq!(fast_floor(f64::NEG_INFINITY), -(2f64.powi(63)));
     }
 
     #[test]

@@ -1,8 +1,10 @@
 use glam::{DVec3, IVec3, Vec3};
 
-use crate::grid::clamp_to_ivec3;
+use crate::grid::{clamp_to_ivec3, fast_floor};
 use crate::sparse::brick_of;
-use crate::{Aabb, Brick, DenseVolume, Field, Grid, IndexBox, Rgb, SparseVolume, BRICK_DIM};
+use crate::{
+    Aabb, Brick, DenseVolume, Field, Grid, IndexBox, Line, Rgb, SparseGrid, SparseVolume, BRICK_DIM, BRICK_SHAPE,
+};
 
 /// Reconstruction filter used between voxel centres (survey §5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -28,6 +30,136 @@ pub trait VoxelSource: Sync {
     fn density_range(&self, index_box: &IndexBox) -> (f32, f32);
     fn has_colour(&self) -> bool;
     fn colour(&self, ijk: IVec3) -> Rgb;
+    /// A reader for runs of nearby reads (the samples of one ray): it may cache what it
+    /// looked up last, so it is made per run and dropped after.
+    type Reader<'a>: VoxelReader
+    where
+        Self: 'a;
+    fn reader(&self) -> Self::Reader<'_>;
+}
+
+/// Reads densities like [`VoxelSource::density`] and [`VoxelSource::density_cube`]
+/// (same values, background outside the grid), remembering what it looked up.
+pub trait VoxelReader {
+    fn density(&mut self, ijk: IVec3) -> f32;
+    /// The 2×2×2 densities at `base + {0,1}³`, x fastest.
+    #[inline]
+    fn density_cube(&mut self, base: IVec3) -> [f32; 8] {
+        std::array::from_fn(|c| self.density(base + corner(c)))
+    }
+}
+
+/// Reads a [`DenseVolume`] directly (nothing to cache).
+pub struct DenseReader<'a>(&'a DenseVolume);
+
+impl VoxelReader for DenseReader<'_> {
+    #[inline]
+    fn density(&mut self, ijk: IVec3) -> f32 {
+        self.0.density.get(ijk)
+    }
+    #[inline]
+    fn density_cube(&mut self, base: IVec3) -> [f32; 8] {
+        let d = &self.0.density;
+        let dims = d.shape().dims().as_ivec3();
+        if base.cmpge(IVec3::ZERO).all() && (base + IVec3::ONE).cmplt(dims).all() {
+            let o = d.shape().linearize(base);
+            let (sy, sz) = (dims.x as usize, dims.x as usize * dims.y as usize);
+            let v = d.as_slice();
+            return [
+                v[o],
+                v[o + 1],
+                v[o + sy],
+                v[o + sy + 1],
+                v[o + sz],
+                v[o + sz + 1],
+                v[o + sz + sy],
+                v[o + sz + sy + 1],
+            ];
+        }
+        std::array::from_fn(|c| d.get(base + corner(c)))
+    }
+}
+
+/// Reads a [`SparseVolume`] through a cache of eight bricks, one slot per parity of
+/// the brick coordinate (`(b.x & 1) | (b.y & 1) << 1 | (b.z & 1) << 2`): the bricks a
+/// stencil of at most 8 voxels a side touches have distinct parities, so they all stay
+/// cached, and a ray's samples cost one hash look-up per brick entered instead of one
+/// per sample.
+pub struct SparseReader<'a> {
+    density: &'a SparseGrid<f32>,
+    dims: IVec3,
+    background: f32,
+    keys: [IVec3; 8],
+    /// [`SparseGrid::brick_voxels`] of the brick in each slot: 512 values or one.
+    slices: [&'a [f32]; 8],
+}
+
+impl<'a> SparseReader<'a> {
+    fn new(volume: &'a SparseVolume) -> Self {
+        SparseReader {
+            density: &volume.density,
+            dims: volume.grid.dims().as_ivec3(),
+            background: volume.density.background(),
+            // No brick has this coordinate (grids are at most i32::MAX / 2 voxels a side).
+            keys: [IVec3::splat(i32::MIN); 8],
+            slices: [&[]; 8],
+        }
+    }
+
+    #[inline(always)]
+    fn brick(&mut self, brick: IVec3) -> &'a [f32] {
+        let slot = ((brick.x & 1) | ((brick.y & 1) << 1) | ((brick.z & 1) << 2)) as usize;
+        if self.keys[slot] != brick {
+            self.keys[slot] = brick;
+            self.slices[slot] = self.density.brick_voxels(brick);
+        }
+        self.slices[slot]
+    }
+}
+
+impl VoxelReader for SparseReader<'_> {
+    #[inline]
+    fn density(&mut self, ijk: IVec3) -> f32 {
+        if ijk.cmplt(IVec3::ZERO).any() || ijk.cmpge(self.dims).any() {
+            return self.background;
+        }
+        let voxels = self.brick(brick_of(ijk));
+        voxels[Brick::<f32>::local_offset(ijk) & (voxels.len() - 1)]
+    }
+
+    #[inline]
+    fn density_cube(&mut self, base: IVec3) -> [f32; 8] {
+        let local = base & IVec3::splat(BRICK_DIM - 1);
+        let inside = base.cmpge(IVec3::ZERO).all() && (base + IVec3::ONE).cmplt(self.dims).all();
+        if !inside {
+            return std::array::from_fn(|c| self.density(base + corner(c)));
+        }
+        if local.cmplt(IVec3::splat(BRICK_DIM - 1)).all() {
+            // All eight corners in one brick.
+            let voxels = self.brick(brick_of(base));
+            if voxels.len() == 1 {
+                return [voxels[0]; 8];
+            }
+            let o = BRICK_SHAPE.linearize(local);
+            let (sy, sz) = (BRICK_DIM as usize, (BRICK_DIM * BRICK_DIM) as usize);
+            return [
+                voxels[o],
+                voxels[o + 1],
+                voxels[o + sy],
+                voxels[o + sy + 1],
+                voxels[o + sz],
+                voxels[o + sz + 1],
+                voxels[o + sz + sy],
+                voxels[o + sz + sy + 1],
+            ];
+        }
+        // Across a brick seam, inside the grid: each corner from its cached brick.
+        std::array::from_fn(|c| {
+            let ijk = base + corner(c);
+            let voxels = self.brick(brick_of(ijk));
+            voxels[Brick::<f32>::local_offset(ijk) & (voxels.len() - 1)]
+        })
+    }
 }
 
 #[inline]
@@ -59,6 +191,10 @@ impl VoxelSource for DenseVolume {
     }
     fn colour(&self, ijk: IVec3) -> Rgb {
         self.colour.as_ref().map_or([0.0; 3], |c| c.get(ijk))
+    }
+    type Reader<'a> = DenseReader<'a>;
+    fn reader(&self) -> DenseReader<'_> {
+        DenseReader(self)
     }
 }
 
@@ -117,6 +253,10 @@ impl VoxelSource for SparseVolume {
             _ => [0.0; 3],
         }
     }
+    type Reader<'a> = SparseReader<'a>;
+    fn reader(&self) -> SparseReader<'_> {
+        SparseReader::new(self)
+    }
 }
 
 /// A voxel source seen as a continuous [`Field`] through a reconstruction filter.
@@ -139,13 +279,79 @@ impl<S: VoxelSource> Sampled<S> {
         self.filter
     }
 
+    /// The reconstruction at continuous index coordinates `index_pos`, read through
+    /// `reader` (the same formula as [`Field::value`] after its `world_to_index`).
+    #[inline]
+    fn value_at_index<R: VoxelReader>(&self, reader: &mut R, index_pos: DVec3) -> f64 {
+        match self.filter {
+            Filter::Nearest => reader.density(clamp_to_ivec3(floor(index_pos + 0.5))) as f64,
+            Filter::Trilinear => {
+                let base = floor(index_pos);
+                trilerp(reader.density_cube(clamp_to_ivec3(base)), index_pos - base)
+            }
+        }
+    }
+
+    /// Central differences of the reconstruction one voxel apart along each index axis,
+    /// divided by the world distance: the world-space gradient. For trilinear
+    /// reconstruction the six neighbours share the point's cell fractions, so the base
+    /// voxel is found once and the six 2×2×2 cubes are read around it.
+    #[inline]
+    fn gradient_at_index<R: VoxelReader>(&self, reader: &mut R, index_pos: DVec3) -> DVec3 {
+        let spacing = self.source.grid().transform.spacing();
+        let mut g = DVec3::ZERO;
+        match self.filter {
+            Filter::Trilinear => {
+                let base_pos = floor(index_pos);
+                let f = index_pos - base_pos;
+                let base = clamp_to_ivec3(base_pos);
+                for a in 0..3 {
+                    let mut e = IVec3::ZERO;
+                    e[a] = 1;
+                    let forward = trilerp(reader.density_cube(base + e), f);
+                    let backward = trilerp(reader.density_cube(base - e), f);
+                    g[a] = (forward - backward) / (2.0 * spacing[a]);
+                }
+            }
+            Filter::Nearest => {
+                for a in 0..3 {
+                    let mut e = DVec3::ZERO;
+                    e[a] = 1.0;
+                    let forward = self.value_at_index(reader, index_pos + e);
+                    let backward = self.value_at_index(reader, index_pos - e);
+                    g[a] = (forward - backward) / (2.0 * spacing[a]);
+                }
+            }
+        }
+        g
+    }
+
     /// Trilinear weights' base voxel and fractions for a world point.
     #[inline]
     fn cell(&self, world_pos: DVec3) -> (IVec3, DVec3) {
         let index_pos = self.source.grid().transform.world_to_index(world_pos);
-        let base = index_pos.floor();
+        let base = floor(index_pos);
         (clamp_to_ivec3(base), index_pos - base)
     }
+}
+
+/// [`fast_floor`] on each axis.
+#[inline]
+fn floor(v: DVec3) -> DVec3 {
+    v.map(fast_floor)
+}
+
+/// Trilinear interpolation of the 2×2×2 corner values `c` (x fastest) at fractions `f`.
+#[inline]
+fn trilerp(c: [f32; 8], f: DVec3) -> f64 {
+    let c = c.map(|v| v as f64);
+    let x00 = c[0] + (c[1] - c[0]) * f.x;
+    let x10 = c[2] + (c[3] - c[2]) * f.x;
+    let x01 = c[4] + (c[5] - c[4]) * f.x;
+    let x11 = c[6] + (c[7] - c[6]) * f.x;
+    let y0 = x00 + (x10 - x00) * f.y;
+    let y1 = x01 + (x11 - x01) * f.y;
+    y0 + (y1 - y0) * f.z
 }
 
 impl<S: VoxelSource> Field for Sampled<S> {
@@ -167,15 +373,39 @@ impl<S: VoxelSource> Field for Sampled<S> {
             }
             Filter::Trilinear => {
                 let (base, f) = self.cell(world_pos);
-                let c = self.source.density_cube(base).map(|v| v as f64);
-                let x00 = c[0] + (c[1] - c[0]) * f.x;
-                let x10 = c[2] + (c[3] - c[2]) * f.x;
-                let x01 = c[4] + (c[5] - c[4]) * f.x;
-                let x11 = c[6] + (c[7] - c[6]) * f.x;
-                let y0 = x00 + (x10 - x00) * f.y;
-                let y1 = x01 + (x11 - x01) * f.y;
-                y0 + (y1 - y0) * f.z
+                trilerp(self.source.density_cube(base), f)
             }
+        }
+    }
+
+    /// Walks the line in index space (`index_pos(i) = index_origin + i·index_step`, a
+    /// function of `i` alone) through one [`VoxelReader`], so consecutive samples in a
+    /// brick share its look-up.
+    fn values_along(&self, line: &Line, first: u64, out: &mut [f64]) {
+        let transform = &self.source.grid().transform;
+        let index_origin = transform.world_to_index(line.origin);
+        let index_step = line.step / transform.spacing();
+        let mut reader = self.source.reader();
+        for (k, v) in out.iter_mut().enumerate() {
+            let index_pos = index_origin + index_step * (first + k as u64) as f64;
+            *v = self.value_at_index(&mut reader, index_pos);
+        }
+    }
+
+    /// Central differences of the reconstruction one voxel apart along each axis, taken
+    /// in index space (so the six samples share the fractions of the point and a brick
+    /// look-up), divided by the world distance.
+    fn gradient(&self, world_pos: DVec3) -> DVec3 {
+        let index_pos = self.source.grid().transform.world_to_index(world_pos);
+        self.gradient_at_index(&mut self.source.reader(), index_pos)
+    }
+
+    /// [`Field::gradient`] at each point through one [`VoxelReader`].
+    fn gradients_at(&self, world_pos: &[DVec3], out: &mut [DVec3]) {
+        let transform = &self.source.grid().transform;
+        let mut reader = self.source.reader();
+        for (g, p) in out.iter_mut().zip(world_pos) {
+            *g = self.gradient_at_index(&mut reader, transform.world_to_index(*p));
         }
     }
 
@@ -260,5 +490,12 @@ impl<S: VoxelSource + ?Sized> VoxelSource for &S {
     }
     fn colour(&self, ijk: IVec3) -> Rgb {
         (**self).colour(ijk)
+    }
+    type Reader<'a>
+        = S::Reader<'a>
+    where
+        Self: 'a;
+    fn reader(&self) -> S::Reader<'_> {
+        (**self).reader()
     }
 }

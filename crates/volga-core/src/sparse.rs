@@ -148,6 +148,19 @@ impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
         self.bricks.get(&brick)
     }
 
+    /// The voxels of brick `brick` as a slice, for readers that cache bricks: the 512
+    /// voxels of a dense brick (x fastest, see [`Brick::local_offset`]), or **one**
+    /// value for a uniform brick or an absent one (the background). Voxel `offset` of
+    /// the brick is `slice[offset & (slice.len() - 1)]` either way.
+    #[inline]
+    pub fn brick_voxels(&self, brick: IVec3) -> &[T] {
+        match self.bricks.get(&brick) {
+            None => std::slice::from_ref(&self.background),
+            Some(Brick::Uniform(v)) => std::slice::from_ref(v),
+            Some(Brick::Dense(d)) => &d[..],
+        }
+    }
+
     /// The 512 voxels of brick `brick` for writing (x fastest, see
     /// [`Brick::local_offset`]): an absent brick is created as background, a uniform one
     /// made dense, and voxels shared with another version copied first.

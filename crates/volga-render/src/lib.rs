@@ -30,7 +30,8 @@
 //!   (gradients, colour, shadows, early termination, skipping —
 //!   [`Integrator::effects`]), so planners ask the mode instead of matching on it.
 //!   [`render`] dispatches a [`Mode`] to its integrator once per image;
-//!   [`render_with`] takes any integrator directly.
+//!   [`render_with`] takes any integrator directly; a [`Renderer`] prepares a field
+//!   and an integrator once (validation, the skipping grid) for many views.
 //! * **How samples become colour** (volume rendering) — a [`Classifier`] slot: today
 //!   the 1D [`TransferFunction`], post-classified; any [`Classify`] implementation
 //!   (2D or pre-integrated transfer functions) plugs in without touching the
@@ -50,9 +51,15 @@
 //!   compositing (survey eq. 13) with early ray termination and opacity correction
 //!   for the ray step.
 //! * Rays are clipped to `Field::bounds()` and sampled on a fixed lattice
-//!   `t0 + (i + ½)·Δs` (iso mode: `t0 + i·Δs`, then bisection). Empty-space
-//!   skipping over a coarse macro-cell grid built from `Field::value_range` keeps
-//!   samples on that lattice, so it never changes the image.
+//!   `t0 + (i + ½)·Δs` (iso mode: `t0 + i·Δs`, then the bracket of the first crossing
+//!   is refined by regula falsi safeguarded by bisection). Samples are read in runs
+//!   through [`Field::values_along`](volga_core::Field::values_along) — one run per
+//!   macro cell, at most 32 samples — so a sampled volume is read brick by brick, not
+//!   looked up per sample, and volume rendering reads the gradients of a run's
+//!   visible samples in one [`Field::gradients_at`](volga_core::Field::gradients_at)
+//!   call. Empty-space skipping walks a coarse macro-cell grid built from
+//!   `Field::value_range` with a 3D DDA; skipped samples are whole lattice indices and
+//!   every value is a function of its index alone, so skipping never changes the image.
 //! * Tiles are rendered in parallel with rayon; each pixel is a pure function of its
 //!   coordinates, so images are bit-identical for any thread count.
 //!
@@ -109,7 +116,7 @@ pub use error::RenderError;
 // The integrators and every registered mode's types (`Iso`, `SurfaceColour`, `Volume`, `Mip`, `XRay`).
 pub use integrators::*;
 pub use march::{first_hit, CellClass, Hit};
-pub use render::{render, render_with, Image, RenderStats};
+pub use render::{render, render_with, Image, RenderStats, Renderer};
 pub use settings::{ImageSettings, Lighting, RenderSettings, Sampling, MAX_PIXELS, MAX_SAMPLES_PER_RAY};
 pub(crate) use shading::Shader;
 pub use shading::{Light, Material};

@@ -1,14 +1,22 @@
 //! Ray marching building blocks shared by the integrators: the empty-space grid,
-//! the sample lattices, and the iso-surface search with bisection. Everything here is
+//! the sample lattices, and the iso-surface search with its refinement. Everything here is
 //! generic over the field type so per-sample loops are monomorphized (no dynamic
 //! dispatch, no allocation).
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
-use volga_core::{Aabb, Field};
+use volga_core::{fast_floor, Aabb, Field, Line};
 
 use crate::settings::MAX_SAMPLES_PER_RAY;
 use crate::{Ray, RenderStats};
+
+/// Samples read per [`Field::values_along`] call: a run of samples inside one macro
+/// cell, at most this many.
+pub(crate) const BATCH: usize = 32;
+
+/// Samples per run of the iso march: shorter, since a run's samples past the first
+/// crossing are read for nothing.
+const ISO_BATCH: usize = 8;
 
 /// Upper bound on lattice samples along one ray; the renderer rejects settings that
 /// would exceed it and [`first_hit`] coarsens its step to stay under it.
@@ -40,7 +48,14 @@ pub(crate) struct MacroGrid {
     dims: [usize; 3],
     class: Vec<CellClass>,
     hi: Vec<f64>,
+    /// Per cell, the largest `r ≤ MAX_REACH` such that every cell within Chebyshev
+    /// distance `r` (the `(2r + 1)³` block around it, clipped to the grid) is
+    /// [`CellClass::Outside`]: a ray in the cell may jump to the block's exit at once.
+    reach: Vec<u8>,
 }
+
+/// Largest jump of [`MacroGrid::reach`], in cells.
+const MAX_REACH: u8 = 8;
 
 /// Target macro cell edge in sample spacings, and the cap per axis (≤ 64³ cells).
 const CELL_SPACINGS: f64 = 8.0;
@@ -70,6 +85,7 @@ impl MacroGrid {
             dims,
             class: Vec::new(),
             hi: Vec::new(),
+            reach: Vec::new(),
         };
         let margin = DVec3::splat(spacing);
         let cells: Vec<(CellClass, f64)> = (0..dims[0] * dims[1] * dims[2])
@@ -87,7 +103,39 @@ impl MacroGrid {
             .collect();
         grid.class = cells.iter().map(|c| c.0).collect();
         grid.hi = cells.iter().map(|c| c.1).collect();
+        grid.reach = grid.outside_reach();
         grid
+    }
+
+    /// [`MacroGrid::reach`] by repeated erosion of the Outside cells with a 3×3×3
+    /// block (separable: a window of 3 along each axis in turn); cells beyond the grid
+    /// hold no samples and count as Outside.
+    fn outside_reach(&self) -> Vec<u8> {
+        let [nx, ny, nz] = self.dims;
+        let mut full: Vec<bool> = self.class.iter().map(|c| *c == CellClass::Outside).collect();
+        let mut reach = vec![0u8; full.len()];
+        for r in 1..=MAX_REACH {
+            for (axis, n, stride) in [(0, nx, 1), (1, ny, nx), (2, nz, nx * ny)] {
+                let prev = full.clone();
+                for (lin, f) in full.iter_mut().enumerate() {
+                    let i = [lin % nx, (lin / nx) % ny, lin / (nx * ny)][axis];
+                    let below = i == 0 || prev[lin - stride];
+                    let above = i + 1 >= n || prev[lin + stride];
+                    *f = prev[lin] && below && above;
+                }
+            }
+            let mut any = false;
+            for (re, f) in reach.iter_mut().zip(&full) {
+                if *f {
+                    *re = r;
+                    any = true;
+                }
+            }
+            if !any {
+                break;
+            }
+        }
+        reach
     }
 
     /// Number of macro cells.
@@ -146,21 +194,158 @@ impl MacroGrid {
         t
     }
 
-    /// If the sample at `t` lies in a skippable cell: its class and the ray
-    /// parameter where the ray leaves that cell.
+    /// A walk along `ray` through the cells, starting at the cell holding the point
+    /// at `t`.
     #[inline]
-    pub(crate) fn skip_at(&self, ray: &Ray, t: f64) -> Option<(CellClass, f64)> {
+    pub(crate) fn walk<'g>(&'g self, ray: &'g Ray, t: f64) -> CellWalk<'g> {
         let (ijk, lin) = self.locate(ray.at(t));
-        let class = self.class[lin];
-        (class != CellClass::Active).then(|| (class, self.exit_t(ijk, ray)))
+        let mut walk = CellWalk {
+            grid: self,
+            ray,
+            ijk,
+            lin,
+            t_exit: [f64::INFINITY; 3],
+            inside: true,
+            relocate: false,
+        };
+        walk.start_at(ijk, lin);
+        walk
+    }
+}
+
+/// A 3D digital differential analyser over the macro cells along one ray
+/// (Amanatides and Woo): each step crosses one cell face, so a ray pays a few
+/// operations per cell instead of locating every sample. Exit parameters are
+/// computed from the cell's face planes like [`MacroGrid::cell_at`] would (no
+/// accumulated increments); a sample on a face may be attributed to either cell,
+/// which the cells' one-spacing margin covers.
+pub(crate) struct CellWalk<'g> {
+    grid: &'g MacroGrid,
+    ray: &'g Ray,
+    ijk: [usize; 3],
+    lin: usize,
+    /// Per axis, the ray parameter where it leaves the current cell through that axis'
+    /// far face (∞ for an axis the ray is parallel to).
+    t_exit: [f64; 3],
+    /// False once the walk has left the grid (rounding at the bounds): cells are then
+    /// located point by point.
+    inside: bool,
+    /// Set after a jump over a block of Outside cells: the next query locates its cell.
+    relocate: bool,
+}
+
+impl CellWalk<'_> {
+    fn start_at(&mut self, ijk: [usize; 3], lin: usize) {
+        self.ijk = ijk;
+        self.lin = lin;
+        for a in 0..3 {
+            self.t_exit[a] = self.plane_t(a);
+        }
     }
 
-    /// Maximum of the conservative value range of the cell holding the sample at
+    /// Ray parameter where the ray leaves, through its far face along `a`, the slab of
+    /// cells `index` on that axis.
+    #[inline]
+    fn face_t(&self, a: usize, index: usize) -> f64 {
+        let g = self.grid;
+        let d = self.ray.dir[a];
+        if d > 0.0 {
+            let plane = if index + 1 >= g.dims[a] {
+                g.max[a]
+            } else {
+                g.min[a] + (index + 1) as f64 * g.cell[a]
+            };
+            (plane - self.ray.origin[a]) / d
+        } else if d < 0.0 {
+            (g.min[a] + index as f64 * g.cell[a] - self.ray.origin[a]) / d
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Ray parameter where the ray crosses the far face of the current cell along `a`.
+    #[inline]
+    fn plane_t(&self, a: usize) -> f64 {
+        self.face_t(a, self.ijk[a])
+    }
+
+    /// The cell holding the sample at `t` (non-decreasing from call to call): its
+    /// linear index and the ray parameter where the ray leaves it.
+    #[inline]
+    fn cell(&mut self, t: f64) -> (usize, f64) {
+        let g = self.grid;
+        if self.relocate && self.inside {
+            self.relocate = false;
+            let (ijk, lin) = g.locate(self.ray.at(t));
+            self.start_at(ijk, lin);
+        }
+        loop {
+            let exit = self.t_exit[0].min(self.t_exit[1]).min(self.t_exit[2]);
+            if !self.inside {
+                let (ijk, lin) = g.locate(self.ray.at(t));
+                return (lin, g.exit_t(ijk, self.ray));
+            }
+            if exit >= t || exit.is_nan() {
+                return (self.lin, exit);
+            }
+            // Step through the face crossed first.
+            let a = if self.t_exit[0] == exit {
+                0
+            } else if self.t_exit[1] == exit {
+                1
+            } else {
+                2
+            };
+            let forward = self.ray.dir[a] > 0.0;
+            if (forward && self.ijk[a] + 1 >= g.dims[a]) || (!forward && self.ijk[a] == 0) {
+                self.inside = false;
+                continue;
+            }
+            if forward {
+                self.ijk[a] += 1;
+            } else {
+                self.ijk[a] -= 1;
+            }
+            self.lin = self.ijk[0] + g.dims[0] * (self.ijk[1] + g.dims[1] * self.ijk[2]);
+            self.t_exit[a] = self.plane_t(a);
+        }
+    }
+
+    /// The class of the cell holding the sample at `t` and the ray parameter where the
+    /// ray leaves that cell.
+    ///
+    /// In an Outside cell whose whole block of reach `r ≥ 2` is Outside, the exit is
+    /// that of the block (`r` cells on every side, clipped to the grid): every point of
+    /// the ray between the sample and it lies in the block, so the samples there are
+    /// Outside too, and the walk locates its cell afresh at the next query.
+    #[inline]
+    pub(crate) fn class_at(&mut self, t: f64) -> (CellClass, f64) {
+        let (lin, exit) = self.cell(t);
+        let class = self.grid.class[lin];
+        let r = self.grid.reach[lin] as usize;
+        if class != CellClass::Outside || r < 2 || !self.inside {
+            return (class, exit);
+        }
+        let g = self.grid;
+        let mut block_exit = f64::INFINITY;
+        for a in 0..3 {
+            let index = if self.ray.dir[a] > 0.0 {
+                (self.ijk[a] + r).min(g.dims[a] - 1)
+            } else {
+                self.ijk[a].saturating_sub(r)
+            };
+            block_exit = block_exit.min(self.face_t(a, index));
+        }
+        self.relocate = true;
+        (class, block_exit.max(exit))
+    }
+
+    /// The maximum of the conservative value range of the cell holding the sample at
     /// `t`, and the ray parameter where the ray leaves that cell.
     #[inline]
-    pub(crate) fn hi_at(&self, ray: &Ray, t: f64) -> (f64, f64) {
-        let (ijk, lin) = self.locate(ray.at(t));
-        (self.hi[lin], self.exit_t(ijk, ray))
+    pub(crate) fn hi_at(&mut self, t: f64) -> (f64, f64) {
+        let (lin, exit) = self.cell(t);
+        (self.grid.hi[lin], exit)
     }
 }
 
@@ -169,7 +354,7 @@ impl MacroGrid {
 /// the skipped samples overshoot the cell by a few ulps, inside the cell's margin.
 #[inline]
 pub(crate) fn index_after(t_exit: f64, t0: f64, dt: f64, offset: f64, i: u64, end: u64) -> u64 {
-    let x = ((t_exit - t0) / dt - offset).floor() + 1.0;
+    let x = fast_floor((t_exit - t0) / dt - offset) + 1.0;
     let j = if x.is_nan() || x <= 0.0 {
         0
     } else if x >= end as f64 {
@@ -182,7 +367,7 @@ pub(crate) fn index_after(t_exit: f64, t0: f64, dt: f64, offset: f64, i: u64, en
 
 /// Number of iso lattice samples `t0 + i·dt < t1` (the march then adds one at `t1`).
 fn iso_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
-    let guess = ((t1 - t0) / dt).ceil();
+    let guess = -fast_floor(-(t1 - t0) / dt); // ceil
     let mut k = if guess.is_nan() || guess < 0.0 {
         0
     } else {
@@ -199,7 +384,7 @@ fn iso_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
 
 /// Number of mid-point samples `t0 + (i + ½)·dt ≤ t1`.
 pub(crate) fn midpoint_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
-    let guess = ((t1 - t0) / dt + 0.5).floor();
+    let guess = fast_floor((t1 - t0) / dt + 0.5);
     let mut n = if guess.is_nan() || guess < 0.0 {
         0
     } else {
@@ -214,11 +399,16 @@ pub(crate) fn midpoint_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
     n
 }
 
-/// Bisection of a bracket `[lo, hi]` with `s·value(lo) < s·iso ≤ s·value(hi)`
-/// (`s = inward`, ±1) down to width `tol` (at most 64 halvings); returns the
-/// bracket's midpoint. NaN values count as outside.
+/// Refines a bracket `[lo, hi]` of the crossing, `s·value(lo) < s·iso ≤ s·value(hi)`
+/// (`s = inward`, ±1), down to width `tol` and returns its midpoint.
+///
+/// Regula falsi with the Illinois modification (the end kept twice in a row has its
+/// value halved), safeguarded by bisection whenever a step fails to halve the bracket,
+/// so the bracket at least halves every two evaluations (at most 128). It reads the
+/// ends' values itself, so the result depends on `(lo, hi)` alone. NaN values count as
+/// outside.
 #[allow(clippy::too_many_arguments)]
-fn bisect<F: Field + ?Sized>(
+fn refine<F: Field + ?Sized>(
     field: &F,
     ray: &Ray,
     inward: f64,
@@ -228,20 +418,49 @@ fn bisect<F: Field + ?Sized>(
     tol: f64,
     stats: &mut RenderStats,
 ) -> f64 {
-    for _ in 0..64 {
-        if hi - lo <= tol {
-            break;
-        }
-        let mid = 0.5 * (lo + hi);
-        if !(mid > lo && mid < hi) {
-            break;
-        }
+    // g = s·value − s·iso: < 0 outside, ≥ 0 inside.
+    let g = |t: f64, stats: &mut RenderStats| {
         stats.samples += 1;
-        if inward * field.value(ray.at(mid)) >= iso {
+        inward * field.value(ray.at(t)) - iso
+    };
+    let mut g_lo = g(lo, stats);
+    let mut g_hi = g(hi, stats);
+    let mut kept = 0i8; // +1: `lo` kept by the last step, −1: `hi`
+    let mut bisect_next = false;
+    for _ in 0..128 {
+        let width = hi - lo;
+        if width <= tol {
+            break;
+        }
+        let secant = g_lo < 0.0 && g_hi >= 0.0 && !bisect_next;
+        let mut mid = if secant {
+            lo + width * (g_lo / (g_lo - g_hi))
+        } else {
+            0.5 * (lo + hi)
+        };
+        if !(mid > lo && mid < hi) {
+            mid = 0.5 * (lo + hi);
+            if !(mid > lo && mid < hi) {
+                break;
+            }
+        }
+        let gm = g(mid, stats);
+        if gm >= 0.0 {
             hi = mid;
+            g_hi = gm;
+            if kept == 1 {
+                g_lo *= 0.5;
+            }
+            kept = 1;
         } else {
             lo = mid;
+            g_lo = if gm.is_nan() { f64::NAN } else { gm };
+            if kept == -1 {
+                g_hi *= 0.5;
+            }
+            kept = -1;
         }
+        bisect_next = hi - lo > 0.5 * width;
     }
     0.5 * (lo + hi)
 }
@@ -252,12 +471,13 @@ fn bisect<F: Field + ?Sized>(
 /// signed distance from above to below. Multiplying by `s = 1` is exact, so
 /// densities march exactly as without the factor.
 ///
-/// Samples at `t0 + i·dt` (and a last one at `t1`); a ray entering the bounds from
-/// outside starts from the field's background value, so content touching the
-/// bounds yields a hit at `t0`. NaN samples are ignored. With a macro grid, samples
-/// in cells whose range excludes `iso` are skipped but their side of the iso value
-/// is kept, so the bracket handed to bisection — and the hit — are exactly those
-/// found without skipping.
+/// Samples the lattice `t0 + i·dt` (and a last sample at `t1`) through
+/// [`Field::values_along`], a run of samples per macro cell; a ray entering the
+/// bounds from outside starts from the field's background value, so content touching
+/// the bounds yields a hit at `t0`. NaN samples are ignored. With a macro grid,
+/// samples in cells whose range excludes `iso` are skipped but their side of the iso
+/// value is kept, so the bracket handed to [`refine`] — and the hit — are exactly
+/// those found without skipping.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn march_iso<F: Field + ?Sized>(
     field: &F,
@@ -274,34 +494,58 @@ pub(crate) fn march_iso<F: Field + ?Sized>(
     let iso = inward * iso;
     let k_end = iso_lattice_len(t0, t1, dt);
     let lattice_t = |i: u64| if i >= k_end { t1 } else { t0 + i as f64 * dt };
+    let line = Line {
+        origin: ray.at(t0),
+        step: ray.dir * dt,
+    };
     let bg = field.background();
     // (ray parameter, value below iso) of the previous sample.
     let mut prev: Option<(f64, bool)> = (t0 > 0.0 && !bg.is_nan()).then_some((t0, inward * bg < iso));
+    let mut values = [0.0f64; ISO_BATCH];
+    let mut walk = grid.map(|g| g.walk(ray, t0));
     let mut i = 0u64;
     while i <= k_end {
         let t = lattice_t(i);
-        if let Some((class, t_exit)) = grid.and_then(|g| g.skip_at(ray, t)) {
-            let below = class == CellClass::Outside;
-            if let (false, Some((tp, true))) = (below, prev) {
-                // The skipped sample at `t` is inside: the crossing is in [tp, t].
-                return Some(bisect(field, ray, inward, iso, tp, t, tol, stats));
-            }
+        // The run of samples [i, end) to read: those in the current macro cell.
+        let mut end = k_end + 1;
+        if let Some(w) = &mut walk {
+            let (class, t_exit) = w.class_at(t);
             let next = index_after(t_exit, t0, dt, 0.0, i, k_end + 1);
-            stats.cells_skipped += 1;
-            prev = Some((lattice_t(next - 1), below));
-            i = next;
-            continue;
+            if class != CellClass::Active {
+                let below = class == CellClass::Outside;
+                if let (false, Some((tp, true))) = (below, prev) {
+                    // The skipped sample at `t` is inside: the crossing is in [tp, t].
+                    return Some(refine(field, ray, inward, iso, tp, t, tol, stats));
+                }
+                stats.cells_skipped += 1;
+                prev = Some((lattice_t(next - 1), below));
+                i = next;
+                continue;
+            }
+            end = next;
         }
-        stats.samples += 1;
-        let v = field.value(ray.at(t));
-        if !v.is_nan() {
+        let run = if i == k_end {
+            // The last sample, at `t1` (off the lattice).
+            values[0] = field.value(ray.at(t1));
+            1
+        } else {
+            let n = (end.min(k_end) - i).min(ISO_BATCH as u64) as usize;
+            field.values_along(&line, i, &mut values[..n]);
+            n
+        };
+        stats.samples += run as u64;
+        for (k, &v) in values[..run].iter().enumerate() {
+            if v.is_nan() {
+                continue;
+            }
+            let t = lattice_t(i + k as u64);
             let below = inward * v < iso;
             if let (false, Some((tp, true))) = (below, prev) {
-                return Some(bisect(field, ray, inward, iso, tp, t, tol, stats));
+                return Some(refine(field, ray, inward, iso, tp, t, tol, stats));
             }
             prev = Some((t, below));
         }
-        i += 1;
+        i += run as u64;
     }
     None
 }
@@ -320,7 +564,7 @@ pub struct Hit {
 ///
 /// Samples every `step_world` world units (the ray's `dir` need not be unit; `t`
 /// is in units of `|dir|`), starting at the bounds entry, then refines the
-/// bracketing interval by bisection until it is narrower than
+/// bracketing interval (regula falsi safeguarded by bisection) until it is narrower than
 /// `1e-9 · field.sample_spacing()` (at most 64 halvings). `None` if there is no
 /// crossing, the ray misses the bounds, or the inputs are degenerate (non-finite
 /// ray, zero direction, `step_world ≤ 0`). The step is coarsened if it would take

@@ -1,6 +1,6 @@
 use glam::Vec4;
 use rayon::prelude::*;
-use volga_core::{Field, Progress};
+use volga_core::{Aabb, Field, Progress};
 
 use crate::integrators::{clip, over_background, March, ModeJob};
 use crate::march::MacroGrid;
@@ -42,7 +42,9 @@ impl Image {
 pub struct RenderStats {
     /// Rays cast (one per pixel).
     pub rays: u64,
-    /// [`Field::value`] evaluations along rays, including iso bisection steps.
+    /// Field values evaluated along rays ([`Field::values_along`] samples, including a
+    /// run's samples read past an iso hit or an early termination, and the iso
+    /// refinement's [`Field::value`] calls).
     pub samples: u64,
     /// [`Field::gradient`] evaluations (0 when unlit).
     pub gradient_evaluations: u64,
@@ -91,19 +93,10 @@ pub fn render<F: Field + ?Sized>(
     })
 }
 
-/// Renders `field` as seen by `camera` with `integrator`.
+/// Renders `field` as seen by `camera` with `integrator`: [`Renderer::new`] then
+/// [`Renderer::render`] (to render several views of one field, keep the renderer).
 ///
-/// One ray per pixel centre, clipped to `field.bounds()`; tiles of
-/// `tile_size × tile_size` pixels are rendered in parallel with rayon, and each
-/// pixel is a pure function of its coordinates, so the image is bit-identical for
-/// any thread count. The field's [`kind`](Field::kind) is read once; the integrator
-/// is monomorphized with the field, so nothing is dispatched per sample. Progress:
-/// `start("render", tiles)`, `inc(1)` per tile, `finish()`.
-///
-/// Errors: invalid settings ([`RenderSettings::validate`]) or mode parameters
-/// ([`Integrator::validate`]), a field whose bounds are not finite/non-empty or
-/// whose `sample_spacing()` is not finite and positive, or a step so small that a
-/// ray would need more than 2²⁴ samples ([`Sampling::world_step`](crate::Sampling::world_step)).
+/// Errors: those of [`Renderer::new`].
 pub fn render_with<F: Field + ?Sized, I: Integrator>(
     field: &F,
     camera: &Camera,
@@ -111,84 +104,125 @@ pub fn render_with<F: Field + ?Sized, I: Integrator>(
     settings: &RenderSettings,
     progress: &dyn Progress,
 ) -> Result<(Image, RenderStats), RenderError> {
-    settings.validate()?;
-    integrator.validate()?;
-    let bounds = field.bounds();
-    let spacing = field.sample_spacing();
-    let step = settings.sampling.world_step(&bounds, spacing)?;
-    let kind = field.kind();
+    Ok(Renderer::new(field, integrator, settings)?.render(camera, progress))
+}
 
-    let grid = (settings.sampling.empty_space_skipping && integrator.skips_cells())
-        .then(|| MacroGrid::build(field, bounds, spacing, |lo, hi| integrator.classify_cell(lo, hi, kind)));
-    debug_assert!(grid.as_ref().is_none_or(|g| g.len() <= 64 * 64 * 64));
+/// A field, an integrator and settings prepared for rendering: validated, with the
+/// empty-space skipping grid built (one pass over the field's value ranges, the costly
+/// part of preparing). Each [`Renderer::render`] then renders one view, so a
+/// turntable or an interactive viewer prepares once per field and mode.
+pub struct Renderer<'a, F: ?Sized, I> {
+    integrator: &'a I,
+    settings: &'a RenderSettings,
+    bounds: Aabb,
+    march: March<'a, F>,
+}
 
-    let sampling = &settings.sampling;
-    let lighting = &settings.lighting;
-    let march = March {
-        field,
-        inward: kind.inward_sign(),
-        kind,
-        step,
-        tol: 1e-9 * spacing,
-        alpha_exponent: sampling.step_voxels / sampling.reference_step_voxels,
-        early_termination_alpha: sampling.early_termination_alpha,
-        shader: Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing),
-        grid,
-    };
-    let background = settings.image.background;
-    let trace = |ray: &crate::Ray, stats: &mut RenderStats| {
-        stats.rays += 1;
-        let (c, a) = match clip(&bounds, ray) {
-            None => (glam::Vec3::ZERO, 0.0),
-            Some(interval) => integrator.integrate(&march, ray, interval, stats),
+impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
+    /// Validates and prepares. The field's [`kind`](Field::kind) is read once; the
+    /// integrator is monomorphized with the field, so nothing is dispatched per sample.
+    ///
+    /// Errors: invalid settings ([`RenderSettings::validate`]) or mode parameters
+    /// ([`Integrator::validate`]), a field whose bounds are not finite/non-empty or
+    /// whose `sample_spacing()` is not finite and positive, or a step so small that a
+    /// ray would need more than 2²⁴ samples ([`Sampling::world_step`](crate::Sampling::world_step)).
+    pub fn new(field: &'a F, integrator: &'a I, settings: &'a RenderSettings) -> Result<Self, RenderError> {
+        settings.validate()?;
+        integrator.validate()?;
+        let bounds = field.bounds();
+        let spacing = field.sample_spacing();
+        let step = settings.sampling.world_step(&bounds, spacing)?;
+        let kind = field.kind();
+
+        let grid = (settings.sampling.empty_space_skipping && integrator.skips_cells())
+            .then(|| MacroGrid::build(field, bounds, spacing, |lo, hi| integrator.classify_cell(lo, hi, kind)));
+        debug_assert!(grid.as_ref().is_none_or(|g| g.len() <= 64 * 64 * 64));
+
+        let sampling = &settings.sampling;
+        let lighting = &settings.lighting;
+        let march = March {
+            field,
+            inward: kind.inward_sign(),
+            kind,
+            step,
+            tol: 1e-9 * spacing,
+            alpha_exponent: sampling.step_voxels / sampling.reference_step_voxels,
+            early_termination_alpha: sampling.early_termination_alpha,
+            shader: Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing),
+            grid,
         };
-        over_background(background, c, a)
-    };
+        Ok(Renderer {
+            integrator,
+            settings,
+            bounds,
+            march,
+        })
+    }
 
-    let (w, h) = (settings.image.width, settings.image.height);
-    let ts = settings.image.tile_size.min(w.max(h));
-    let (tiles_x, tiles_y) = (w.div_ceil(ts), h.div_ceil(ts));
-    let n_tiles = tiles_x as usize * tiles_y as usize;
-    progress.start("render", n_tiles as u64);
-    let tiles: Vec<(Vec<Vec4>, RenderStats)> = (0..n_tiles)
-        .into_par_iter()
-        .map(|tile| {
+    /// Renders the view of `camera`.
+    ///
+    /// One ray per pixel centre, clipped to the field's bounds; tiles of
+    /// `tile_size × tile_size` pixels are rendered in parallel with rayon, and each
+    /// pixel is a pure function of its coordinates, so the image is bit-identical for
+    /// any thread count. Progress: `start("render", tiles)`, `inc(1)` per tile,
+    /// `finish()`.
+    pub fn render(&self, camera: &Camera, progress: &dyn Progress) -> (Image, RenderStats) {
+        let (bounds, integrator, march) = (&self.bounds, self.integrator, &self.march);
+        let background = self.settings.image.background;
+        let trace = |ray: &crate::Ray, stats: &mut RenderStats| {
+            stats.rays += 1;
+            let (c, a) = match clip(bounds, ray) {
+                None => (glam::Vec3::ZERO, 0.0),
+                Some(interval) => integrator.integrate(march, ray, interval, stats),
+            };
+            over_background(background, c, a)
+        };
+
+        let (w, h) = (self.settings.image.width, self.settings.image.height);
+        let ts = self.settings.image.tile_size.min(w.max(h));
+        let (tiles_x, tiles_y) = (w.div_ceil(ts), h.div_ceil(ts));
+        let n_tiles = tiles_x as usize * tiles_y as usize;
+        progress.start("render", n_tiles as u64);
+        let tiles: Vec<(Vec<Vec4>, RenderStats)> = (0..n_tiles)
+            .into_par_iter()
+            .map(|tile| {
+                let (x0, y0) = (
+                    (tile % tiles_x as usize) as u32 * ts,
+                    (tile / tiles_x as usize) as u32 * ts,
+                );
+                let (x1, y1) = ((x0 + ts).min(w), (y0 + ts).min(h));
+                let mut stats = RenderStats::default();
+                let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let ray = camera.ray(x as f64, y as f64, w, h);
+                        px.push(trace(&ray, &mut stats));
+                    }
+                }
+                progress.inc(1);
+                (px, stats)
+            })
+            .collect();
+        progress.finish();
+
+        let mut image = Image {
+            width: w,
+            height: h,
+            pixels: vec![Vec4::ZERO; w as usize * h as usize],
+        };
+        let mut stats = RenderStats::default();
+        for (tile, (px, s)) in tiles.into_iter().enumerate() {
             let (x0, y0) = (
                 (tile % tiles_x as usize) as u32 * ts,
                 (tile / tiles_x as usize) as u32 * ts,
             );
-            let (x1, y1) = ((x0 + ts).min(w), (y0 + ts).min(h));
-            let mut stats = RenderStats::default();
-            let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let ray = camera.ray(x as f64, y as f64, w, h);
-                    px.push(trace(&ray, &mut stats));
-                }
+            let tw = ((x0 + ts).min(w) - x0) as usize;
+            for (row, chunk) in px.chunks_exact(tw).enumerate() {
+                let start = (y0 as usize + row) * w as usize + x0 as usize;
+                image.pixels[start..start + tw].copy_from_slice(chunk);
             }
-            progress.inc(1);
-            (px, stats)
-        })
-        .collect();
-    progress.finish();
-
-    let mut image = Image {
-        width: w,
-        height: h,
-        pixels: vec![Vec4::ZERO; w as usize * h as usize],
-    };
-    let mut stats = RenderStats::default();
-    for (tile, (px, s)) in tiles.into_iter().enumerate() {
-        let (x0, y0) = (
-            (tile % tiles_x as usize) as u32 * ts,
-            (tile / tiles_x as usize) as u32 * ts,
-        );
-        let tw = ((x0 + ts).min(w) - x0) as usize;
-        for (row, chunk) in px.chunks_exact(tw).enumerate() {
-            let start = (y0 as usize + row) * w as usize + x0 as usize;
-            image.pixels[start..start + tw].copy_from_slice(chunk);
+            stats += s;
         }
-        stats += s;
+        (image, stats)
     }
-    Ok((image, stats))
 }

@@ -50,6 +50,9 @@ pub(crate) struct Shader {
     /// `k_a · C_a`.
     ambient: Vec3,
     material: Material,
+    /// The shininess as an integer when it is one (up to 1024): `x^ns` is then
+    /// `powi`, repeated squaring, instead of a libm `powf` per sample and light.
+    integer_shininess: Option<i32>,
     /// Gradients shorter than this are treated as zero (no defined normal).
     min_gradient: f64,
 }
@@ -60,6 +63,8 @@ impl Shader {
             lights: lights.iter().map(|l| (safe_normalize(l.direction), l.colour)).collect(),
             ambient: ambient_colour * material.ambient,
             material,
+            integer_shininess: (material.shininess.fract() == 0.0 && (0.0..=1024.0).contains(&material.shininess))
+                .then_some(material.shininess as i32),
             min_gradient: 1e-9 / spacing,
         }
     }
@@ -94,7 +99,11 @@ impl Shader {
             let n_dot_l = n.dot(l).max(0.0) as f32;
             let h = safe_normalize(l + view);
             let n_dot_h = n.dot(h).max(0.0) as f32;
-            r += cl * colour * (m.diffuse * n_dot_l) + cl * (m.specular * n_dot_h.powf(m.shininess));
+            let highlight = match self.integer_shininess {
+                Some(ns) => n_dot_h.powi(ns),
+                None => n_dot_h.powf(m.shininess),
+            };
+            r += cl * colour * (m.diffuse * n_dot_l) + cl * (m.specular * highlight);
         }
         r
     }
@@ -127,5 +136,22 @@ mod tests {
         let oblique = s.shade(co, DVec3::new(1.0, 0.0, 0.2), dir);
         assert!(oblique.x < front.x);
         assert!(oblique.is_finite());
+        // Integer shininess (repeated squaring) and fractional (powf) agree.
+        for ns in [32.0, 32.000_004, 7.0, 0.0] {
+            let m = Material {
+                shininess: ns,
+                ..Material::default()
+            };
+            let s = Shader::new(&lights, Vec3::ONE, m, 1.0);
+            assert_eq!(s.integer_shininess.is_some(), ns.fract() == 0.0, "{ns}");
+            let normal = DVec3::new(0.3, 0.1, 1.0);
+            let got = s.shade(co, normal, dir);
+            let n = normal.normalize();
+            let h = (DVec3::Z + DVec3::Z).normalize();
+            let want = co * m.ambient
+                + co * (m.diffuse * n.dot(DVec3::Z) as f32)
+                + Vec3::splat(m.specular * (n.dot(h) as f32).powf(ns));
+            assert!((got - want).abs().max_element() < 1e-5, "{ns}: {got} vs {want}");
+        }
     }
 }

@@ -1,5 +1,5 @@
-//! Opaque iso-surfaces: the first crossing into the inside, refined by bisection,
-//! shaded with survey eq. 9.
+//! Opaque iso-surfaces: the first crossing into the inside, refined (regula falsi
+//! safeguarded by bisection), shaded with survey eq. 9.
 
 use glam::Vec3;
 use volga_core::{Field, FieldKind};
@@ -21,7 +21,7 @@ pub enum SurfaceColour {
 
 /// Opaque iso-surface at `value`: the first crossing from outside to inside, the
 /// inside decided by [`Field::kind`] (a density is inside where `≥ value`, a
-/// signed distance where `≤ value`), refined by bisection, shaded with survey eq. 9
+/// signed distance where `≤ value`), refined to 1e-9 sample spacing, shaded with survey eq. 9
 /// with the outward normal (`−∇` for densities, `+∇` for signed distances).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Iso {

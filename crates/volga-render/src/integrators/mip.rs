@@ -1,10 +1,10 @@
 //! Maximum intensity projection.
 
 use glam::Vec3;
-use volga_core::{Field, FieldKind};
+use volga_core::{Field, FieldKind, Line};
 
 use super::{grey, Effects, Integrator, March};
-use crate::march::{index_after, midpoint_lattice_len};
+use crate::march::{index_after, midpoint_lattice_len, BATCH};
 use crate::{CellClass, Ray, RenderSettings, RenderStats};
 
 /// Maximum intensity projection: grey = max value along the ray, clamped to
@@ -27,7 +27,8 @@ impl Integrator for Mip {
         CellClass::Active
     }
 
-    /// Cells whose range maximum cannot raise the current maximum are skipped.
+    /// Cells whose range maximum cannot raise the current maximum are skipped; the
+    /// others are read in runs through [`Field::values_along`].
     fn integrate<F: Field + ?Sized>(
         &self,
         m: &March<'_, F>,
@@ -36,24 +37,36 @@ impl Integrator for Mip {
         stats: &mut RenderStats,
     ) -> (Vec3, f32) {
         let n = midpoint_lattice_len(t0, t1, m.step);
+        let line = Line {
+            origin: ray.at(t0 + 0.5 * m.step),
+            step: ray.dir * m.step,
+        };
+        let mut values = [0.0f64; BATCH];
         let mut max = f64::NEG_INFINITY;
+        let mut walk = m.grid.as_ref().map(|g| g.walk(ray, t0 + 0.5 * m.step));
         let mut i = 0u64;
         while i < n {
-            let t = t0 + (i as f64 + 0.5) * m.step;
-            if let Some(g) = &m.grid {
-                let (hi, t_exit) = g.hi_at(ray, t);
+            let mut end = n;
+            if let Some(w) = &mut walk {
+                let t = t0 + (i as f64 + 0.5) * m.step;
+                let (hi, t_exit) = w.hi_at(t);
+                let next = index_after(t_exit, t0, m.step, 0.5, i, n);
                 if hi <= max {
                     stats.cells_skipped += 1;
-                    i = index_after(t_exit, t0, m.step, 0.5, i, n);
+                    i = next;
                     continue;
                 }
+                end = next;
             }
-            i += 1;
-            stats.samples += 1;
-            let v = m.field.value(ray.at(t));
-            if v > max {
-                max = v;
+            let run = (end - i).min(BATCH as u64) as usize;
+            m.field.values_along(&line, i, &mut values[..run]);
+            stats.samples += run as u64;
+            for &v in &values[..run] {
+                if v > max {
+                    max = v;
+                }
             }
+            i += run as u64;
         }
         grey(max)
     }

@@ -1,11 +1,11 @@
 //! Direct volume rendering: classified samples composited front to back.
 
-use glam::Vec3;
-use volga_core::{Field, FieldKind};
+use glam::{DVec3, Vec3};
+use volga_core::{Field, FieldKind, Line};
 
 use super::{Effect, Effects, Integrator, March};
 use crate::classify::{Classifier, Classify, ClassifySample};
-use crate::march::{field_colour, index_after, midpoint_lattice_len};
+use crate::march::{field_colour, index_after, midpoint_lattice_len, BATCH};
 use crate::{CellClass, Ray, RenderError, RenderSettings, RenderStats, TransferFunction};
 
 /// Direct volume rendering: samples classified by [`Classifier`] (today the
@@ -87,6 +87,12 @@ impl Integrator for Volume {
 /// at `t0 + (i + ½)·Δs`, stopping once `a ≥ early_termination_alpha`. Returns
 /// premultiplied colour and alpha. Generic over the classifier, which it never
 /// inspects beyond [`Classify`].
+///
+/// Samples are read in runs (one macro cell, at most [`BATCH`]) through
+/// [`Field::values_along`]; the run is classified, the gradients of its visible
+/// samples are read in one [`Field::gradients_at`] call, then the run is composited in
+/// order. Every value, gradient and sum is a function of the sample's index alone, so
+/// skipping and the run boundaries never change the image.
 fn composite<F: Field + ?Sized, C: Classify>(
     m: &March<'_, F>,
     classifier: &C,
@@ -96,49 +102,92 @@ fn composite<F: Field + ?Sized, C: Classify>(
     stats: &mut RenderStats,
 ) -> (Vec3, f32) {
     let n = midpoint_lattice_len(t0, t1, m.step);
+    let line = Line {
+        origin: ray.at(t0 + 0.5 * m.step),
+        step: ray.dir * m.step,
+    };
+    let lit = m.shader.is_lit();
+    let mut values = [0.0f64; BATCH];
+    // The run's visible samples: world position, corrected alpha, colour.
+    let mut visible_pos = [DVec3::ZERO; BATCH];
+    let mut visible = [(0.0f32, Vec3::ZERO); BATCH];
+    let mut gradients = [DVec3::ZERO; BATCH];
     let mut c = Vec3::ZERO;
     let mut a = 0.0f32;
     let mut previous_value = f64::NAN;
+    // The last opacity corrected and its correction (uniform regions repeat it): one
+    // `powf` per change instead of per sample, the same bits.
+    let mut corrected = (f32::NAN, f32::NAN);
+    let mut walk = m.grid.as_ref().map(|g| g.walk(ray, t0 + 0.5 * m.step));
     let mut i = 0u64;
     while i < n {
-        let t = t0 + (i as f64 + 0.5) * m.step;
-        if let Some((_, t_exit)) = m.grid.as_ref().and_then(|g| g.skip_at(ray, t)) {
-            // Transparent cell: every sample in it has α = 0 and would be skipped.
-            stats.cells_skipped += 1;
-            i = index_after(t_exit, t0, m.step, 0.5, i, n);
-            previous_value = f64::NAN;
+        let mut end = n;
+        if let Some(w) = &mut walk {
+            let t = t0 + (i as f64 + 0.5) * m.step;
+            let (class, t_exit) = w.class_at(t);
+            let next = index_after(t_exit, t0, m.step, 0.5, i, n);
+            if class != CellClass::Active {
+                // Transparent cell: every sample in it has α = 0 and would be skipped.
+                stats.cells_skipped += 1;
+                i = next;
+                previous_value = f64::NAN;
+                continue;
+            }
+            end = next;
+        }
+        let run = (end - i).min(BATCH as u64) as usize;
+        m.field.values_along(&line, i, &mut values[..run]);
+        stats.samples += run as u64;
+        let mut count = 0;
+        for (k, &v) in values[..run].iter().enumerate() {
+            let p = line.at(i + k as u64);
+            let sample = ClassifySample {
+                value: v,
+                previous_value,
+                world_pos: p,
+            };
+            previous_value = v;
+            if v.is_nan() {
+                continue;
+            }
+            let rgba = classifier.classify(&sample);
+            if rgba.w.is_nan() || rgba.w <= 0.0 {
+                continue;
+            }
+            let co = if colour_from_field {
+                field_colour(m.field, p)
+            } else {
+                rgba.truncate()
+            };
+            visible_pos[count] = p;
+            if corrected.0 != rgba.w {
+                corrected = (rgba.w, m.correct_alpha(rgba.w));
+            }
+            visible[count] = (corrected.1, co);
+            count += 1;
+        }
+        i += run as u64;
+        if count == 0 {
             continue;
         }
-        i += 1;
-        stats.samples += 1;
-        let p = ray.at(t);
-        let v = m.field.value(p);
-        let sample = ClassifySample {
-            value: v,
-            previous_value,
-            world_pos: p,
-        };
-        previous_value = v;
-        if v.is_nan() {
-            continue;
+        if lit {
+            m.field.gradients_at(&visible_pos[..count], &mut gradients[..count]);
+            stats.gradient_evaluations += count as u64;
         }
-        let rgba = classifier.classify(&sample);
-        if rgba.w.is_nan() || rgba.w <= 0.0 {
-            continue;
-        }
-        let alpha = m.correct_alpha(rgba.w);
-        let co = if colour_from_field {
-            field_colour(m.field, p)
-        } else {
-            rgba.truncate()
-        };
-        let rgb = m.shade_at(co, p, ray, stats);
-        let w = (1.0 - a) * alpha;
-        c += rgb * w;
-        a += w;
-        if a >= m.early_termination_alpha {
-            stats.rays_terminated_early += 1;
-            break;
+        for k in 0..count {
+            let (alpha, co) = visible[k];
+            let rgb = if lit {
+                m.shader.shade(co, m.kind.outward(gradients[k]), ray.dir)
+            } else {
+                co
+            };
+            let w = (1.0 - a) * alpha;
+            c += rgb * w;
+            a += w;
+            if a >= m.early_termination_alpha {
+                stats.rays_terminated_early += 1;
+                return (c, a);
+            }
         }
     }
     (c, a)

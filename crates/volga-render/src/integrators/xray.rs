@@ -1,10 +1,10 @@
 //! X-ray: the mean value along the ray.
 
 use glam::Vec3;
-use volga_core::{Field, FieldKind};
+use volga_core::{Field, FieldKind, Line};
 
 use super::{grey, Effect, Effects, Integrator, March};
-use crate::march::midpoint_lattice_len;
+use crate::march::{midpoint_lattice_len, BATCH};
 use crate::{CellClass, Ray, RenderSettings, RenderStats};
 
 /// The mean value of the samples inside the bounds, clamped to \[0, 1\], drawn as
@@ -38,14 +38,24 @@ impl Integrator for XRay {
         stats: &mut RenderStats,
     ) -> (Vec3, f32) {
         let n = midpoint_lattice_len(t0, t1, m.step);
+        let line = Line {
+            origin: ray.at(t0 + 0.5 * m.step),
+            step: ray.dir * m.step,
+        };
+        let mut values = [0.0f64; BATCH];
         let (mut sum, mut count) = (0.0f64, 0u64);
-        for i in 0..n {
-            stats.samples += 1;
-            let v = m.field.value(ray.at(t0 + (i as f64 + 0.5) * m.step));
-            if !v.is_nan() {
-                sum += v;
-                count += 1;
+        let mut i = 0u64;
+        while i < n {
+            let run = (n - i).min(BATCH as u64) as usize;
+            m.field.values_along(&line, i, &mut values[..run]);
+            stats.samples += run as u64;
+            for &v in &values[..run] {
+                if !v.is_nan() {
+                    sum += v;
+                    count += 1;
+                }
             }
+            i += run as u64;
         }
         if count == 0 {
             return (Vec3::ZERO, 0.0);
