@@ -383,7 +383,7 @@ fn bunny(mesh_path: &std::path::Path, size: u32) -> Result<BenchVolume, Failure>
     };
     job.check().map_err(|e| bad_input(e.to_string()))?;
     let grid = job.layout(&mesh.bounds()).map_err(|e| bad_input(e.to_string()))?;
-    let (volume, _) = job.run(&mesh, &grid, &NoProgress);
+    let volume = job.run(&mesh, &grid, &NoProgress).volume;
     let transfer = TransferFunction::new(vec![
         (0.0, Vec4::new(0.0, 0.0, 0.0, 0.0)),
         (0.2, Vec4::new(0.9, 0.7, 0.4, 0.0)),
