@@ -183,7 +183,21 @@ impl Bvh {
     /// that touch the closed box, by the exact test [`triangle_box_overlap`].
     pub fn triangles_overlapping(&self, query: &Aabb, out: &mut Vec<u32>) {
         out.clear();
-        if self.nodes.is_empty() || query.is_empty() {
+        if query.is_empty() {
+            return;
+        }
+        self.for_each_box_overlapping(query, |k| {
+            if triangle_box_overlap(self.triangles[k], query) {
+                out.push(self.triangle_ids[k]);
+            }
+        });
+        out.sort_unstable();
+    }
+
+    /// Calls `f` with the tree-order index of every triangle in a leaf whose box meets the
+    /// closed box.
+    fn for_each_box_overlapping(&self, query: &Aabb, mut f: impl FnMut(usize)) {
+        if self.nodes.is_empty() {
             return;
         }
         let mut stack = [0u32; STACK_SIZE];
@@ -197,49 +211,27 @@ impl Bvh {
             }
             if node.is_leaf() {
                 let first = node.first_or_right as usize;
-                for k in first..first + node.count as usize {
-                    if triangle_box_overlap(self.triangles[k], query) {
-                        out.push(self.triangle_ids[k]);
-                    }
-                }
+                (first..first + node.count as usize).for_each(&mut f);
             } else {
                 stack[top] = index + node.first_or_right;
                 stack[top + 1] = index + 1;
                 top += 2;
             }
         }
-        out.sort_unstable();
     }
 
     /// Appends to `out` the indices of the triangles whose bounding boxes meet the
     /// closed box (a superset of [`Bvh::triangles_overlapping`], in tree order).
     pub fn boxes_overlapping(&self, query: &Aabb, out: &mut Vec<u32>) {
-        if self.nodes.is_empty() || query.is_empty() {
+        if query.is_empty() {
             return;
         }
-        let mut stack = [0u32; STACK_SIZE];
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let index = stack[top];
-            let node = &self.nodes[index as usize];
-            if node.bounds.min.cmpgt(query.max).any() || node.bounds.max.cmplt(query.min).any() {
-                continue;
+        self.for_each_box_overlapping(query, |k| {
+            let [a, b, c] = self.triangles[k];
+            if !(a.min(b).min(c).cmpgt(query.max).any() || a.max(b).max(c).cmplt(query.min).any()) {
+                out.push(self.triangle_ids[k]);
             }
-            if node.is_leaf() {
-                let first = node.first_or_right as usize;
-                for k in first..first + node.count as usize {
-                    let [a, b, c] = self.triangles[k];
-                    if !(a.min(b).min(c).cmpgt(query.max).any() || a.max(b).max(c).cmplt(query.min).any()) {
-                        out.push(self.triangle_ids[k]);
-                    }
-                }
-            } else {
-                stack[top] = index + node.first_or_right;
-                stack[top + 1] = index + 1;
-                top += 2;
-            }
-        }
+        });
     }
 
     /// Fast generalized winding number at `p` (Barill, Dickson, Schmidt, Levin &

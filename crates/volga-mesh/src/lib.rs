@@ -12,7 +12,10 @@
 //!   [`triangle_box_overlap`] (separating axes), [`segment_crosses_triangle`]
 //!   (signed volumes), [`solid_angle`] and the exact [`winding_number`].
 //! * [`Bvh`] accelerates them over a whole mesh: exact nearest point (branch and
-//!   bound), triangles touching a box, and the fast winding number of Barill et al.
+//!   bound), triangles touching a box, the fast winding number of Barill et al., and
+//!   [`Bvh::winding_number_bounded`], the same with a certified error bound, refined
+//!   until it proves what is asked. [`unclean`] generates the meshes users bring
+//!   (self-intersecting, overlapping, open, flat, single triangles) for tests.
 //!   [`signed_distance`] combines the exact distance with the winding-number sign.
 //!
 //! ## Spaces, units, precision
