@@ -1,1 +1,27 @@
-//! tmp
+//! Constructive volume geometry (survey §17.5): spatial objects carrying a density in
+//! \[0, 1\] and attributes (RGB colour, material id) combined by the fuzzy operators of
+//! eq. 17, the algebraic operators of eq. 18 and blending ([`Op`], [`complement`]).
+//!
+//! * [`Cvg`] is a tree of operators over [`Leaf`]s (any `volga_core::Field`: filtered
+//!   analytic shapes of `volga-shapes`, sampled volumes, hypertextures, fuzzy
+//!   [`Radial`] primitives); [`CvgField`] is the tree as a `Field`, sampled lazily by
+//!   the raycaster, with conservative interval bounds per box ([`Cvg::range`]) so empty
+//!   space is skipped, and with the region it can reach ([`Cvg::support`]).
+//! * [`bake`] voxelizes any field over only that region (an intersection bakes the
+//!   overlap), bricks settled by their bounds alone cost no samples.
+//! * [`voxblt`] copies or combines a cuboid block of one volume into another.
+//!
+//! Attribute rules are documented on [`Op::attributes`]. World space is `f64`; baked
+//! payloads `f32` (the workspace's conventions, docs/ARCHITECTURE.md).
+
+mod bake;
+mod op;
+mod radial;
+mod tree;
+mod voxblt;
+
+pub use bake::{bake, BakeStats};
+pub use op::{complement, Attributes, Op};
+pub use radial::{Core, Radial};
+pub use tree::{Cvg, CvgField, Leaf, LeafColour};
+pub use voxblt::{voxblt, BlockOp};
