@@ -5,6 +5,7 @@
 
 mod accuracy;
 mod bench;
+mod bench_noise;
 mod bench_render;
 mod failure;
 mod progress;

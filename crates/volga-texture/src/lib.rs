@@ -22,6 +22,7 @@ mod counter;
 pub mod edt;
 mod fractal;
 mod hyper;
+mod noise_field;
 mod perlin;
 mod sampled_distance;
 mod solid;
@@ -29,6 +30,7 @@ mod worley;
 
 pub use counter::Counter;
 pub use fractal::{fill, Fbm, Scaled, SolidNoise, Turbulence};
+pub use noise_field::NoiseField;
 pub use hyper::{bias, gain, DistanceSource, HyperTexture, Modulation, Region, ShapeDistance};
 pub use perlin::{fade, Perlin};
 pub use sampled_distance::SampledDistance;

@@ -138,38 +138,62 @@ impl Perlin {
         let (cy, cz) = (corner(y), corner(z));
         let (dy, dz) = (y - cy as f64, z - cz as f64);
         let (sy, sz) = (fade(dy), fade(dz));
-        // Weights of the four (y, z) corners after the z then y interpolations.
+        // The four (y, z) corners after the z then y interpolations have weights `w`;
+        // per corner and hash, the gradient's y/z part and its x slope, pre-weighted,
+        // so a cell face is `Σ constant + Σ slope · fx` from table look-ups.
         let w = [(1.0 - sy) * (1.0 - sz), (1.0 - sy) * sz, sy * (1.0 - sz), sy * sz];
-        let yz = [(0i64, 0i64), (0, 1), (1, 0), (1, 1)];
+        let offsets = [(0i64, 0i64), (0, 1), (1, 0), (1, 1)];
+        let mut constant = [[0.0f64; 16]; 4];
+        let mut slope = [[0.0f64; 16]; 4];
+        let mut y_key = [0usize; 4];
+        let mut z_key = [0usize; 4];
+        for (c, &(oy, oz)) in offsets.iter().enumerate() {
+            for h in 0..16u8 {
+                let (gx, gy, gz) = gradient(h);
+                constant[c][h as usize] = w[c] * (gy * (dy - oy as f64) + gz * (dz - oz as f64));
+                slope[c][h as usize] = w[c] * gx;
+            }
+            y_key[c] = (cy.wrapping_add(oy) & 255) as usize;
+            z_key[c] = (cz.wrapping_add(oz) & 255) as usize;
+        }
         let p = &self.perm;
+        let scale = SCALE;
+        let n = out.len();
         let mut k = 0;
-        while k < out.len() {
-            let x = x0 + k as f64 * dx;
-            let cx = corner(x);
-            // The face polynomials: sum_w w·(gx·(fx − ox) + gy·(dy − oy) + gz·(dz − oz))
-            // = a + b·fx at the two x faces.
+        while k < n {
+            let cx = corner(x0 + k as f64 * dx);
             let mut face = [(0.0f64, 0.0f64); 2];
             for (ox, f) in face.iter_mut().enumerate() {
                 let hx = p[(cx.wrapping_add(ox as i64) & 255) as usize] as usize;
-                for (c, &(oy, oz)) in yz.iter().enumerate() {
-                    let a = hx ^ (cy.wrapping_add(oy) & 255) as usize;
-                    let h = p[p[a] as usize ^ (cz.wrapping_add(oz) & 255) as usize];
-                    let (gx, gy, gz) = gradient(h);
-                    let constant = gy * (dy - oy as f64) + gz * (dz - oz as f64) - gx * ox as f64;
-                    f.0 += w[c] * constant;
-                    f.1 += w[c] * gx;
+                for c in 0..4 {
+                    let h = (p[(p[(hx ^ y_key[c]) & 255] as usize ^ z_key[c]) & 255] & 15) as usize;
+                    f.0 += constant[c][h];
+                    f.1 += slope[c][h];
                 }
             }
-            // The samples in this cell (the corner rule decides the boundaries).
-            while k < out.len() {
+            // Face 1 measures from x = cx + 1: its constant loses one slope.
+            face[1].0 -= face[1].1;
+            // The samples in this cell: the corner rule makes cells [c, c + 1) for
+            // c ≥ 0 and (c, c + 1] below.
+            let end = cx.wrapping_add(1) as f64;
+            let inclusive = end <= 0.0;
+            let base = cx as f64;
+            let first = k;
+            while k < n {
                 let x = x0 + k as f64 * dx;
-                if corner(x) != cx {
+                if x > end || (x == end && !inclusive) {
                     break;
                 }
-                let fx = x - cx as f64;
+                let fx = x - base;
                 let n0 = face[0].0 + face[0].1 * fx;
                 let n1 = face[1].0 + face[1].1 * fx;
-                let v = (lerp(n0, n1, fade(fx)) * SCALE).clamp(-1.0, 1.0);
+                let v = (lerp(n0, n1, fade(fx)) * scale).clamp(-1.0, 1.0);
+                out[k] += weight * if abs { v.abs() } else { v };
+                k += 1;
+            }
+            if k == first {
+                // Beyond ±2⁶³ the cell bounds saturate: fall back to the point form.
+                let v = self.value(DVec3::new(x0 + k as f64 * dx, y, z));
                 out[k] += weight * if abs { v.abs() } else { v };
                 k += 1;
             }

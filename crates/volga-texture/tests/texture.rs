@@ -87,6 +87,9 @@ fn far_from_origin_finite_and_equal() {
     let mut row = vec![0.0; 100];
     Fbm::new(0, 4, 1.0, 2.0, 0.5).row(1e6, 0.01, 1e6, -1e6, &mut row);
     assert!(row.iter().all(|v| v.is_finite()));
+    // Beyond the integer range of cells the row form still ends (point fallback).
+    Fbm::new(0, 4, 1.0, 2.0, 0.5).row(1e19, 1e17, 0.5, 0.5, &mut row);
+    assert!(row.iter().all(|v| v.is_finite()));
 }
 
 #[test]
