@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 
-use crate::Perlin;
+use crate::{Perlin, RowHashes};
 
 /// A solid noise: a scalar function of world position with a known bound.
 pub trait SolidNoise: Send + Sync + std::fmt::Debug {
@@ -15,6 +15,10 @@ pub trait SolidNoise: Send + Sync + std::fmt::Debug {
         for (k, v) in out.iter_mut().enumerate() {
             *v = self.value(DVec3::new(x0 + k as f64 * dx, y, z));
         }
+    }
+    /// [`SolidNoise::row`] with per-octave hash caches kept between rows.
+    fn row_cached(&self, _cache: &mut Vec<RowHashes>, x0: f64, dx: f64, y: f64, z: f64, out: &mut [f64]) {
+        self.row(x0, dx, y, z, out)
     }
     /// `(lo, hi)` containing every value.
     fn range(&self) -> (f64, f64);
@@ -69,11 +73,16 @@ impl SolidNoise for Fbm {
     }
 
     fn row(&self, x0: f64, dx: f64, y: f64, z: f64, out: &mut [f64]) {
+        self.row_cached(&mut Vec::new(), x0, dx, y, z, out)
+    }
+
+    fn row_cached(&self, cache: &mut Vec<RowHashes>, x0: f64, dx: f64, y: f64, z: f64, out: &mut [f64]) {
         out.fill(0.0);
+        cache.resize_with(self.octaves.len(), Default::default);
         let mut f = self.frequency;
         let mut attenuation = self.persistence;
-        for o in &self.octaves {
-            o.add_row(x0 * f, dx * f, y * f, z * f, attenuation * self.scale, false, out);
+        for (o, c) in self.octaves.iter().zip(cache.iter_mut()) {
+            o.add_row_cached(c, x0 * f, dx * f, y * f, z * f, attenuation * self.scale, false, out);
             attenuation *= self.persistence;
             f *= self.lacunarity;
         }
@@ -126,12 +135,17 @@ impl SolidNoise for Turbulence {
     }
 
     fn row(&self, x0: f64, dx: f64, y: f64, z: f64, out: &mut [f64]) {
+        self.row_cached(&mut Vec::new(), x0, dx, y, z, out)
+    }
+
+    fn row_cached(&self, cache: &mut Vec<RowHashes>, x0: f64, dx: f64, y: f64, z: f64, out: &mut [f64]) {
         out.fill(0.0);
+        cache.resize_with(self.octaves as usize, Default::default);
         let mut scale = 1.0;
         let f = self.frequency;
-        for _ in 0..self.octaves {
+        for c in cache.iter_mut() {
             let s = f * scale;
-            self.noise.add_row(x0 * s, dx * s, y * s, z * s, 1.0 / scale, true, out);
+            self.noise.add_row_cached(c, x0 * s, dx * s, y * s, z * s, 1.0 / scale, true, out);
             scale *= 2.0;
         }
     }
@@ -187,10 +201,11 @@ pub fn fill(noise: &dyn SolidNoise, origin: DVec3, spacing: DVec3, dims: [usize;
     }
     out.par_chunks_mut(nx * ny).enumerate().for_each(|(k, slab)| {
         let mut row = vec![0.0f64; nx];
+        let mut cache = Vec::new();
         let z = origin.z + k as f64 * spacing.z;
         for (j, out_row) in slab.chunks_mut(nx).enumerate() {
             let y = origin.y + j as f64 * spacing.y;
-            noise.row(origin.x, spacing.x, y, z, &mut row);
+            noise.row_cached(&mut cache, origin.x, spacing.x, y, z, &mut row);
             for (o, v) in out_row.iter_mut().zip(&row) {
                 *o = *v as f32;
             }

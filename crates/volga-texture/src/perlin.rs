@@ -86,6 +86,13 @@ fn lerp(a: f64, b: f64, t: f64) -> f64 {
     b * t + a * (1.0 - t)
 }
 
+/// The corner hashes of one row's cells, kept between rows ([`Perlin::add_row_cached`]).
+#[derive(Debug, Default, Clone)]
+pub struct RowHashes {
+    key: Option<(i64, i64, i64, i64)>,
+    hashes: Vec<[u8; 4]>,
+}
+
 impl Perlin {
     /// The noise of `seed`: the permutation table is the `noise` crate's (a
     /// `XorShiftRng` seeded with `[1, 0, 0, 0, seed × 3 (little endian)]` shuffling 0..=255).
@@ -135,68 +142,114 @@ impl Perlin {
     /// the row form of [`Perlin::value`], with the corner gradients of a cell computed
     /// once for all its samples. `abs` takes `|noise|` (turbulence).
     pub fn add_row(&self, x0: f64, dx: f64, y: f64, z: f64, weight: f64, abs: bool, out: &mut [f64]) {
+        self.add_row_cached(&mut RowHashes::default(), x0, dx, y, z, weight, abs, out)
+    }
+
+    /// [`Perlin::add_row`] reusing the corner hashes of the previous row when it had the
+    /// same cells (rows of a lattice finer than the noise share them: 16 rows per cell
+    /// at the first octave of a 256³ fill over 16 periods).
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_row_cached(
+        &self,
+        cache: &mut RowHashes,
+        x0: f64,
+        dx: f64,
+        y: f64,
+        z: f64,
+        weight: f64,
+        abs: bool,
+        out: &mut [f64],
+    ) {
+        let n = out.len();
+        if n == 0 {
+            return;
+        }
         let (cy, cz) = (corner(y), corner(z));
         let (dy, dz) = (y - cy as f64, z - cz as f64);
         let (sy, sz) = (fade(dy), fade(dz));
+        let first = corner(x0);
+        let last = corner(x0 + (n - 1) as f64 * dx);
+        let faces = last.wrapping_sub(first).wrapping_add(2);
+        if !(2..=(1 << 24)).contains(&faces) {
+            // Saturated or absurd cell ranges: the point form, one sample at a time.
+            for (k, o) in out.iter_mut().enumerate() {
+                let v = self.value(DVec3::new(x0 + k as f64 * dx, y, z));
+                *o += weight * if abs { v.abs() } else { v };
+            }
+            return;
+        }
+        let key = (first, faces, cy, cz);
+        if cache.key != Some(key) {
+            cache.key = Some(key);
+            cache.hashes.clear();
+            let p = &self.perm;
+            let offsets = [(0i64, 0i64), (0, 1), (1, 0), (1, 1)];
+            for f in 0..faces {
+                let hx = p[(first.wrapping_add(f) & 255) as usize] as usize;
+                let mut h = [0u8; 4];
+                for (c, &(oy, oz)) in offsets.iter().enumerate() {
+                    let yk = (cy.wrapping_add(oy) & 255) as usize;
+                    let zk = (cz.wrapping_add(oz) & 255) as usize;
+                    h[c] = p[(p[(hx ^ yk) & 255] as usize ^ zk) & 255] & 15;
+                }
+                cache.hashes.push(h);
+            }
+        }
         // The four (y, z) corners after the z then y interpolations have weights `w`;
         // per corner and hash, the gradient's y/z part and its x slope, pre-weighted,
-        // so a cell face is `Σ constant + Σ slope · fx` from table look-ups.
+        // so an x face is `Σ constant + Σ slope · (x − face)` from table look-ups.
         let w = [(1.0 - sy) * (1.0 - sz), (1.0 - sy) * sz, sy * (1.0 - sz), sy * sz];
-        let offsets = [(0i64, 0i64), (0, 1), (1, 0), (1, 1)];
+        let offsets = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
         let mut constant = [[0.0f64; 16]; 4];
         let mut slope = [[0.0f64; 16]; 4];
-        let mut y_key = [0usize; 4];
-        let mut z_key = [0usize; 4];
         for (c, &(oy, oz)) in offsets.iter().enumerate() {
             for h in 0..16u8 {
                 let (gx, gy, gz) = gradient(h);
-                constant[c][h as usize] = w[c] * (gy * (dy - oy as f64) + gz * (dz - oz as f64));
+                constant[c][h as usize] = w[c] * (gy * (dy - oy) + gz * (dz - oz));
                 slope[c][h as usize] = w[c] * gx;
             }
-            y_key[c] = (cy.wrapping_add(oy) & 255) as usize;
-            z_key[c] = (cz.wrapping_add(oz) & 255) as usize;
         }
-        let p = &self.perm;
-        let scale = SCALE;
-        let n = out.len();
-        let mut k = 0;
-        while k < n {
-            let cx = corner(x0 + k as f64 * dx);
-            let mut face = [(0.0f64, 0.0f64); 2];
-            for (ox, f) in face.iter_mut().enumerate() {
-                let hx = p[(cx.wrapping_add(ox as i64) & 255) as usize] as usize;
-                for c in 0..4 {
-                    let h = (p[(p[(hx ^ y_key[c]) & 255] as usize ^ z_key[c]) & 255] & 15) as usize;
-                    f.0 += constant[c][h];
-                    f.1 += slope[c][h];
-                }
+        let face = |f: usize| {
+            let h = cache.hashes[f];
+            let mut a = 0.0;
+            let mut b = 0.0;
+            for c in 0..4 {
+                a += constant[c][h[c] as usize];
+                b += slope[c][h[c] as usize];
             }
-            // Face 1 measures from x = cx + 1: its constant loses one slope.
-            face[1].0 -= face[1].1;
+            (a, b)
+        };
+        let mut k = 0;
+        let mut cell = 0usize;
+        let mut near = face(0);
+        while k < n && cell + 1 < faces as usize {
+            let far = face(cell + 1);
+            let cx = first.wrapping_add(cell as i64);
             // The samples in this cell: the corner rule makes cells [c, c + 1) for
             // c ≥ 0 and (c, c + 1] below.
             let end = cx.wrapping_add(1) as f64;
             let inclusive = end <= 0.0;
             let base = cx as f64;
-            let first = k;
+            // Far face measured from x = cx + 1: its constant loses one slope.
+            let (a1, b1) = (far.0 - far.1, far.1);
+            let (n0a, n0b) = near;
             while k < n {
                 let x = x0 + k as f64 * dx;
                 if x > end || (x == end && !inclusive) {
                     break;
                 }
                 let fx = x - base;
-                let n0 = face[0].0 + face[0].1 * fx;
-                let n1 = face[1].0 + face[1].1 * fx;
-                let v = (lerp(n0, n1, fade(fx)) * scale).clamp(-1.0, 1.0);
+                let v = (lerp(n0a + n0b * fx, a1 + b1 * fx, fade(fx)) * SCALE).clamp(-1.0, 1.0);
                 out[k] += weight * if abs { v.abs() } else { v };
                 k += 1;
             }
-            if k == first {
-                // Beyond ±2⁶³ the cell bounds saturate: fall back to the point form.
-                let v = self.value(DVec3::new(x0 + k as f64 * dx, y, z));
-                out[k] += weight * if abs { v.abs() } else { v };
-                k += 1;
-            }
+            near = far;
+            cell += 1;
+        }
+        // Rounding of x0 + k·dx near the last cell's end: finish by points.
+        for (i, o) in out.iter_mut().enumerate().skip(k) {
+            let v = self.value(DVec3::new(x0 + i as f64 * dx, y, z));
+            *o += weight * if abs { v.abs() } else { v };
         }
     }
 }
