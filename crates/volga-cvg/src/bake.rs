@@ -74,7 +74,7 @@ fn bake_brick(field: &dyn Field, grid: &Grid, b: IVec3, voxels: &IndexBox, backg
     let full = inside.volume() == BRICK_VOXELS as u64;
     if lo == hi && (full || lo as f32 == background) {
         let v = lo as f32;
-        let tint = (colour && v != 0.0).then(|| sample_colours(field, grid, b, &inside));
+        let tint = (colour && v != 0.0).then(|| sample_colours(field, grid, b, &inside, None));
         return (Brick::Uniform(v), tint, 0, true);
     }
     let base = b * BRICK_DIM;
@@ -86,17 +86,24 @@ fn bake_brick(field: &dyn Field, grid: &Grid, b: IVec3, voxels: &IndexBox, backg
         samples += 1;
     }
     let density = Brick::from_voxels(&data);
-    let tint = colour.then(|| sample_colours(field, grid, b, &inside));
+    let tint = colour.then(|| sample_colours(field, grid, b, &inside, Some(&data)));
     (density, tint, samples, false)
 }
 
-fn sample_colours(field: &dyn Field, grid: &Grid, b: IVec3, inside: &IndexBox) -> Brick<Rgb> {
+/// Colours of the voxels of brick `b` inside `inside` whose density (`density`, or
+/// non-zero everywhere when `None`) is not 0: colour is looked up only where something
+/// is visible (a texture's noise runs nowhere else).
+fn sample_colours(field: &dyn Field, grid: &Grid, b: IVec3, inside: &IndexBox, density: Option<&[f32; BRICK_VOXELS]>) -> Brick<Rgb> {
     let base = b * BRICK_DIM;
     let mut data = [[0.0f32; 3]; BRICK_VOXELS];
     for ijk in inside.iter() {
         let o = ijk - base;
+        let i = (o.x + BRICK_DIM * (o.y + BRICK_DIM * o.z)) as usize;
+        if density.is_some_and(|d| d[i] == 0.0) {
+            continue;
+        }
         let c = field.colour(grid.transform.voxel_center(ijk)).unwrap_or(glam::Vec3::ONE);
-        data[(o.x + BRICK_DIM * (o.y + BRICK_DIM * o.z)) as usize] = c.to_array();
+        data[i] = c.to_array();
     }
     Brick::from_voxels(&data)
 }

@@ -256,6 +256,12 @@ impl<'a> CvgField<'a> {
     pub fn tree(&self) -> &Cvg<'a> {
         &self.tree
     }
+
+    /// Sets the central-difference step (a scene's voxel spacing); by default the
+    /// smallest of the leaves'.
+    pub fn set_gradient_step(&mut self, step: DVec3) {
+        self.step = step;
+    }
 }
 
 impl std::fmt::Debug for CvgField<'_> {

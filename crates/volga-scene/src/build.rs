@@ -25,6 +25,10 @@ pub struct Report {
     pub voxels: VoxelReport,
     pub images: Vec<ImageReport>,
     pub outputs: Vec<PathBuf>,
+    /// Perlin evaluations (one per octave) and Worley searches over the whole build.
+    pub noise_evaluations: u64,
+    /// Per procedural node: samples taken and noise evaluated (bake and renders).
+    pub node_counters: Vec<crate::nodes::procedural::NodeCounters>,
     pub total_wall_s: f64,
 }
 
@@ -187,8 +191,12 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
         voxels,
         images,
         outputs,
+        noise_evaluations: 0,
+        node_counters: Vec::new(),
         total_wall_s: 0.0,
     };
+    report.node_counters = crate::nodes::all_counters(&scene.root);
+    report.noise_evaluations = report.node_counters.iter().map(|c| c.noise_evaluations).sum();
     report.outputs.push(report_path.clone());
     report.stages = stages.list;
     report.total_wall_s = start.elapsed().as_secs_f64();

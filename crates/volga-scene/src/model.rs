@@ -70,6 +70,16 @@ pub enum NodeSpec {
         #[serde(default)]
         colour: Option<V3>,
     },
+    /// A CVG operator (survey §17.5, eqs. 17–18) over nodes (`nodes/cvg.rs`).
+    Cvg(crate::nodes::cvg::CvgSpec),
+    /// A fuzzy primitive, density `1 − r/R` (`nodes/fuzzy.rs`).
+    Fuzzy(crate::nodes::fuzzy::FuzzySpec),
+    /// A sampled volume from a `.binvox` / `.nrrd` file (`nodes/volume.rs`).
+    Volume(crate::nodes::volume::VolumeSpec),
+    /// A solid texture painting a node (`nodes/textured.rs`).
+    Textured(crate::nodes::textured::TexturedSpec),
+    /// A Perlin–Hoffert hypertexture (`nodes/hypertexture.rs`).
+    Hypertexture(crate::nodes::hypertexture::HypertextureSpec),
 }
 
 /// A solid of the scene: a leaf whose shape decides its node kind.

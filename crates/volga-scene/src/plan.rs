@@ -46,6 +46,8 @@ pub struct Plan {
     pub voxelize: Decision,
     pub channels: Vec<Decision>,
     pub effects: Vec<Decision>,
+    /// Where procedural work (noise) runs, per node; one disabled entry when nowhere.
+    pub procedural: Vec<Decision>,
     pub memory: MemoryEstimate,
     pub memory_limit_bytes: u64,
     /// Whether the colour channel is allocated.
@@ -130,10 +132,22 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
             ),
         });
     }
+    let mut procedural: Vec<Decision> = crate::nodes::all_procedural_plans(&scene.root)
+        .into_iter()
+        .map(|(node, why)| Decision::new(format!("procedural: {node}"), true, why))
+        .collect();
+    if procedural.is_empty() {
+        procedural.push(Decision::new(
+            "procedural",
+            false,
+            "no texture or hypertexture node: noise is never evaluated",
+        ));
+    }
     Ok(Plan {
         voxelize,
         channels,
         effects,
+        procedural,
         memory,
         memory_limit_bytes: limit,
         colour_channel,

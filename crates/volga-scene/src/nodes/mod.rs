@@ -12,10 +12,16 @@
 //! `model::ShapeSpec` (a leaf) or `model::NodeSpec` (an operator) and one arm in
 //! [`leaf`] (or `union::from_spec`). `nodes/torus.rs` is the worked example.
 
+pub mod cvg;
+pub mod fuzzy;
+pub mod hypertexture;
 pub mod mesh;
+pub mod procedural;
 pub mod shape;
+pub mod textured;
 pub mod torus;
 pub mod union;
+pub mod volume;
 
 use std::path::Path;
 
@@ -91,6 +97,34 @@ pub trait Node: std::fmt::Debug + Send + Sync {
     fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError>;
     /// The node voxelized on `grid` (density, and colour when `colour`).
     fn bake(&self, grid: &Grid, colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError>;
+    /// Where this node's procedural work (noise) runs, for the plan; `None` when it has
+    /// none.
+    fn procedural_plan(&self) -> Option<String> {
+        None
+    }
+    /// This node's counters (samples, noise evaluations) so far, for the report; not
+    /// its children's.
+    fn counters(&self) -> Vec<procedural::NodeCounters> {
+        Vec::new()
+    }
+}
+
+/// The counters of a node and all nodes below it, depth first.
+pub fn all_counters(node: &dyn Node) -> Vec<procedural::NodeCounters> {
+    let mut out = node.counters();
+    for c in node.children() {
+        out.extend(all_counters(c.as_ref()));
+    }
+    out
+}
+
+/// The procedural plans of a node and all nodes below it, as `(node, plan)`.
+pub fn all_procedural_plans(node: &dyn Node) -> Vec<(String, String)> {
+    let mut out: Vec<(String, String)> = node.procedural_plan().map(|p| (node.name().to_string(), p)).into_iter().collect();
+    for c in node.children() {
+        out.extend(all_procedural_plans(c.as_ref()));
+    }
+    out
 }
 
 /// The filter a grid's voxels are sampled with (half-width = voxel diagonal).

@@ -92,6 +92,39 @@ fn from_spec(cx: &Ctx, f: &str, spec: &NodeSpec, leaves: &mut usize) -> Result<S
             }
             Spec::Union(Union::new(f, children))
         }
+        NodeSpec::Cvg(s) => Spec::Other(Box::new(super::cvg::CvgNode::validate(cx, &format!("{f}.Cvg"), s, leaves)?)),
+        NodeSpec::Fuzzy(s) => {
+            *leaves += 1;
+            Spec::Other(Box::new(super::fuzzy::FuzzyNode::validate(cx, &format!("{f}.Fuzzy"), s, *leaves - 1)?))
+        }
+        NodeSpec::Volume(s) => {
+            *leaves += 1;
+            Spec::Other(Box::new(super::volume::VolumeNode::validate(cx, &format!("{f}.Volume"), s, *leaves - 1)?))
+        }
+        NodeSpec::Textured(s) => Spec::Other(Box::new(super::textured::TexturedNode::validate(
+            cx,
+            &format!("{f}.Textured"),
+            s,
+            leaves,
+        )?)),
+        NodeSpec::Hypertexture(s) => {
+            *leaves += 1;
+            Spec::Other(Box::new(super::hypertexture::HypertextureNode::validate(
+                cx,
+                &format!("{f}.Hypertexture"),
+                s,
+                *leaves - 1,
+            )?))
+        }
+    })
+}
+
+/// Any node spec as a node (a union stays a union); `leaves` numbers objects for
+/// default names. What operator nodes call for their operands.
+pub fn node(cx: &Ctx, f: &str, spec: &NodeSpec, leaves: &mut usize) -> Result<Box<dyn Node>, SceneError> {
+    Ok(match from_spec(cx, f, spec, leaves)? {
+        Spec::Union(u) => Box::new(u),
+        Spec::Other(n) => n,
     })
 }
 

@@ -1,0 +1,163 @@
+//! Operator node: a CVG operator (survey §17.5, eqs. 17 and 18, blend, complement) over
+//! any nodes, evaluated through `volga_cvg`: lazily as a `CvgField` (interval bounds per
+//! box for empty-space skipping) or baked over only the region the operator reaches (an
+//! intersection bakes the overlap, a difference its first operand's box).
+//!
+//! Attributes follow `volga_cvg::Op::attributes`: union/intersection take the operand
+//! whose density wins, differences keep the first operand's, algebraic operators and
+//! blend mix colours weighted by density.
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use volga_core::{Aabb, Field, Grid, Progress, SparseVolume};
+use volga_cvg::{Cvg, CvgField, Leaf, LeafColour, Op};
+
+use super::procedural::{bake_field, Counted, Counters, NodeCounters};
+use super::{Estimate, Node, Resolve};
+use crate::ctx::Ctx;
+use crate::model::NodeSpec;
+use crate::SceneError;
+
+/// `Cvg(op: Intersection, operands: [A, B])`; `Complement` takes one operand, the
+/// others two (`Union`, `Intersection`, `Difference` of eq. 17; `Product`,
+/// `ProbabilisticSum`, `AlgebraicDifference` of eq. 18; `Blend(w)` with `w` in \[0, 1\]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CvgSpec {
+    #[serde(default)]
+    pub name: Option<String>,
+    pub op: CvgOpSpec,
+    pub operands: Vec<NodeSpec>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum CvgOpSpec {
+    Union,
+    Intersection,
+    Difference,
+    Complement,
+    Product,
+    ProbabilisticSum,
+    AlgebraicDifference,
+    Blend(f64),
+}
+
+#[derive(Debug)]
+pub struct CvgNode {
+    name: String,
+    /// `None`: the complement.
+    op: Option<Op>,
+    children: Vec<Box<dyn Node>>,
+    counters: Counters,
+}
+
+impl CvgNode {
+    pub fn validate(cx: &Ctx, f: &str, spec: &CvgSpec, leaves: &mut usize) -> Result<Self, SceneError> {
+        let (op, arity) = match spec.op {
+            CvgOpSpec::Union => (Some(Op::Union), 2),
+            CvgOpSpec::Intersection => (Some(Op::Intersection), 2),
+            CvgOpSpec::Difference => (Some(Op::Difference), 2),
+            CvgOpSpec::Complement => (None, 1),
+            CvgOpSpec::Product => (Some(Op::Product), 2),
+            CvgOpSpec::ProbabilisticSum => (Some(Op::ProbabilisticSum), 2),
+            CvgOpSpec::AlgebraicDifference => (Some(Op::AlgebraicDifference), 2),
+            CvgOpSpec::Blend(w) => {
+                if !(0.0..=1.0).contains(&w) {
+                    return Err(cx.err(format!("{f}.op.Blend"), format!("the weight must lie in [0, 1], got {w}")));
+                }
+                (Some(Op::Blend(w)), 2)
+            }
+        };
+        if spec.operands.len() != arity {
+            return Err(cx.err(
+                format!("{f}.operands"),
+                format!("{:?} takes {arity} operand(s), got {}", spec.op, spec.operands.len()),
+            ));
+        }
+        let children = spec
+            .operands
+            .iter()
+            .enumerate()
+            .map(|(i, o)| super::union::node(cx, &format!("{f}.operands[{i}]"), o, leaves))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(CvgNode {
+            name: spec.name.clone().unwrap_or_else(|| f.to_string()),
+            op,
+            children,
+            counters: Counters::default(),
+        })
+    }
+
+    fn tree<'a>(&'a self, grid: &Grid) -> Result<Cvg<'a>, SceneError> {
+        let leaf = |c: &'a dyn Node| -> Result<Cvg<'a>, SceneError> {
+            let field = c.lazy_field(grid)?;
+            let colour = if field.has_colour() {
+                LeafColour::FromField
+            } else {
+                LeafColour::Constant(Vec3::from(c.colour()))
+            };
+            Ok(Cvg::Leaf(Leaf::new(field).with_colour(colour)))
+        };
+        Ok(match self.op {
+            None => Cvg::not(leaf(self.children[0].as_ref())?),
+            Some(op) => Cvg::op(op, leaf(self.children[0].as_ref())?, leaf(self.children[1].as_ref())?),
+        })
+    }
+}
+
+impl Node for CvgNode {
+    fn kind(&self) -> &'static str {
+        "cvg"
+    }
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn children(&self) -> &[Box<dyn Node>] {
+        &self.children
+    }
+    fn resolve(&mut self, cx: &Resolve) -> Result<(), SceneError> {
+        self.children.iter_mut().try_for_each(|c| c.resolve(cx))
+    }
+    /// The operator's reach (`Cvg::support`) from the operands' boxes.
+    fn bounds(&self) -> Aabb {
+        let b: Vec<Aabb> = self.children.iter().map(|c| c.bounds()).collect();
+        match self.op {
+            None => Aabb::new(glam::DVec3::splat(f64::NEG_INFINITY), glam::DVec3::splat(f64::INFINITY)),
+            Some(Op::Intersection | Op::Product) => b[0].intersection(&b[1]),
+            Some(Op::Difference | Op::AlgebraicDifference) => b[0],
+            Some(_) => b[0].union(&b[1]),
+        }
+    }
+    fn estimate(&self, grid: &Grid) -> Estimate {
+        let reach = self.bounds().intersection(&grid.world_bounds());
+        let operands = self.children.iter().fold(Estimate::default(), |e, c| {
+            Estimate {
+                bricks: 0,
+                extra_bytes: e.extra_bytes.saturating_add(c.estimate(grid).extra_bytes),
+            }
+        });
+        Estimate {
+            bricks: super::bricks_within(grid, &reach),
+            extra_bytes: operands.extra_bytes,
+        }
+    }
+    fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError> {
+        let mut field = CvgField::new(self.tree(grid)?, &grid.world_bounds());
+        field.set_gradient_step(grid.transform.spacing());
+        Ok(Box::new(Counted {
+            field,
+            samples: &self.counters.samples,
+        }))
+    }
+    fn bake(&self, grid: &Grid, colour: bool, _progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
+        Ok(bake_field(self.lazy_field(grid)?.as_ref(), grid, colour))
+    }
+    fn counters(&self) -> Vec<NodeCounters> {
+        vec![NodeCounters {
+            node: self.name.clone(),
+            kind: self.kind().into(),
+            samples: self.counters.samples.get(),
+            noise_evaluations: 0,
+        }]
+    }
+}

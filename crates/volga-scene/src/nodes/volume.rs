@@ -1,0 +1,155 @@
+//! Leaf node: a sampled volume read from a voxel model file (`.binvox` occupancy, or a
+//! `.nrrd` of densities; `volga_io::read_voxel_model`), placed where the file says
+//! (binvox `translate`/`scale`, NRRD origin and spacing), sampled trilinearly.
+//! Distance NRRDs are refused: a CVG operand is a density.
+
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+use volga_core::{Aabb, Field, Filter, Grid, Progress, Sampled, SparseVolume};
+use volga_io::{read_voxel_model, VoxelModel, VoxelValues};
+
+use super::procedural::{bake_field, Counted, Counters, NodeCounters};
+use super::{bricks_within, Clipped, Estimate, Node, Resolve};
+use crate::ctx::Ctx;
+use crate::model::V3;
+use crate::SceneError;
+
+/// `Volume(path: "bunny.binvox", colour: ..)`; the path is relative to the scene file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeSpec {
+    #[serde(default)]
+    pub name: Option<String>,
+    pub path: String,
+    #[serde(default)]
+    pub colour: Option<V3>,
+}
+
+#[derive(Debug)]
+pub struct VolumeNode {
+    name: String,
+    path: String,
+    field: String,
+    colour: volga_core::Rgb,
+    volume: Option<Arc<SparseVolume>>,
+    counters: Counters,
+}
+
+impl VolumeNode {
+    pub fn validate(cx: &Ctx, f: &str, spec: &VolumeSpec, index: usize) -> Result<Self, SceneError> {
+        if spec.path.is_empty() {
+            return Err(cx.err(format!("{f}.path"), "must name a .binvox or .nrrd file"));
+        }
+        Ok(VolumeNode {
+            name: spec.name.clone().unwrap_or_else(|| format!("volume{index}")),
+            path: spec.path.clone(),
+            field: format!("{f}.path"),
+            colour: cx.colour(&format!("{f}.colour"), spec.colour)?,
+            volume: None,
+            counters: Counters::default(),
+        })
+    }
+
+    /// The volume, once resolved.
+    pub fn volume(&self) -> Option<&SparseVolume> {
+        self.volume.as_deref()
+    }
+}
+
+/// Reads a voxel model as a density volume; `field` names the scene field in errors.
+pub fn load_density(cx: &Resolve, path: &str, field: &str) -> Result<SparseVolume, SceneError> {
+    let file = cx.dir.join(path);
+    let invalid = |message: String| SceneError::Invalid {
+        path: cx.scene.to_owned(),
+        field: field.to_string(),
+        message,
+    };
+    if let Ok(meta) = std::fs::metadata(&file) {
+        // A dense f32 copy of the file's voxels at most 4× its size for NRRD raw data;
+        // binvox runs expand, bounded by the grid its header names (checked after).
+        if meta.len().saturating_mul(8) > cx.memory_limit {
+            return Err(invalid(format!("{} is too large to load ({} bytes)", file.display(), meta.len())));
+        }
+    }
+    let model = read_voxel_model(&file).map_err(|e| invalid(e.to_string()))?;
+    match model {
+        VoxelModel::Binvox(b) => {
+            let dims = b.dims();
+            let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
+            if voxels.saturating_mul(4) > cx.memory_limit {
+                return Err(invalid(format!("{}: a {dims} grid exceeds the memory limit", file.display())));
+            }
+            let transform = b.transform().map_err(|e| invalid(e.to_string()))?;
+            let grid = Grid::new(transform, dims).map_err(|e| invalid(e.to_string()))?;
+            let mut v = SparseVolume::new(grid, 0.0, false);
+            for ijk in b.filled() {
+                v.density.set(ijk.as_ivec3(), 1.0);
+            }
+            v.density.prune();
+            Ok(v)
+        }
+        VoxelModel::Nrrd { volume, values } => match values {
+            VoxelValues::Distance { .. } => Err(invalid(format!(
+                "{} holds distances, not densities in [0, 1]",
+                file.display()
+            ))),
+            _ => Ok(SparseVolume::from_dense(&volume)),
+        },
+    }
+}
+
+impl Node for VolumeNode {
+    fn kind(&self) -> &'static str {
+        "volume"
+    }
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn colour(&self) -> volga_core::Rgb {
+        self.colour
+    }
+    fn resolve(&mut self, cx: &Resolve) -> Result<(), SceneError> {
+        self.volume = Some(Arc::new(load_density(cx, &self.path, &self.field)?));
+        Ok(())
+    }
+    /// Unknown before resolving: everything.
+    fn bounds(&self) -> Aabb {
+        self.volume.as_ref().map_or(
+            Aabb::new(glam::DVec3::splat(f64::NEG_INFINITY), glam::DVec3::splat(f64::INFINITY)),
+            |v| v.grid.sampled_bounds(),
+        )
+    }
+    fn estimate(&self, grid: &Grid) -> Estimate {
+        Estimate {
+            bricks: bricks_within(grid, &self.bounds()),
+            extra_bytes: self.volume.as_ref().map_or(0, |v| v.memory_bytes()),
+        }
+    }
+    fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError> {
+        let volume = self
+            .volume
+            .as_deref()
+            .ok_or_else(|| SceneError::Invalid {
+                path: Default::default(),
+                field: self.field.clone(),
+                message: "the volume was not loaded (resolve stage)".into(),
+            })?;
+        let sampled = Sampled::new(volume, Filter::Trilinear);
+        Ok(Box::new(Counted {
+            field: Clipped::new(sampled, grid.world_bounds()).tinted(self.colour),
+            samples: &self.counters.samples,
+        }))
+    }
+    fn bake(&self, grid: &Grid, colour: bool, _progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
+        Ok(bake_field(self.lazy_field(grid)?.as_ref(), grid, colour))
+    }
+    fn counters(&self) -> Vec<NodeCounters> {
+        vec![NodeCounters {
+            node: self.name.clone(),
+            kind: self.kind().into(),
+            samples: self.counters.samples.get(),
+            noise_evaluations: 0,
+        }]
+    }
+}
