@@ -1,6 +1,8 @@
 //! Fuzzy primitives whose density falls linearly from the centre (figure 41's fuzzy
 //! sphere, "opacity `1 − r`"): `max(0, 1 − dist/radius)`, with `dist` the distance to a
-//! point (sphere) or to a segment's axis within its length (cylinder, flat caps).
+//! point (sphere), or for a cylinder the larger of the distance to its axis and the
+//! distance past `half_length − radius` along it (flat caps, density ramping to 0 at
+//! `half_length`, continuous everywhere).
 
 use glam::DVec3;
 use volga_core::{Aabb, Field};
@@ -10,8 +12,8 @@ use volga_core::{Aabb, Field};
 pub enum Core {
     /// A point: a fuzzy sphere.
     Point(DVec3),
-    /// An axis through `center` along the unit `axis`, `|t| ≤ half_length`: a fuzzy
-    /// cylinder (density 0 beyond the caps).
+    /// An axis through `center` along the unit `axis`: a fuzzy cylinder reaching
+    /// `half_length` along the axis (density 0 beyond the caps).
     Axis { center: DVec3, axis: DVec3, half_length: f64 },
 }
 
@@ -44,18 +46,15 @@ impl Radial {
         })
     }
 
-    /// The distance `dist` (∞ beyond a cylinder's caps).
+    /// The distance `dist`: 1-Lipschitz (a max of 1-Lipschitz functions).
     fn dist(&self, p: DVec3) -> f64 {
         match self.core {
             Core::Point(c) => p.distance(c),
             Core::Axis { center, axis, half_length } => {
                 let q = p - center;
                 let t = q.dot(axis);
-                if t.abs() > half_length {
-                    f64::INFINITY
-                } else {
-                    (q - axis * t).length()
-                }
+                let radial = (q - axis * t).length();
+                radial.max(t.abs() - (half_length - self.radius))
             }
         }
     }
@@ -79,29 +78,12 @@ impl Field for Radial {
     fn gradient_step(&self) -> DVec3 {
         DVec3::splat(self.step)
     }
-    /// `dist` is 1-Lipschitz inside the caps; a box crossing a cap gets \[0, hi\].
+    /// `dist` is 1-Lipschitz: over a box it lies within the centre's value ± the half
+    /// diagonal.
     fn value_range(&self, world_box: &Aabb) -> (f64, f64) {
-        let c = world_box.center();
+        let d = self.dist(world_box.center());
         let r = world_box.size().length() * 0.5;
-        let d = match self.core {
-            Core::Point(center) => c.distance(center),
-            Core::Axis { center, axis, .. } => {
-                let q = c - center;
-                (q - axis * q.dot(axis)).length()
-            }
-        };
-        let hi = (1.0 - (d - r).max(0.0) / self.radius).clamp(0.0, 1.0);
-        let lo = match self.core {
-            Core::Point(_) => (1.0 - (d + r) / self.radius).max(0.0),
-            Core::Axis { center, axis, half_length } => {
-                let t = (c - center).dot(axis).abs();
-                if t + r <= half_length {
-                    (1.0 - (d + r) / self.radius).max(0.0)
-                } else {
-                    0.0
-                }
-            }
-        };
-        (lo, hi)
+        let density = |dist: f64| (1.0 - dist / self.radius).clamp(0.0, 1.0);
+        (density(d + r), density(d - r))
     }
 }
