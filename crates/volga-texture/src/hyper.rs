@@ -92,15 +92,11 @@ pub enum Modulation {
         amplitude: f64,
         stretch: DVec3,
     },
-    /// Fur: strands radiating from `center`: `t ← t · bias(b, ½ + ½·noise(dir · frequency))`
-    /// with `dir` the unit direction from the centre, so the noise is constant along each
-    /// radial line, and `b` the strand sharpness.
-    Fur {
-        noise: Box<dyn SolidNoise>,
-        center: DVec3,
-        frequency: f64,
-        sharpness: f64,
-    },
+    /// Fur: strands along the surface normals: `t ← t · bias(b, ½ + ½·noise(q))` with
+    /// `q = p − d(p)·∇d/‖∇d‖` the point's foot on the surface (central differences of
+    /// the distance), so the noise is constant along each normal line; `b` the strand
+    /// sharpness.
+    Fur { noise: Box<dyn SolidNoise>, sharpness: f64 },
     /// `t ← t · (1 + amplitude · noise(p))`, clamped to \[0, 1\].
     Scale { noise: Box<dyn SolidNoise>, amplitude: f64 },
     /// `t ← bias(b, t)`.
@@ -199,6 +195,14 @@ impl HyperTexture {
         noise.octave_count() as u64
     }
 
+    /// The unit gradient of the distance by central differences of `step` (zero where
+    /// it vanishes).
+    fn normal(&self, p: DVec3) -> DVec3 {
+        let h = self.step;
+        let d = |e: DVec3| self.distance.distance(p + e * h) - self.distance.distance(p - e * h);
+        DVec3::new(d(DVec3::X), d(DVec3::Y), d(DVec3::Z)).normalize_or_zero()
+    }
+
     /// The modulated density at a point.
     pub fn density(&self, p: DVec3) -> f64 {
         self.samples.add(1);
@@ -221,18 +225,13 @@ impl HyperTexture {
         for m in &self.chain {
             t = match m {
                 Modulation::Displace { .. } => t,
-                Modulation::Fur {
-                    noise,
-                    center,
-                    frequency,
-                    sharpness,
-                } => {
+                Modulation::Fur { noise, sharpness } => {
                     if t <= 0.0 {
                         continue;
                     }
-                    let dir = (p - *center).normalize_or_zero();
+                    let foot = p - self.normal(p) * d0;
                     evaluations += Self::cost(noise.as_ref());
-                    t * bias(*sharpness, 0.5 + 0.5 * noise.value(dir * *frequency))
+                    t * bias(*sharpness, 0.5 + 0.5 * noise.value(foot))
                 }
                 Modulation::Scale { noise, amplitude } => {
                     evaluations += Self::cost(noise.as_ref());

@@ -35,9 +35,14 @@ pub struct HypertextureSpec {
 #[serde(deny_unknown_fields)]
 pub enum HyperObjectSpec {
     Sphere { center: V3, radius: f64 },
-    /// A voxel model (`.binvox` or density `.nrrd`, relative to the scene file): inside
-    /// where density > ½, its signed distance by the exact EDT.
-    Volume { path: String },
+    /// A voxel model (`.binvox` or density `.nrrd`, relative to the scene file), moved
+    /// by `translate`: inside where density > ½, its signed distance by the exact EDT
+    /// on the model's grid padded by the soft band's reach.
+    Volume {
+        path: String,
+        #[serde(default)]
+        translate: V3,
+    },
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -50,12 +55,9 @@ pub enum ModulationSpec {
         #[serde(default = "ones")]
         stretch: V3,
     },
-    /// Strands radiating from `center`: `t ← t · bias(sharpness, ½ + ½·noise(dir))`.
-    Fur {
-        noise: NoiseSpec,
-        center: V3,
-        sharpness: f64,
-    },
+    /// Strands along the surface normals: `t ← t · bias(sharpness, ½ + ½·noise(foot))`
+    /// with `foot` the point moved onto the surface along the distance gradient.
+    Fur { noise: NoiseSpec, sharpness: f64 },
     /// `t ← t · (1 + amplitude · noise(p))`.
     Scale { noise: NoiseSpec, amplitude: f64 },
     Bias(f64),
@@ -69,7 +71,7 @@ fn ones() -> V3 {
 #[derive(Debug)]
 enum Object {
     Sphere(Sphere),
-    Volume { path: String, field: String },
+    Volume { path: String, field: String, translate: DVec3 },
 }
 
 #[derive(Debug)]
@@ -91,13 +93,14 @@ impl HypertextureNode {
                 let r = cx.positive(&format!("{f}.object.Sphere.radius"), *radius)?;
                 Object::Sphere(Sphere::new(c, r).map_err(|e| cx.err(format!("{f}.object.Sphere"), e.to_string()))?)
             }
-            HyperObjectSpec::Volume { path } => {
+            HyperObjectSpec::Volume { path, translate } => {
                 if path.is_empty() {
                     return Err(cx.err(format!("{f}.object.Volume.path"), "must name a .binvox or .nrrd file"));
                 }
                 Object::Volume {
                     path: path.clone(),
                     field: format!("{f}.object.Volume.path"),
+                    translate: cx.finite3(&format!("{f}.object.Volume.translate"), *translate)?,
                 }
             }
         };
@@ -114,14 +117,8 @@ impl HypertextureNode {
                     amplitude: finite(cx, &format!("{mf}.Displace.amplitude"), *amplitude)?,
                     stretch: cx.finite3(&format!("{mf}.Displace.stretch"), *stretch)?,
                 },
-                ModulationSpec::Fur {
-                    noise,
-                    center,
-                    sharpness,
-                } => Modulation::Fur {
+                ModulationSpec::Fur { noise, sharpness } => Modulation::Fur {
                     noise: noise.validate(cx, &format!("{mf}.Fur.noise"))?,
-                    center: cx.finite3(&format!("{mf}.Fur.center"), *center)?,
-                    frequency: 1.0,
                     sharpness: unit(cx, &format!("{mf}.Fur.sharpness"), *sharpness)?,
                 },
                 ModulationSpec::Scale { noise, amplitude } => Modulation::Scale {
@@ -166,6 +163,17 @@ impl HypertextureNode {
     }
 }
 
+/// How far a modulation can move the surface (as `HyperTexture` bounds it).
+fn displacement_bound(m: &Modulation) -> f64 {
+    match m {
+        Modulation::Displace { noise, amplitude, .. } => {
+            let (lo, hi) = noise.range();
+            amplitude.abs() * lo.abs().max(hi.abs())
+        }
+        _ => 0.0,
+    }
+}
+
 fn finite(cx: &Ctx, f: &str, v: f64) -> Result<f64, SceneError> {
     if v.is_finite() {
         Ok(v)
@@ -193,21 +201,44 @@ impl Node for HypertextureNode {
         self.colour.unwrap_or(Vec3::ONE).to_array()
     }
     fn resolve(&mut self, cx: &Resolve) -> Result<(), SceneError> {
-        if let Object::Volume { path, field } = &self.object {
+        if let Object::Volume { path, field, translate } = &self.object {
             let volume = super::volume::load_density(cx, path, field)?;
             let g = &volume.grid;
-            let d = g.dims();
+            let spacing = g.transform.spacing();
+            // Pad by the band's reach (plus one voxel) so the soft band lies inside the
+            // distance grid; beyond it the distance is +∞ (outside).
+            let displacement: f64 = self.chain.as_deref().map_or(0.0, |c| c.iter().map(displacement_bound).sum());
+            let reach = self.soft_width + displacement;
+            let pad = ((reach / spacing.min_element()).ceil() as i64 + 1).clamp(1, 256) as i32;
+            let d = g.dims().as_ivec3() + 2 * pad;
+            let voxels = d.x as u64 * d.y as u64 * d.z as u64;
+            if voxels.saturating_mul(24) > cx.memory_limit {
+                return Err(SceneError::Invalid {
+                    path: cx.scene.to_owned(),
+                    field: field.clone(),
+                    message: format!("the padded distance grid ({d}) exceeds the memory limit"),
+                });
+            }
+            let origin = g.transform.origin() - spacing * pad as f64 + *translate;
+            let transform = volga_core::Transform::new(origin, spacing).map_err(|e| SceneError::Invalid {
+                path: cx.scene.to_owned(),
+                field: field.clone(),
+                message: e.to_string(),
+            })?;
+            let grid = Grid::new(transform, d.as_uvec3()).map_err(|e| SceneError::Invalid {
+                path: cx.scene.to_owned(),
+                field: field.clone(),
+                message: e.to_string(),
+            })?;
             let n = [d.x as usize, d.y as usize, d.z as usize];
             let mut inside = vec![false; n[0] * n[1] * n[2]];
             for (i, v) in inside.iter_mut().enumerate() {
                 let ijk = glam::IVec3::new((i % n[0]) as i32, ((i / n[0]) % n[1]) as i32, (i / (n[0] * n[1])) as i32);
-                *v = volume.density.get(ijk) > 0.5;
+                *v = volume.density.get(ijk - pad) > 0.5;
             }
-            // Beyond the model's grid the distance is +∞ (outside): pad the model.
-            let sd = edt::signed_distance(&inside, n, g.transform.spacing().to_array());
-            let distance = SampledDistance::new(g.clone(), sd);
-            let spacing = g.transform.min_spacing();
-            self.build(Box::new(distance), spacing);
+            let sd = edt::signed_distance(&inside, n, spacing.to_array());
+            let distance = SampledDistance::new(grid, sd);
+            self.build(Box::new(distance), spacing.min_element());
         }
         Ok(())
     }
