@@ -1,0 +1,111 @@
+//! Planning of procedural work, checked by the counters of `report.json`: noise runs only
+//! where a scene calls for it, colour channels exist only when read, and a
+//! hypertexture's noise follows its soft band, not the grid.
+
+use std::path::Path;
+
+use volga_core::NoProgress;
+use volga_scene::{build, BuildOptions, Report};
+
+fn run(dir: &Path, name: &str, scene: &str) -> Report {
+    let path = dir.join(format!("{name}.ron"));
+    std::fs::write(&path, scene).unwrap();
+    let options = BuildOptions {
+        out_dir: dir.join(name),
+        memory_limit: Some(1 << 30),
+    };
+    build(&path, &options, &NoProgress).unwrap()
+}
+
+const VIEW: &str = r#"
+    lights: [(direction: (0.3, 0.5, 1.0))],
+    cameras: [(name: "c", eye: (0.0, 0.0, 4.0), target: (0.0, 0.0, 0.0), projection: Orthographic(height: 2.5))],
+"#;
+
+fn cvg_scene(colour: &str) -> String {
+    format!(
+        r#"Scene(
+    grid: (bounds: (min: (-1.0, -1.0, -1.0), max: (1.0, 1.0, 1.0)), resolution: 32),
+    root: Cvg((op: Difference, operands: [
+        Fuzzy((core: Sphere(center: (0.0, 0.0, 0.0)), radius: 0.9, colour: (1.0, 0.0, 0.0))),
+        Object(shape: Box(min: (0.0, 0.0, 0.0), max: (1.0, 1.0, 1.0))),
+    ])),
+    {VIEW}
+    outputs: (images: [
+        (name: "lazy", camera: "c", mode: Iso(value: 0.1, colour: {colour}), width: 24, height: 24, source: Lazy),
+        (name: "baked", camera: "c", mode: Iso(value: 0.1, colour: {colour}), width: 24, height: 24),
+    ]),
+)"#
+    )
+}
+
+#[test]
+fn scene_without_textures_evaluates_no_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = run(dir.path(), "cvg", &cvg_scene("FromVolume"));
+    assert_eq!(r.noise_evaluations, 0);
+    assert!(r.node_counters.iter().all(|c| c.noise_evaluations == 0));
+    assert!(r.node_counters.iter().any(|c| c.kind == "cvg" && c.samples > 0));
+    assert_eq!(r.plan.procedural.len(), 1);
+    assert!(!r.plan.procedural[0].enabled);
+    assert!(r.voxels.colour_bricks > 0, "the baked image reads colour");
+}
+
+#[test]
+fn no_colour_output_no_colour_channel_and_no_texture_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = run(dir.path(), "plain", &cvg_scene("Constant((0.8, 0.8, 0.8))"));
+    assert!(!r.plan.colour_channel);
+    assert_eq!(r.voxels.colour_bricks, 0);
+    // A textured object whose colour nothing reads: its noise never runs.
+    let textured = format!(
+        r#"Scene(
+    grid: (bounds: (min: (-1.0, -1.0, -1.0), max: (1.0, 1.0, 1.0)), resolution: 32),
+    root: Textured((texture: Marble(scale: 0.3), operand: Object(shape: Sphere(center: (0.0, 0.0, 0.0), radius: 0.7)))),
+    {VIEW}
+    outputs: (images: [
+        (name: "lazy", camera: "c", mode: Iso(value: 0.5, colour: Constant((1.0, 1.0, 1.0))), width: 24, height: 24, source: Lazy),
+        (name: "baked", camera: "c", mode: Iso(value: 0.5, colour: Constant((1.0, 1.0, 1.0))), width: 24, height: 24),
+    ]),
+)"#
+    );
+    let r = run(dir.path(), "textured", &textured);
+    assert!(!r.plan.colour_channel);
+    assert_eq!(r.noise_evaluations, 0);
+    // The same scene reading colour evaluates it.
+    let r = run(dir.path(), "textured_colour", &textured.replace("Constant((1.0, 1.0, 1.0))", "FromVolume"));
+    assert!(r.plan.colour_channel);
+    assert!(r.noise_evaluations > 0);
+}
+
+fn hyper_scene(half_extent: f64, resolution: u32, soft: f64) -> String {
+    format!(
+        r#"Scene(
+    grid: (bounds: (min: (-{half_extent}, -{half_extent}, -{half_extent}), max: ({half_extent}, {half_extent}, {half_extent})), resolution: {resolution}),
+    root: Hypertexture((
+        object: Sphere(center: (0.0, 0.0, 0.0), radius: 0.5),
+        soft_width: {soft},
+        chain: [Displace(noise: Turbulence(octaves: 3, frequency: 8.0), amplitude: 0.02)],
+    )),
+    {VIEW}
+    outputs: (images: [(name: "baked", camera: "c", mode: Mip, width: 8, height: 8)]),
+)"#
+    )
+}
+
+#[test]
+fn hypertexture_noise_follows_the_soft_band_not_the_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    // Same voxel size (1/32), the second grid 8× the voxels; voxel centres and bricks
+    // coincide (the origins differ by 32 voxels).
+    let small = run(dir.path(), "small", &hyper_scene(1.0, 64, 0.05));
+    let large = run(dir.path(), "large", &hyper_scene(2.0, 128, 0.05));
+    assert!(small.noise_evaluations > 0);
+    assert_eq!(small.noise_evaluations, large.noise_evaluations);
+    assert!(large.noise_evaluations < large.grid.voxels / 4, "{} of {}", large.noise_evaluations, large.grid.voxels);
+    // A soft band twice as wide (reach 0.05 + 0.04 → 0.10 + 0.04) costs more noise.
+    let wide = run(dir.path(), "wide", &hyper_scene(1.0, 64, 0.10));
+    let ratio = wide.noise_evaluations as f64 / small.noise_evaluations as f64;
+    assert!((1.2..2.5).contains(&ratio), "ratio {ratio}");
+    assert!(small.plan.procedural[0].enabled);
+}
