@@ -30,11 +30,13 @@
 //! ```
 
 pub use volga_core as core;
+pub use volga_cvg as cvg;
 pub use volga_io as io;
 pub use volga_mesh as mesh;
 pub use volga_render as render;
 pub use volga_scene as scene;
 pub use volga_shapes as shapes;
+pub use volga_texture as texture;
 pub use volga_topology as topology;
 pub use volga_voxelize as voxelize;
 

@@ -13,6 +13,23 @@
 //!
 //! Attribute rules are documented on [`Op::attributes`]. World space is `f64`; baked
 //! payloads `f32` (the workspace's conventions, docs/ARCHITECTURE.md).
+//!
+//! ```
+//! use glam::{DVec3, UVec3};
+//! use volga_core::{Field, Grid, Transform};
+//! use volga_cvg::{bake, Core, Cvg, CvgField, Op, Radial};
+//!
+//! let fuzzy = |c: DVec3| Cvg::leaf(Radial::new(Core::Point(c), 1.0, 0.05).unwrap());
+//! // Two fuzzy spheres (density 1 − r): their fuzzy intersection (eq. 17).
+//! let tree = Cvg::op(Op::Intersection, fuzzy(DVec3::ZERO), fuzzy(DVec3::X));
+//! assert_eq!(tree.density(DVec3::new(0.5, 0.0, 0.0)), 0.5);
+//! // It reaches only the overlap of the two boxes; bake just that.
+//! let grid = Grid::new(Transform::new(DVec3::splat(-1.5), DVec3::splat(0.1)).unwrap(), UVec3::splat(40)).unwrap();
+//! let field = CvgField::new(tree, &grid.world_bounds());
+//! assert_eq!(field.bounds().min.x, 0.0);
+//! let (volume, stats) = bake(&field, &grid, false);
+//! assert!(stats.bricks_visited < 125 && volume.active_voxel_count() > 0);
+//! ```
 
 mod bake;
 mod op;

@@ -265,3 +265,22 @@ fn voxblt_copies_and_combines() {
     let n = voxblt(&mut dst, &src, &g.index_box(), IVec3::new(20, 0, 0), BlockOp::Copy);
     assert_eq!(n, 4 * 24 * 24);
 }
+
+#[test]
+fn bake_identical_for_one_and_two_threads() {
+    let g = grid(40);
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
+            let field = CvgField::new(tree(7, 4), &g.world_bounds());
+            let (v, stats) = bake(&field, &g, true);
+            let bits: Vec<u32> = g.index_box().iter().map(|ijk| v.density.get(ijk).to_bits()).collect();
+            let colour: Vec<[u32; 3]> = g
+                .index_box()
+                .iter()
+                .map(|ijk| v.colour.as_ref().unwrap().get(ijk).map(f32::to_bits))
+                .collect();
+            (bits, colour, stats)
+        })
+    };
+    assert_eq!(run(1), run(2));
+}

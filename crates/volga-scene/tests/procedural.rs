@@ -109,3 +109,27 @@ fn hypertexture_noise_follows_the_soft_band_not_the_grid() {
     assert!((1.2..2.5).contains(&ratio), "ratio {ratio}");
     assert!(small.plan.procedural[0].enabled);
 }
+
+/// Errors in the new node kinds name their field paths.
+#[test]
+fn procedural_errors_name_field_paths() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (cvg_scene("FromVolume").replace("op: Difference", "op: Blend(2.0)"), "root.Cvg.op.Blend"),
+        (cvg_scene("FromVolume").replace("radius: 0.9", "radius: -1.0"), "root.Cvg.operands[0].Fuzzy.radius"),
+        (hyper_scene(1.0, 16, 0.05).replace("octaves: 3", "octaves: 40"), "root.Hypertexture.chain[0].Displace.noise.Turbulence.octaves"),
+        (hyper_scene(1.0, 16, 0.05).replace("soft_width: 0.05", "soft_width: 0.0"), "root.Hypertexture.soft_width"),
+    ];
+    for (i, (scene, field)) in cases.iter().enumerate() {
+        let path = dir.path().join(format!("bad{i}.ron"));
+        std::fs::write(&path, scene).unwrap();
+        let err = volga_scene::validate_scene(&path).unwrap_err().to_string();
+        assert!(err.contains(field), "{err} should name {field}");
+    }
+    // A missing volume file is an error at resolve time naming the field, not a panic.
+    let missing = hyper_scene(1.0, 16, 0.05).replace("Sphere(center: (0.0, 0.0, 0.0), radius: 0.5)", "Volume(path: \"missing.binvox\")");
+    let path = dir.path().join("missing.ron");
+    std::fs::write(&path, missing).unwrap();
+    let err = volga_scene::load_scene(&path).unwrap_err().to_string();
+    assert!(err.contains("root.Hypertexture.object.Volume.path"), "{err}");
+}

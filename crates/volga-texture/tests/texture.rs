@@ -262,3 +262,23 @@ fn sampled_distance_of_a_voxel_ball() {
         assert!(lo <= d && d <= hi);
     }
 }
+
+/// The lattice fill (rows sharing corner hashes through `RowHashes`) equals the
+/// `noise` crate's fBm at every sample (to the `f32` payload).
+#[test]
+fn fill_equals_noise_crate() {
+    let reference = noise::Fbm::<noise::Perlin>::new(3).set_octaves(4).set_lacunarity(2.0);
+    let ours = Fbm::new(3, 4, 1.0, 2.0, 0.5);
+    let (origin, h, n) = (DVec3::new(-2.3, -0.7, 5.1), 0.173, [29, 23, 11]);
+    let mut out = vec![0.0f32; n[0] * n[1] * n[2]];
+    fill(&ours, origin, DVec3::splat(h), n, &mut out);
+    for z in 0..n[2] {
+        for y in 0..n[1] {
+            for x in 0..n[0] {
+                let p = origin + DVec3::new(x as f64, y as f64, z as f64) * h;
+                let v = out[x + n[0] * (y + n[1] * z)] as f64;
+                assert!((v - reference.get(p.to_array())).abs() <= 1e-6, "{p}");
+            }
+        }
+    }
+}
