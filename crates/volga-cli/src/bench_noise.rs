@@ -78,7 +78,11 @@ pub fn run(args: NoiseBenchArgs) -> Result<(), Failure> {
         // times its frequency.
         out.par_chunks_mut(n * n).enumerate().for_each(|(k, slab)| {
             let mut s = simdnoise::NoiseBuilder::fbm_3d_offset(0.0, n, 0.0, n, k as f32, 1);
-            s.with_freq(h as f32).with_octaves(OCTAVES as u8).with_gain(0.5).with_lacunarity(2.0).with_seed(0);
+            s.with_freq(h as f32)
+                .with_octaves(OCTAVES as u8)
+                .with_gain(0.5)
+                .with_lacunarity(2.0)
+                .with_seed(0);
             let (v, _, _) = s.generate();
             slab.copy_from_slice(&v[..n * n]);
         })
@@ -145,7 +149,9 @@ pub fn run(args: NoiseBenchArgs) -> Result<(), Failure> {
     figures.insert("octaves".into(), json!(OCTAVES));
     figures.insert(
         "lattice".into(),
-        json!(format!("p = ijk * {h} (span {SPAN}), frequency 1, lacunarity 2, persistence 0.5, seed 0")),
+        json!(format!(
+            "p = ijk * {h} (span {SPAN}), frequency 1, lacunarity 2, persistence 0.5, seed 0"
+        )),
     );
     figures.insert("max_abs_diff_vs_noise_crate".into(), json!(max_diff));
     figures.insert("values_compared".into(), json!(compared));

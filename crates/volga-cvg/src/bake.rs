@@ -23,7 +23,7 @@ pub struct BakeStats {
 /// computed independently and inserted in sorted order.
 pub fn bake(field: &dyn Field, grid: &Grid, colour: bool) -> (SparseVolume, BakeStats) {
     let background = field.background() as f32;
-    let mut volume = SparseVolume::new(grid.clone(), background, colour);
+    let mut volume = SparseVolume::new(*grid, background, colour);
     let region = field.bounds().intersection(&grid.world_bounds());
     let mut stats = BakeStats::default();
     if region.is_empty() {
@@ -66,7 +66,14 @@ pub fn bake(field: &dyn Field, grid: &Grid, colour: bool) -> (SparseVolume, Bake
 
 type BakedBrick = (Brick<f32>, Option<Brick<Rgb>>, u64, bool);
 
-fn bake_brick(field: &dyn Field, grid: &Grid, b: IVec3, voxels: &IndexBox, background: f32, colour: bool) -> BakedBrick {
+fn bake_brick(
+    field: &dyn Field,
+    grid: &Grid,
+    b: IVec3,
+    voxels: &IndexBox,
+    background: f32,
+    colour: bool,
+) -> BakedBrick {
     let inside = brick_index_box(b).intersection(voxels);
     let t = &grid.transform;
     let centres = volga_core::Aabb::new(t.voxel_center(inside.min), t.voxel_center(inside.max - 1));
@@ -93,7 +100,13 @@ fn bake_brick(field: &dyn Field, grid: &Grid, b: IVec3, voxels: &IndexBox, backg
 /// Colours of the voxels of brick `b` inside `inside` whose density (`density`, or
 /// non-zero everywhere when `None`) is not 0: colour is looked up only where something
 /// is visible (a texture's noise runs nowhere else).
-fn sample_colours(field: &dyn Field, grid: &Grid, b: IVec3, inside: &IndexBox, density: Option<&[f32; BRICK_VOXELS]>) -> Brick<Rgb> {
+fn sample_colours(
+    field: &dyn Field,
+    grid: &Grid,
+    b: IVec3,
+    inside: &IndexBox,
+    density: Option<&[f32; BRICK_VOXELS]>,
+) -> Brick<Rgb> {
     let base = b * BRICK_DIM;
     let mut data = [[0.0f32; 3]; BRICK_VOXELS];
     for ijk in inside.iter() {
@@ -102,7 +115,9 @@ fn sample_colours(field: &dyn Field, grid: &Grid, b: IVec3, inside: &IndexBox, d
         if density.is_some_and(|d| d[i] == 0.0) {
             continue;
         }
-        let c = field.colour(grid.transform.voxel_center(ijk)).unwrap_or(glam::Vec3::ONE);
+        let c = field
+            .colour(grid.transform.voxel_center(ijk))
+            .unwrap_or(glam::Vec3::ONE);
         data[i] = c.to_array();
     }
     Brick::from_voxels(&data)

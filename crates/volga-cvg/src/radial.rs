@@ -14,7 +14,11 @@ pub enum Core {
     Point(DVec3),
     /// An axis through `center` along the unit `axis`: a fuzzy cylinder reaching
     /// `half_length` along the axis (density 0 beyond the caps).
-    Axis { center: DVec3, axis: DVec3, half_length: f64 },
+    Axis {
+        center: DVec3,
+        axis: DVec3,
+        half_length: f64,
+    },
 }
 
 /// Density `max(0, 1 − dist/radius)`.
@@ -30,7 +34,11 @@ impl Radial {
     pub fn new(core: Core, radius: f64, sample_spacing: f64) -> Option<Self> {
         let core = match core {
             Core::Point(c) => c.is_finite().then_some(Core::Point(c))?,
-            Core::Axis { center, axis, half_length } => {
+            Core::Axis {
+                center,
+                axis,
+                half_length,
+            } => {
                 let axis = axis.try_normalize()?;
                 (center.is_finite() && half_length > 0.0 && half_length.is_finite()).then_some(Core::Axis {
                     center,
@@ -50,7 +58,11 @@ impl Radial {
     fn dist(&self, p: DVec3) -> f64 {
         match self.core {
             Core::Point(c) => p.distance(c),
-            Core::Axis { center, axis, half_length } => {
+            Core::Axis {
+                center,
+                axis,
+                half_length,
+            } => {
                 let q = p - center;
                 let t = q.dot(axis);
                 let radial = (q - axis * t).length();
@@ -64,10 +76,15 @@ impl Field for Radial {
     fn bounds(&self) -> Aabb {
         match self.core {
             Core::Point(c) => Aabb::new(c - self.radius, c + self.radius),
-            Core::Axis { center, axis, half_length } => {
+            Core::Axis {
+                center,
+                axis,
+                half_length,
+            } => {
                 let ends = [center - axis * half_length, center + axis * half_length];
                 // A disc of radius r around the axis reaches r·sqrt(1 − a_i²) along axis i.
-                let r = self.radius * DVec3::from((DVec3::ONE - axis * axis).max(DVec3::ZERO).to_array().map(f64::sqrt));
+                let r =
+                    self.radius * DVec3::from((DVec3::ONE - axis * axis).max(DVec3::ZERO).to_array().map(f64::sqrt));
                 Aabb::new(ends[0].min(ends[1]) - r, ends[0].max(ends[1]) + r)
             }
         }

@@ -77,11 +77,7 @@ fn clamp01(x: f64) -> f64 {
 pub enum Cvg<'a> {
     Leaf(Leaf<'a>),
     Complement(Box<Cvg<'a>>),
-    Binary {
-        op: Op,
-        a: Box<Cvg<'a>>,
-        b: Box<Cvg<'a>>,
-    },
+    Binary { op: Op, a: Box<Cvg<'a>>, b: Box<Cvg<'a>> },
 }
 
 impl std::fmt::Debug for Cvg<'_> {
@@ -266,7 +262,10 @@ impl<'a> CvgField<'a> {
 
 impl std::fmt::Debug for CvgField<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("CvgField").field("tree", &self.tree).field("bounds", &self.bounds).finish()
+        f.debug_struct("CvgField")
+            .field("tree", &self.tree)
+            .field("bounds", &self.bounds)
+            .finish()
     }
 }
 

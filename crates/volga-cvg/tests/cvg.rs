@@ -123,8 +123,14 @@ fn excluded_middle_fails() {
 
 #[test]
 fn attribute_rules() {
-    let red = Attributes { colour: Vec3::X, material: 1 };
-    let blue = Attributes { colour: Vec3::Z, material: 2 };
+    let red = Attributes {
+        colour: Vec3::X,
+        material: 1,
+    };
+    let blue = Attributes {
+        colour: Vec3::Z,
+        material: 2,
+    };
     assert_eq!(Op::Union.attributes(0.2, red, 0.7, blue), blue);
     assert_eq!(Op::Union.attributes(0.7, red, 0.7, blue), red);
     assert_eq!(Op::Intersection.attributes(0.2, red, 0.7, blue), red);
@@ -146,7 +152,18 @@ fn radial(center: DVec3, r: f64) -> Cvg<'static> {
 }
 
 fn cylinder(center: DVec3, axis: DVec3, r: f64, h: f64) -> Cvg<'static> {
-    Cvg::leaf(Radial::new(Core::Axis { center, axis, half_length: h }, r, 0.1).unwrap())
+    Cvg::leaf(
+        Radial::new(
+            Core::Axis {
+                center,
+                axis,
+                half_length: h,
+            },
+            r,
+            0.1,
+        )
+        .unwrap(),
+    )
 }
 
 /// A random tree over spheres, fuzzy radial primitives and cylinders.
@@ -164,7 +181,12 @@ fn tree(seed: u64, depth: u32) -> Cvg<'static> {
             return match (next() * 3.0) as u32 {
                 0 => sphere(centre, 0.2 + next() * 0.6),
                 1 => radial(centre, 0.2 + next() * 0.8),
-                _ => cylinder(centre, DVec3::new(next() - 0.5, 1.0, next() - 0.5), 0.2 + next() * 0.5, 0.3 + next()),
+                _ => cylinder(
+                    centre,
+                    DVec3::new(next() - 0.5, 1.0, next() - 0.5),
+                    0.2 + next() * 0.5,
+                    0.3 + next(),
+                ),
             };
         }
         if next() < 0.1 {
@@ -179,7 +201,11 @@ fn tree(seed: u64, depth: u32) -> Cvg<'static> {
 
 fn grid(n: u32) -> Grid {
     let h = 2.4 / n as f64;
-    Grid::new(Transform::new(DVec3::splat(-1.2 + h / 2.0), DVec3::splat(h)).unwrap(), UVec3::splat(n)).unwrap()
+    Grid::new(
+        Transform::new(DVec3::splat(-1.2 + h / 2.0), DVec3::splat(h)).unwrap(),
+        UVec3::splat(n),
+    )
+    .unwrap()
 }
 
 proptest! {
@@ -230,11 +256,18 @@ fn intersection_bakes_only_the_overlap() {
     let field = CvgField::new(t, &g.world_bounds());
     let (_, stats) = bake(&field, &g, false);
     let union = CvgField::new(
-        Cvg::op(Op::Union, sphere(DVec3::new(-0.5, 0.0, 0.0), 0.6), sphere(DVec3::new(0.5, 0.0, 0.0), 0.6)),
+        Cvg::op(
+            Op::Union,
+            sphere(DVec3::new(-0.5, 0.0, 0.0), 0.6),
+            sphere(DVec3::new(0.5, 0.0, 0.0), 0.6),
+        ),
         &g.world_bounds(),
     );
     let (_, union_stats) = bake(&union, &g, false);
-    assert!(stats.bricks_visited * 2 < union_stats.bricks_visited, "{stats:?} vs {union_stats:?}");
+    assert!(
+        stats.bricks_visited * 2 < union_stats.bricks_visited,
+        "{stats:?} vs {union_stats:?}"
+    );
     // Differences reach only A's box.
     let d = Cvg::op(Op::Difference, sphere(DVec3::ZERO, 0.3), sphere(DVec3::X, 0.9));
     assert_eq!(d.support(), sphere(DVec3::ZERO, 0.3).support());
@@ -244,7 +277,7 @@ fn intersection_bakes_only_the_overlap() {
 fn voxblt_copies_and_combines() {
     let g = grid(24);
     let (src, _) = bake(&CvgField::new(sphere(DVec3::ZERO, 0.7), &g.world_bounds()), &g, false);
-    let mut dst = SparseVolume::new(g.clone(), 0.0, false);
+    let mut dst = SparseVolume::new(g, 0.0, false);
     dst.density.set(IVec3::new(3, 3, 3), 0.25);
     let block = IndexBox::new(IVec3::splat(4), IVec3::splat(20));
     let n = voxblt(&mut dst, &src, &block, IVec3::new(-4, 0, 0), BlockOp::Copy);
@@ -254,11 +287,23 @@ fn voxblt_copies_and_combines() {
     }
     // Union with itself leaves it unchanged; the algebraic sum does not.
     let before = dst.clone();
-    voxblt(&mut dst, &before, &g.index_box(), IVec3::ZERO, BlockOp::Combine(Op::Union));
+    voxblt(
+        &mut dst,
+        &before,
+        &g.index_box(),
+        IVec3::ZERO,
+        BlockOp::Combine(Op::Union),
+    );
     for ijk in g.index_box().iter() {
         assert_eq!(dst.density.get(ijk), before.density.get(ijk));
     }
-    voxblt(&mut dst, &before, &g.index_box(), IVec3::ZERO, BlockOp::Combine(Op::ProbabilisticSum));
+    voxblt(
+        &mut dst,
+        &before,
+        &g.index_box(),
+        IVec3::ZERO,
+        BlockOp::Combine(Op::ProbabilisticSum),
+    );
     let ijk = IVec3::new(3, 3, 3);
     assert!((dst.density.get(ijk) - 0.4375).abs() < 1e-7);
     // Off-grid voxels are dropped.
@@ -270,17 +315,21 @@ fn voxblt_copies_and_combines() {
 fn bake_identical_for_one_and_two_threads() {
     let g = grid(40);
     let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
-            let field = CvgField::new(tree(7, 4), &g.world_bounds());
-            let (v, stats) = bake(&field, &g, true);
-            let bits: Vec<u32> = g.index_box().iter().map(|ijk| v.density.get(ijk).to_bits()).collect();
-            let colour: Vec<[u32; 3]> = g
-                .index_box()
-                .iter()
-                .map(|ijk| v.colour.as_ref().unwrap().get(ijk).map(f32::to_bits))
-                .collect();
-            (bits, colour, stats)
-        })
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let field = CvgField::new(tree(7, 4), &g.world_bounds());
+                let (v, stats) = bake(&field, &g, true);
+                let bits: Vec<u32> = g.index_box().iter().map(|ijk| v.density.get(ijk).to_bits()).collect();
+                let colour: Vec<[u32; 3]> = g
+                    .index_box()
+                    .iter()
+                    .map(|ijk| v.colour.as_ref().unwrap().get(ijk).map(f32::to_bits))
+                    .collect();
+                (bits, colour, stats)
+            })
     };
     assert_eq!(run(1), run(2));
 }

@@ -73,7 +73,11 @@ fn no_colour_output_no_colour_channel_and_no_texture_noise() {
     assert!(!r.plan.colour_channel);
     assert_eq!(r.noise_evaluations, 0);
     // The same scene reading colour evaluates it.
-    let r = run(dir.path(), "textured_colour", &textured.replace("Constant((1.0, 1.0, 1.0))", "FromVolume"));
+    let r = run(
+        dir.path(),
+        "textured_colour",
+        &textured.replace("Constant((1.0, 1.0, 1.0))", "FromVolume"),
+    );
     assert!(r.plan.colour_channel);
     assert!(r.noise_evaluations > 0);
 }
@@ -102,7 +106,12 @@ fn hypertexture_noise_follows_the_soft_band_not_the_grid() {
     let large = run(dir.path(), "large", &hyper_scene(2.0, 128, 0.05));
     assert!(small.noise_evaluations > 0);
     assert_eq!(small.noise_evaluations, large.noise_evaluations);
-    assert!(large.noise_evaluations < large.grid.voxels / 4, "{} of {}", large.noise_evaluations, large.grid.voxels);
+    assert!(
+        large.noise_evaluations < large.grid.voxels / 4,
+        "{} of {}",
+        large.noise_evaluations,
+        large.grid.voxels
+    );
     // A soft band twice as wide (reach 0.05 + 0.04 → 0.10 + 0.04) costs more noise.
     let wide = run(dir.path(), "wide", &hyper_scene(1.0, 64, 0.10));
     let ratio = wide.noise_evaluations as f64 / small.noise_evaluations as f64;
@@ -115,10 +124,22 @@ fn hypertexture_noise_follows_the_soft_band_not_the_grid() {
 fn procedural_errors_name_field_paths() {
     let dir = tempfile::tempdir().unwrap();
     let cases = [
-        (cvg_scene("FromVolume").replace("op: Difference", "op: Blend(2.0)"), "root.Cvg.op.Blend"),
-        (cvg_scene("FromVolume").replace("radius: 0.9", "radius: -1.0"), "root.Cvg.operands[0].Fuzzy.radius"),
-        (hyper_scene(1.0, 16, 0.05).replace("octaves: 3", "octaves: 40"), "root.Hypertexture.chain[0].Displace.noise.Turbulence.octaves"),
-        (hyper_scene(1.0, 16, 0.05).replace("soft_width: 0.05", "soft_width: 0.0"), "root.Hypertexture.soft_width"),
+        (
+            cvg_scene("FromVolume").replace("op: Difference", "op: Blend(2.0)"),
+            "root.Cvg.op.Blend",
+        ),
+        (
+            cvg_scene("FromVolume").replace("radius: 0.9", "radius: -1.0"),
+            "root.Cvg.operands[0].Fuzzy.radius",
+        ),
+        (
+            hyper_scene(1.0, 16, 0.05).replace("octaves: 3", "octaves: 40"),
+            "root.Hypertexture.chain[0].Displace.noise.Turbulence.octaves",
+        ),
+        (
+            hyper_scene(1.0, 16, 0.05).replace("soft_width: 0.05", "soft_width: 0.0"),
+            "root.Hypertexture.soft_width",
+        ),
     ];
     for (i, (scene, field)) in cases.iter().enumerate() {
         let path = dir.path().join(format!("bad{i}.ron"));
@@ -127,7 +148,10 @@ fn procedural_errors_name_field_paths() {
         assert!(err.contains(field), "{err} should name {field}");
     }
     // A missing volume file is an error at resolve time naming the field, not a panic.
-    let missing = hyper_scene(1.0, 16, 0.05).replace("Sphere(center: (0.0, 0.0, 0.0), radius: 0.5)", "Volume(path: \"missing.binvox\")");
+    let missing = hyper_scene(1.0, 16, 0.05).replace(
+        "Sphere(center: (0.0, 0.0, 0.0), radius: 0.5)",
+        "Volume(path: \"missing.binvox\")",
+    );
     let path = dir.path().join("missing.ron");
     std::fs::write(&path, missing).unwrap();
     let err = volga_scene::load_scene(&path).unwrap_err().to_string();

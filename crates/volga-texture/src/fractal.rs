@@ -145,7 +145,8 @@ impl SolidNoise for Turbulence {
         let f = self.frequency;
         for c in cache.iter_mut() {
             let s = f * scale;
-            self.noise.add_row_cached(c, x0 * s, dx * s, y * s, z * s, 1.0 / scale, true, out);
+            self.noise
+                .add_row_cached(c, x0 * s, dx * s, y * s, z * s, 1.0 / scale, true, out);
             scale *= 2.0;
         }
     }

@@ -144,7 +144,12 @@ pub struct HyperTexture {
 
 impl HyperTexture {
     /// `soft_width > 0` and finite; `sample_spacing`: the length scale rays step by.
-    pub fn new(distance: Box<dyn DistanceSource>, soft_width: f64, chain: Vec<Modulation>, sample_spacing: f64) -> Self {
+    pub fn new(
+        distance: Box<dyn DistanceSource>,
+        soft_width: f64,
+        chain: Vec<Modulation>,
+        sample_spacing: f64,
+    ) -> Self {
         let displacement: f64 = chain.iter().map(Modulation::displacement_bound).sum();
         HyperTexture {
             distance,
@@ -216,7 +221,12 @@ impl HyperTexture {
         let mut d = d0;
         let mut evaluations = 0;
         for m in &self.chain {
-            if let Modulation::Displace { noise, amplitude, stretch } = m {
+            if let Modulation::Displace {
+                noise,
+                amplitude,
+                stretch,
+            } = m
+            {
                 d -= amplitude * noise.value(p * *stretch);
                 evaluations += Self::cost(noise.as_ref());
             }

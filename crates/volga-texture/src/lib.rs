@@ -30,8 +30,8 @@ mod worley;
 
 pub use counter::Counter;
 pub use fractal::{fill, Fbm, Scaled, SolidNoise, Turbulence};
-pub use noise_field::NoiseField;
 pub use hyper::{bias, gain, DistanceSource, HyperTexture, Modulation, Region, ShapeDistance};
+pub use noise_field::NoiseField;
 pub use perlin::{fade, Perlin, RowHashes};
 pub use sampled_distance::SampledDistance;
 pub use solid::{ColourSpline, Pattern, SolidTexture};

@@ -141,6 +141,7 @@ impl Perlin {
     /// Adds `weight · noise(x_k, y, z)` to `out[k]` for `x_k = x0 + k·dx` (`dx > 0`):
     /// the row form of [`Perlin::value`], with the corner gradients of a cell computed
     /// once for all its samples. `abs` takes `|noise|` (turbulence).
+    #[allow(clippy::too_many_arguments)] // the row (x0, dx, y, z) and what to add, as in the hot loop
     pub fn add_row(&self, x0: f64, dx: f64, y: f64, z: f64, weight: f64, abs: bool, out: &mut [f64]) {
         self.add_row_cached(&mut RowHashes::default(), x0, dx, y, z, weight, abs, out)
     }

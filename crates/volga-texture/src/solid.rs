@@ -168,7 +168,11 @@ impl SolidTexture {
     pub fn cells(seed: u32, cell_size: f64) -> Self {
         SolidTexture {
             pattern: Pattern::Cells(Worley::new(seed, 1.0 / cell_size)),
-            spline: Self::spline(&[(0.0, [0.1, 0.05, 0.02]), (0.15, [0.75, 0.3, 0.15]), (0.6, [0.95, 0.75, 0.4])]),
+            spline: Self::spline(&[
+                (0.0, [0.1, 0.05, 0.02]),
+                (0.15, [0.75, 0.3, 0.15]),
+                (0.6, [0.95, 0.75, 0.4]),
+            ]),
         }
     }
 }

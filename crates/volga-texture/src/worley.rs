@@ -31,7 +31,8 @@ impl Worley {
 
     /// The feature point of cell `c` (cell space).
     pub fn feature_point(&self, c: IVec3) -> DVec3 {
-        let key = (c.x as u32 as u64) ^ ((c.y as u32 as u64) << 21) ^ ((c.z as u32 as u64) << 42) ^ ((self.seed as u64) << 7);
+        let key =
+            (c.x as u32 as u64) ^ ((c.y as u32 as u64) << 21) ^ ((c.z as u32 as u64) << 42) ^ ((self.seed as u64) << 7);
         let h = mix(key ^ mix(c.z as i64 as u64 ^ 0x9e37_79b9_7f4a_7c15));
         let unit = |bits: u64| (bits & 0x1f_ffff) as f64 / (1u64 << 21) as f64;
         c.as_dvec3() + DVec3::new(unit(h), unit(h >> 21), unit(h >> 42))

@@ -76,7 +76,11 @@ fn far_from_origin_finite_and_equal() {
     let n = noise::Perlin::new(1);
     let t = Turbulence::new(1, 6, 1.0);
     let w = Worley::new(1, 1.0);
-    for q in [DVec3::splat(1e6), DVec3::new(-1e6, 1e6 + 0.3, 2.5e6), DVec3::new(1e9, -1e9, 0.7)] {
+    for q in [
+        DVec3::splat(1e6),
+        DVec3::new(-1e6, 1e6 + 0.3, 2.5e6),
+        DVec3::new(1e9, -1e9, 0.7),
+    ] {
         let v = p.value(q);
         assert!(v.is_finite() && v.abs() <= 1.0);
         assert!((v - n.get(q.to_array())).abs() <= 1e-9);
@@ -101,11 +105,22 @@ fn fill_identical_for_one_and_two_threads() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| fill(&t, DVec3::new(-3.0, 1e6, 2.0), DVec3::new(0.37, 0.5, 0.61), [33, 17, 9], &mut out));
+            .install(|| {
+                fill(
+                    &t,
+                    DVec3::new(-3.0, 1e6, 2.0),
+                    DVec3::new(0.37, 0.5, 0.61),
+                    [33, 17, 9],
+                    &mut out,
+                )
+            });
         out
     };
     let (a, b) = (run(1), run(2));
-    assert_eq!(a.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), b.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+    assert_eq!(
+        a.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        b.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    );
     assert!(a.iter().all(|v| v.is_finite()));
 }
 
@@ -115,7 +130,9 @@ fn worley_equals_brute_force() {
     let w = Worley::new(9, 1.0);
     let mut state = 12345u64;
     let mut rnd = || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
     for _ in 0..200 {
@@ -133,7 +150,12 @@ fn worley_equals_brute_force() {
             }
         }
         d.sort_by(f64::total_cmp);
-        assert!((f1 - d[0]).abs() < 1e-12 && (f2 - d[1]).abs() < 1e-12, "{q}: {f1} {f2} vs {} {}", d[0], d[1]);
+        assert!(
+            (f1 - d[0]).abs() < 1e-12 && (f2 - d[1]).abs() < 1e-12,
+            "{q}: {f1} {f2} vs {} {}",
+            d[0],
+            d[1]
+        );
     }
 }
 
@@ -174,7 +196,11 @@ fn brute_edt(mask: &[bool], dims: [usize; 3], h: [f64; 3]) -> Vec<f64> {
                     for yy in 0..dims[1] {
                         for xx in 0..dims[0] {
                             if mask[idx(xx, yy, zz)] {
-                                let d = [(x as f64 - xx as f64) * h[0], (y as f64 - yy as f64) * h[1], (z as f64 - zz as f64) * h[2]];
+                                let d = [
+                                    (x as f64 - xx as f64) * h[0],
+                                    (y as f64 - yy as f64) * h[1],
+                                    (z as f64 - zz as f64) * h[2],
+                                ];
                                 let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
                                 let o = &mut out[idx(x, y, z)];
                                 *o = o.min(d2);
@@ -233,12 +259,19 @@ fn hypertexture_regions_and_noise_only_in_soft_band() {
         let v = h.value(p);
         assert!(lo <= v && v <= hi);
     }
-    assert_eq!(h.value_range(&Aabb::new(DVec3::splat(-0.3), DVec3::splat(0.3))), (1.0, 1.0));
+    assert_eq!(
+        h.value_range(&Aabb::new(DVec3::splat(-0.3), DVec3::splat(0.3))),
+        (1.0, 1.0)
+    );
 }
 
 #[test]
 fn sampled_distance_of_a_voxel_ball() {
-    let grid = Grid::new(Transform::new(DVec3::splat(-1.0), DVec3::splat(0.1)).unwrap(), glam::UVec3::splat(21)).unwrap();
+    let grid = Grid::new(
+        Transform::new(DVec3::splat(-1.0), DVec3::splat(0.1)).unwrap(),
+        glam::UVec3::splat(21),
+    )
+    .unwrap();
     let mut inside = vec![false; 21 * 21 * 21];
     for z in 0..21 {
         for y in 0..21 {
@@ -252,7 +285,11 @@ fn sampled_distance_of_a_voxel_ball() {
     let s = SampledDistance::new(grid, sd);
     // Within a voxel of the true distance.
     for p in [DVec3::ZERO, DVec3::new(0.8, 0.0, 0.0), DVec3::new(0.3, 0.3, 0.1)] {
-        assert!((s.distance(p) - (p.length() - 0.6)).abs() <= 0.1, "{p}: {}", s.distance(p));
+        assert!(
+            (s.distance(p) - (p.length() - 0.6)).abs() <= 0.1,
+            "{p}: {}",
+            s.distance(p)
+        );
     }
     let b = Aabb::new(DVec3::new(0.4, 0.0, 0.0), DVec3::new(0.55, 0.15, 0.1));
     let (lo, hi) = s.range(&b);

@@ -63,7 +63,10 @@ impl CvgNode {
             CvgOpSpec::AlgebraicDifference => (Some(Op::AlgebraicDifference), 2),
             CvgOpSpec::Blend(w) => {
                 if !(0.0..=1.0).contains(&w) {
-                    return Err(cx.err(format!("{f}.op.Blend"), format!("the weight must lie in [0, 1], got {w}")));
+                    return Err(cx.err(
+                        format!("{f}.op.Blend"),
+                        format!("the weight must lie in [0, 1], got {w}"),
+                    ));
                 }
                 (Some(Op::Blend(w)), 2)
             }
@@ -130,11 +133,9 @@ impl Node for CvgNode {
     }
     fn estimate(&self, grid: &Grid) -> Estimate {
         let reach = self.bounds().intersection(&grid.world_bounds());
-        let operands = self.children.iter().fold(Estimate::default(), |e, c| {
-            Estimate {
-                bricks: 0,
-                extra_bytes: e.extra_bytes.saturating_add(c.estimate(grid).extra_bytes),
-            }
+        let operands = self.children.iter().fold(Estimate::default(), |e, c| Estimate {
+            bricks: 0,
+            extra_bytes: e.extra_bytes.saturating_add(c.estimate(grid).extra_bytes),
         });
         Estimate {
             bricks: super::bricks_within(grid, &reach),

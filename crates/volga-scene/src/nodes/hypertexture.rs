@@ -34,7 +34,10 @@ pub struct HypertextureSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum HyperObjectSpec {
-    Sphere { center: V3, radius: f64 },
+    Sphere {
+        center: V3,
+        radius: f64,
+    },
     /// A voxel model (`.binvox` or density `.nrrd`, relative to the scene file), moved
     /// by `translate`: inside where density > ½, its signed distance by the exact EDT
     /// on the model's grid padded by the soft band's reach.
@@ -57,9 +60,15 @@ pub enum ModulationSpec {
     },
     /// Strands along the surface normals: `t ← t · bias(sharpness, ½ + ½·noise(foot))`
     /// with `foot` the point moved onto the surface along the distance gradient.
-    Fur { noise: NoiseSpec, sharpness: f64 },
+    Fur {
+        noise: NoiseSpec,
+        sharpness: f64,
+    },
     /// `t ← t · (1 + amplitude · noise(p))`.
-    Scale { noise: NoiseSpec, amplitude: f64 },
+    Scale {
+        noise: NoiseSpec,
+        amplitude: f64,
+    },
     Bias(f64),
     Gain(f64),
 }
@@ -71,7 +80,11 @@ fn ones() -> V3 {
 #[derive(Debug)]
 enum Object {
     Sphere(Sphere),
-    Volume { path: String, field: String, translate: DVec3 },
+    Volume {
+        path: String,
+        field: String,
+        translate: DVec3,
+    },
 }
 
 #[derive(Debug)]
@@ -207,7 +220,10 @@ impl Node for HypertextureNode {
             let spacing = g.transform.spacing();
             // Pad by the band's reach (plus one voxel) so the soft band lies inside the
             // distance grid; beyond it the distance is +∞ (outside).
-            let displacement: f64 = self.chain.as_deref().map_or(0.0, |c| c.iter().map(displacement_bound).sum());
+            let displacement: f64 = self
+                .chain
+                .as_deref()
+                .map_or(0.0, |c| c.iter().map(displacement_bound).sum());
             let reach = self.soft_width + displacement;
             let pad = ((reach / spacing.min_element()).ceil() as i64 + 1).clamp(1, 256) as i32;
             let d = g.dims().as_ivec3() + 2 * pad;
@@ -233,7 +249,11 @@ impl Node for HypertextureNode {
             let n = [d.x as usize, d.y as usize, d.z as usize];
             let mut inside = vec![false; n[0] * n[1] * n[2]];
             for (i, v) in inside.iter_mut().enumerate() {
-                let ijk = glam::IVec3::new((i % n[0]) as i32, ((i / n[0]) % n[1]) as i32, (i / (n[0] * n[1])) as i32);
+                let ijk = glam::IVec3::new(
+                    (i % n[0]) as i32,
+                    ((i / n[0]) % n[1]) as i32,
+                    (i / (n[0] * n[1])) as i32,
+                );
                 *v = volume.density.get(ijk - pad) > 0.5;
             }
             let sd = edt::signed_distance(&inside, n, spacing.to_array());

@@ -120,7 +120,11 @@ pub fn all_counters(node: &dyn Node) -> Vec<procedural::NodeCounters> {
 
 /// The procedural plans of a node and all nodes below it, as `(node, plan)`.
 pub fn all_procedural_plans(node: &dyn Node) -> Vec<(String, String)> {
-    let mut out: Vec<(String, String)> = node.procedural_plan().map(|p| (node.name().to_string(), p)).into_iter().collect();
+    let mut out: Vec<(String, String)> = node
+        .procedural_plan()
+        .map(|p| (node.name().to_string(), p))
+        .into_iter()
+        .collect();
     for c in node.children() {
         out.extend(all_procedural_plans(c.as_ref()));
     }

@@ -53,9 +53,10 @@ impl NoiseSpec {
             }
         };
         Ok(match self {
-            NoiseSpec::Perlin { seed, frequency } => {
-                Box::new(Scaled::new(*seed, cx.positive(&format!("{f}.Perlin.frequency"), *frequency)?))
-            }
+            NoiseSpec::Perlin { seed, frequency } => Box::new(Scaled::new(
+                *seed,
+                cx.positive(&format!("{f}.Perlin.frequency"), *frequency)?,
+            )),
             NoiseSpec::Turbulence {
                 seed,
                 octaves: o,

@@ -80,7 +80,10 @@ impl TexturedNode {
         let grey = ColourSpline::new(vec![(0.0, Vec3::splat(0.05)), (1.0, Vec3::ONE)]).expect("increasing knots");
         let mut texture = match &spec.texture {
             TextureSpec::Noise { seed, frequency } => SolidTexture {
-                pattern: Pattern::Noise(Perlin::new(*seed), cx.positive(&format!("{tf}.Noise.frequency"), *frequency)?),
+                pattern: Pattern::Noise(
+                    Perlin::new(*seed),
+                    cx.positive(&format!("{tf}.Noise.frequency"), *frequency)?,
+                ),
                 spline: grey,
             },
             TextureSpec::Turbulence {
@@ -89,7 +92,10 @@ impl TexturedNode {
                 frequency,
             } => {
                 if !(1..=16).contains(octaves) {
-                    return Err(cx.err(format!("{tf}.Turbulence.octaves"), format!("must be in 1..=16, got {octaves}")));
+                    return Err(cx.err(
+                        format!("{tf}.Turbulence.octaves"),
+                        format!("must be in 1..=16, got {octaves}"),
+                    ));
                 }
                 SolidTexture {
                     pattern: Pattern::Turbulence(Turbulence::new(
@@ -121,7 +127,12 @@ impl TexturedNode {
                 cx.colour(&format!("{f}.spline[{i}]"), Some(*c))?;
             }
             texture.spline = ColourSpline::new(knots.iter().map(|(t, c)| (*t, DVec3::from(*c).as_vec3())).collect())
-                .ok_or_else(|| cx.err(format!("{f}.spline"), "needs at least one knot, positions finite and increasing"))?;
+                .ok_or_else(|| {
+                    cx.err(
+                        format!("{f}.spline"),
+                        "needs at least one knot, positions finite and increasing",
+                    )
+                })?;
         }
         let child = super::union::node(cx, &format!("{f}.operand"), &spec.operand, leaves)?;
         Ok(TexturedNode {

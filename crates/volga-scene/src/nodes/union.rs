@@ -92,14 +92,29 @@ fn from_spec(cx: &Ctx, f: &str, spec: &NodeSpec, leaves: &mut usize) -> Result<S
             }
             Spec::Union(Union::new(f, children))
         }
-        NodeSpec::Cvg(s) => Spec::Other(Box::new(super::cvg::CvgNode::validate(cx, &format!("{f}.Cvg"), s, leaves)?)),
+        NodeSpec::Cvg(s) => Spec::Other(Box::new(super::cvg::CvgNode::validate(
+            cx,
+            &format!("{f}.Cvg"),
+            s,
+            leaves,
+        )?)),
         NodeSpec::Fuzzy(s) => {
             *leaves += 1;
-            Spec::Other(Box::new(super::fuzzy::FuzzyNode::validate(cx, &format!("{f}.Fuzzy"), s, *leaves - 1)?))
+            Spec::Other(Box::new(super::fuzzy::FuzzyNode::validate(
+                cx,
+                &format!("{f}.Fuzzy"),
+                s,
+                *leaves - 1,
+            )?))
         }
         NodeSpec::Volume(s) => {
             *leaves += 1;
-            Spec::Other(Box::new(super::volume::VolumeNode::validate(cx, &format!("{f}.Volume"), s, *leaves - 1)?))
+            Spec::Other(Box::new(super::volume::VolumeNode::validate(
+                cx,
+                &format!("{f}.Volume"),
+                s,
+                *leaves - 1,
+            )?))
         }
         NodeSpec::Textured(s) => Spec::Other(Box::new(super::textured::TexturedNode::validate(
             cx,

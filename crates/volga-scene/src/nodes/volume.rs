@@ -69,7 +69,11 @@ pub fn load_density(cx: &Resolve, path: &str, field: &str) -> Result<SparseVolum
         // A dense f32 copy of the file's voxels at most 4× its size for NRRD raw data;
         // binvox runs expand, bounded by the grid its header names (checked after).
         if meta.len().saturating_mul(8) > cx.memory_limit {
-            return Err(invalid(format!("{} is too large to load ({} bytes)", file.display(), meta.len())));
+            return Err(invalid(format!(
+                "{} is too large to load ({} bytes)",
+                file.display(),
+                meta.len()
+            )));
         }
     }
     let model = read_voxel_model(&file).map_err(|e| invalid(e.to_string()))?;
@@ -78,7 +82,10 @@ pub fn load_density(cx: &Resolve, path: &str, field: &str) -> Result<SparseVolum
             let dims = b.dims();
             let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
             if voxels.saturating_mul(4) > cx.memory_limit {
-                return Err(invalid(format!("{}: a {dims} grid exceeds the memory limit", file.display())));
+                return Err(invalid(format!(
+                    "{}: a {dims} grid exceeds the memory limit",
+                    file.display()
+                )));
             }
             let transform = b.transform().map_err(|e| invalid(e.to_string()))?;
             let grid = Grid::new(transform, dims).map_err(|e| invalid(e.to_string()))?;
@@ -127,14 +134,11 @@ impl Node for VolumeNode {
         }
     }
     fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError> {
-        let volume = self
-            .volume
-            .as_deref()
-            .ok_or_else(|| SceneError::Invalid {
-                path: Default::default(),
-                field: self.field.clone(),
-                message: "the volume was not loaded (resolve stage)".into(),
-            })?;
+        let volume = self.volume.as_deref().ok_or_else(|| SceneError::Invalid {
+            path: Default::default(),
+            field: self.field.clone(),
+            message: "the volume was not loaded (resolve stage)".into(),
+        })?;
         let sampled = Sampled::new(volume, Filter::Trilinear);
         Ok(Box::new(Counted {
             field: Clipped::new(sampled, grid.world_bounds()).tinted(self.colour),
