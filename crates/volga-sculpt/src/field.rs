@@ -92,8 +92,17 @@ impl Field for Sculpt {
             return 0.0;
         }
         let d = self.stencil(lo.as_ivec3());
+        let (min, max) = d.iter().fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        if min == max {
+            return min as f64; // homogeneous stencil: exact, no rounding of the weights
+        }
         let w = weights(index - lo);
-        (0..8).map(|c| w[c] * d[c] as f64).sum()
+        // Clamped to the stencil's range (the weights' sum may round above 1), so
+        // `value_range`'s voxel bounds hold exactly.
+        (0..8)
+            .map(|c| w[c] * d[c] as f64)
+            .sum::<f64>()
+            .clamp(min as f64, max as f64)
     }
 
     fn gradient_step(&self) -> DVec3 {
