@@ -6,6 +6,7 @@
 mod accuracy;
 mod bench;
 mod bench_render;
+mod bench_sculpt;
 mod failure;
 mod progress;
 mod validate;
