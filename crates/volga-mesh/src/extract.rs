@@ -32,7 +32,7 @@
 //! parallel, and vertices are merged by lattice edge in block order, so the mesh is
 //! identical for any thread count.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
@@ -168,7 +168,7 @@ pub fn extract_surface_with<F: Field + ?Sized>(field: &F, job: &Extraction) -> R
 
     // Merge by lattice edge, in block order: deterministic for any thread count.
     let mut surface = Surface::default();
-    let mut index: HashMap<u64, u32> = HashMap::new();
+    let mut index: HashMap<u64, u32> = HashMap::default();
     let mut remap = Vec::new();
     for out in outs {
         let Some(out) = out else {
@@ -246,12 +246,21 @@ fn mesh_block<F: Field + ?Sized>(
     }
     let n = hi - lo + 1; // lattice points in the block per axis
     let at = |p: IVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
+    // Rows along x through the batch path (`values_along`: a sampled field reads its
+    // bricks once per row instead of looking each point up).
     let mut s = vec![0.0f64; (n.x * n.y * n.z) as usize];
+    let step = DVec3::new(lattice.cell, 0.0, 0.0);
     for z in 0..n.z {
         for y in 0..n.y {
-            for x in 0..n.x {
-                let p = IVec3::new(x, y, z);
-                s[at(p)] = inward * (field.value(lattice.world(lo + p)) - job.iso);
+            let row_start = at(IVec3::new(0, y, z));
+            let row = &mut s[row_start..row_start + n.x as usize];
+            let line = volga_core::Line {
+                origin: lattice.world(IVec3::new(0, lo.y + y, lo.z + z)),
+                step,
+            };
+            field.values_along(&line, lo.x as u64, row);
+            for v in row.iter_mut() {
+                *v = inward * (*v - job.iso);
             }
         }
     }

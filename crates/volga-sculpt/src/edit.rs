@@ -101,6 +101,9 @@ pub(crate) struct Prepared<'a> {
     filter: OrientedBoxFilter,
     /// Voxels outside this box have `t = 0`.
     pub edit_box: IndexBox,
+    /// Whether the edit is large enough to split across threads (small edits run on the
+    /// calling thread: waiting for a stolen job costs more than it saves).
+    parallel: bool,
 }
 
 impl<'a> Prepared<'a> {
@@ -112,11 +115,13 @@ impl<'a> Prepared<'a> {
         };
         let filter = OrientedBoxFilter::with_half_width(half_width).expect("spacing and falloff are validated");
         let reach = stroke.tool.bounds().expanded(DVec3::splat(half_width));
+        let edit_box = grid.voxels_touching(&reach);
         Prepared {
             stroke,
             grid,
             filter,
-            edit_box: grid.voxels_touching(&reach),
+            edit_box,
+            parallel: edit_box.volume() >= PARALLEL_VOXELS,
         }
     }
 
@@ -183,8 +188,10 @@ pub(crate) fn union(a: Option<IndexBox>, b: Option<IndexBox>) -> Option<IndexBox
     }
 }
 
-/// Nodes at or above this level edit their children in parallel.
+/// Nodes at or above this level edit their children in parallel (large edits only).
 const PARALLEL_LEVEL: u32 = 3;
+/// Edits whose box holds at least this many voxels (128³) use several threads.
+const PARALLEL_VOXELS: u64 = 1 << 21;
 
 /// Applies `p` to `node` (at `origin`, `level`); `old_root` is the whole tree before the
 /// stroke (read by smoothing). Returns the new node if anything changed, and the voxels
@@ -222,7 +229,22 @@ pub(crate) fn edit(
             let children: [Node; 8] = std::array::from_fn(|_| Node::Uniform(*v));
             edit_children(p, old_root, &children, origin, level)
         }
-        Node::Brick(b) => edit_brick(p, old_root, &b.voxels(), origin),
+        Node::Brick(b) => {
+            // A brick the tool cannot change (too far, or already below the carve) is
+            // left alone without visiting its voxels.
+            let (_, t_hi) = p.density_range(tool, &mine);
+            let untouched = t_hi <= 0.0
+                || match p.stroke.operation {
+                    Operation::Carve => b.max as f64 <= 1.0 - t_hi,
+                    Operation::Add => b.min as f64 >= t_hi,
+                    Operation::Spray { .. } => b.min >= 1.0,
+                    _ => false,
+                };
+            if untouched {
+                return (None, None);
+            }
+            edit_brick(p, old_root, &b.voxels(), origin)
+        }
         Node::Branch(children) => edit_children(p, old_root, children, origin, level),
     }
 }
@@ -235,7 +257,7 @@ fn edit_children(
     level: u32,
 ) -> (Option<Node>, Option<IndexBox>) {
     let one = |k: usize| edit(p, old_root, &children[k], origin + child_offset(k, level), level - 1);
-    let results: Vec<(Option<Node>, Option<IndexBox>)> = if level >= PARALLEL_LEVEL {
+    let results: Vec<(Option<Node>, Option<IndexBox>)> = if p.parallel && level >= PARALLEL_LEVEL {
         (0..8).into_par_iter().map(one).collect()
     } else {
         (0..8).map(one).collect()
@@ -279,12 +301,15 @@ fn edit_brick(
     };
     let smooth = p.stroke.operation.reads_neighbours();
     let neighbours = smooth.then(|| gather_neighbourhood(p, old_root, origin));
+    // Deep inside the tool the density is the same at every centre: no distances needed.
+    let (t_lo, t_hi) = p.density_range(&tool, &mine);
+    let constant = (t_lo == t_hi).then_some(t_lo);
     let mut out = *voxels;
     let mut changed: Option<IndexBox> = None;
     for ijk in work.iter() {
         let local = ijk - origin;
         let k = Brick::offset(local);
-        let t = p.tool_density(&tool, ijk);
+        let t = constant.unwrap_or_else(|| p.tool_density(&tool, ijk));
         if t <= 0.0 {
             continue;
         }

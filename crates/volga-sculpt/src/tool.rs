@@ -32,6 +32,9 @@ pub enum ToolError {
 pub struct Pose {
     rotation: DQuat,
     translation: DVec3,
+    /// `rotation⁻¹`, and whether it is the identity (then points are only translated).
+    inverse: DQuat,
+    rotated: bool,
 }
 
 impl Default for Pose {
@@ -44,6 +47,8 @@ impl Pose {
     pub const IDENTITY: Pose = Pose {
         rotation: DQuat::IDENTITY,
         translation: DVec3::ZERO,
+        inverse: DQuat::IDENTITY,
+        rotated: false,
     };
 
     /// A pose from a rotation (normalized here; must be finite and non-zero) and a translation.
@@ -52,9 +57,12 @@ impl Pose {
         if !(rotation.is_finite() && translation.is_finite() && len > 1e-12) {
             return Err(ToolError::Pose);
         }
+        let rotation = rotation / len;
         Ok(Pose {
-            rotation: rotation / len,
+            rotation,
             translation,
+            inverse: rotation.inverse(),
+            rotated: rotation != DQuat::IDENTITY,
         })
     }
 
@@ -64,7 +72,12 @@ impl Pose {
 
     #[inline]
     fn to_local(&self, world_pos: DVec3) -> DVec3 {
-        self.rotation.inverse() * (world_pos - self.translation)
+        let p = world_pos - self.translation;
+        if self.rotated {
+            self.inverse * p
+        } else {
+            p
+        }
     }
 
     /// World box of a local box under this pose (its eight corners' box).
@@ -229,6 +242,9 @@ impl Tool {
     /// Signed distance (world units, negative inside): the minimum over swept copies.
     #[inline]
     pub fn distance(&self, world_pos: DVec3) -> f64 {
+        if let [o] = *self.sweep {
+            return self.shape.distance(self.pose.to_local(world_pos - o));
+        }
         let mut d = f64::INFINITY;
         for o in self.sweep.iter() {
             d = d.min(self.shape.distance(self.pose.to_local(world_pos - *o)));

@@ -280,9 +280,10 @@ fn edits_are_identical_for_1_and_2_threads() {
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
             let grid = SculptGrid::new(DVec3::ZERO, 1.0, 4).unwrap(); // 128³: parallel levels
-            let mut s = block(grid, 10.0, 118.0);
+            let mut s = block(grid, 4.0, 124.0);
             let mut reports = Vec::new();
-            reports.push(s.apply(&sphere(DVec3::splat(64.0), 40.0, Operation::Carve)));
+            // Its box covers the whole 128³ grid: large enough to run on several threads.
+            reports.push(s.apply(&sphere(DVec3::splat(64.0), 62.0, Operation::Carve)));
             reports.push(s.apply(&sphere(DVec3::new(30.0, 64.0, 64.0), 20.0, Operation::Smooth { strength: 0.8 })));
             reports.push(s.apply(&Stroke::new(
                 Tool::sphere(DVec3::new(64.0, 100.0, 64.0), 30.0).unwrap(),
