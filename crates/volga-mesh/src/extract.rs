@@ -309,14 +309,28 @@ fn emit_tetrahedron(
     edge_vertex: &mut impl FnMut(usize, usize) -> u32,
     triangles: &mut Vec<[u32; 3]>,
 ) {
-    let inside: Vec<usize> = tet.iter().copied().filter(|&c| vals[c] >= 0.0).collect();
-    let outside: Vec<usize> = tet.iter().copied().filter(|&c| vals[c] < 0.0).collect();
-    // From inside to outside: the direction every triangle's normal must take.
+    let (mut inside, mut outside) = ([0usize; 4], [0usize; 4]);
+    let (mut n_in, mut n_out) = (0, 0);
+    for c in tet {
+        if vals[c] >= 0.0 {
+            inside[n_in] = c;
+            n_in += 1;
+        } else {
+            outside[n_out] = c;
+            n_out += 1;
+        }
+    }
+    if n_in == 0 || n_out == 0 {
+        return;
+    }
+    let (inside, outside) = (&inside[..n_in], &outside[..n_out]);
+    // From inside to outside: the direction every triangle's normal must take (from the
+    // corners' small integer positions, so its dot with a normal is never near zero).
     let centroid = |cs: &[usize]| cs.iter().map(|&c| corner(c).as_dvec3()).sum::<DVec3>() / cs.len() as f64;
+    let out_dir = centroid(outside) - centroid(inside);
     let mut push = |edges: [(usize, usize); 3]| {
         let mid = edges.map(|(a, b)| (corner(a) + corner(b)).as_dvec3());
         let normal = (mid[1] - mid[0]).cross(mid[2] - mid[0]);
-        let out_dir = centroid(&outside) - centroid(&inside);
         let mut tri = edges.map(|(a, b)| edge_vertex(a, b));
         if normal.dot(out_dir) < 0.0 {
             tri.swap(1, 2);
