@@ -178,6 +178,30 @@ impl Sculpt {
         ok
     }
 
+    /// World box of the voxel centres of every node holding material (density > 0), at
+    /// node precision (bricks and uniform nodes, never finer); `None` if the sculpt is empty.
+    pub fn content_bounds(&self) -> Option<volga_core::Aabb> {
+        fn walk(n: &Node, origin: IVec3, level: u32, out: &mut Option<volga_core::IndexBox>) {
+            let mine = volga_core::IndexBox::new(origin, origin + node_size(level));
+            let full = match n {
+                Node::Uniform(v) => v.density > 0.0,
+                Node::Brick(b) => b.max > 0.0,
+                Node::Branch(children) => {
+                    for (k, c) in children.iter().enumerate() {
+                        walk(c, origin + child_offset(k, level), level - 1, out);
+                    }
+                    false
+                }
+            };
+            if full {
+                *out = crate::edit::union(*out, Some(mine));
+            }
+        }
+        let mut b = None;
+        walk(&self.root, IVec3::ZERO, self.grid.levels(), &mut b);
+        b.map(|b| self.grid.centres_box(&b))
+    }
+
     /// Whether two sculpts hold the same grid and the same voxels in the same tree
     /// structure (bitwise).
     pub fn same_tree(&self, other: &Sculpt) -> bool {
