@@ -19,7 +19,10 @@ use volga::shapes::{AxisBox, Capsule, Ellipsoid, FilteredDensity, OrientedBoxFil
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args().nth(1).unwrap_or_else(|| "sculpt_bust.png".into());
     let h = 0.01; // voxel size: the block is 1.4 × 2.1 × 1.1 units in a 256³ grid
-    let grid = SculptGrid::covering(&volga::Aabb::new(DVec3::new(-1.0, -1.05, -0.6), DVec3::new(1.0, 1.05, 0.6)), h)?;
+    let grid = SculptGrid::covering(
+        &volga::Aabb::new(DVec3::new(-1.0, -1.05, -0.6), DVec3::new(1.0, 1.05, 0.6)),
+        h,
+    )?;
     let block = FilteredDensity::new(
         AxisBox::new(DVec3::new(-0.7, -1.05, -0.55), DVec3::new(0.7, 1.05, 0.55))?,
         OrientedBoxFilter::for_spacing(DVec3::splat(h)),
@@ -29,10 +32,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let sphere = |c: [f64; 3], r: f64| Tool::sphere(DVec3::from_array(c), r);
     let carve = Operation::Carve;
     let mut strokes: Vec<Stroke> = Vec::new();
-    let mut add = |tool: Result<Tool, volga::sculpt::ToolError>, op: Operation| -> Result<(), Box<dyn std::error::Error>> {
-        strokes.push(Stroke::new(tool?, op)?);
-        Ok(())
-    };
+    let mut add =
+        |tool: Result<Tool, volga::sculpt::ToolError>, op: Operation| -> Result<(), Box<dyn std::error::Error>> {
+            strokes.push(Stroke::new(tool?, op)?);
+            Ok(())
+        };
     let shape = |s: Shape| Tool::new(ToolShape::Shape(s), Pose::IDENTITY);
 
     // 1. Rough out: cut the block down to its shoulders and round them.
@@ -51,9 +55,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         falloff_world: 0.0,
     };
     let head = |c: [f64; 3], r: [f64; 3]| {
-        Ellipsoid::new(DVec3::from_array(c), DVec3::from_array(r), DQuat::from_rotation_x(-0.15)).map(Shape::Ellipsoid)
+        Ellipsoid::new(
+            DVec3::from_array(c),
+            DVec3::from_array(r),
+            DQuat::from_rotation_x(-0.15),
+        )
+        .map(Shape::Ellipsoid)
     };
-    add(shape(Shape::Capsule(Capsule::new(DVec3::new(0.0, -0.4, -0.03), DVec3::new(0.0, 0.25, 0.0), 0.16)?)), solid)?;
+    add(
+        shape(Shape::Capsule(Capsule::new(
+            DVec3::new(0.0, -0.4, -0.03),
+            DVec3::new(0.0, 0.25, 0.0),
+            0.16,
+        )?)),
+        solid,
+    )?;
     add(shape(head([0.0, 0.52, 0.0], [0.31, 0.42, 0.36])?), solid)?; // cranium
     add(shape(head([0.0, 0.3, 0.08], [0.23, 0.2, 0.27])?), solid)?; // jaw
     let ring = |radius: f64, y: f64| -> Vec<DVec3> {
@@ -64,7 +80,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })
             .collect()
     };
-    add(Tool::sphere(DVec3::ZERO, 0.025).and_then(|t| t.swept(&ring(0.165, -0.12), h * 0.5)), carve)?;
+    add(
+        Tool::sphere(DVec3::ZERO, 0.025).and_then(|t| t.swept(&ring(0.165, -0.12), h * 0.5)),
+        carve,
+    )?;
     // 3. The face: eye sockets and eyeballs, brows, ears, nose, mouth, chin.
     for side in [-1.0, 1.0] {
         add(sphere([side * 0.12, 0.55, 0.37], 0.07), carve)?; // eye socket
@@ -90,25 +109,57 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         )?; // ear
     }
     add(
-        shape(Shape::Capsule(Capsule::new(DVec3::new(0.0, 0.56, 0.34), DVec3::new(0.0, 0.43, 0.42), 0.04)?)),
+        shape(Shape::Capsule(Capsule::new(
+            DVec3::new(0.0, 0.56, 0.34),
+            DVec3::new(0.0, 0.43, 0.42),
+            0.04,
+        )?)),
         Operation::Add,
     )?; // nose bridge
     add(sphere([0.0, 0.42, 0.42], 0.045), Operation::Add)?; // nose tip
     add(
         Tool::sphere(DVec3::ZERO, 0.014).and_then(|t| {
-            t.swept(&[DVec3::new(-0.08, 0.31, 0.32), DVec3::new(0.0, 0.3, 0.335), DVec3::new(0.08, 0.31, 0.32)], h * 0.5)
+            t.swept(
+                &[
+                    DVec3::new(-0.08, 0.31, 0.32),
+                    DVec3::new(0.0, 0.3, 0.335),
+                    DVec3::new(0.08, 0.31, 0.32),
+                ],
+                h * 0.5,
+            )
         }),
         carve,
     )?; // mouth line (a short saw)
-    add(sphere([0.0, 0.16, 0.22], 0.06), Operation::Spray { strength: 0.7, falloff_world: 0.03 })?; // chin
-    // 4. Paint: eyes, lips, a scarf over the shoulders.
+    add(
+        sphere([0.0, 0.16, 0.22], 0.06),
+        Operation::Spray {
+            strength: 0.7,
+            falloff_world: 0.03,
+        },
+    )?; // chin
+        // 4. Paint: eyes, lips, a scarf over the shoulders.
     for side in [-1.0, 1.0] {
-        add(sphere([side * 0.12, 0.55, 0.36], 0.03), Operation::Paint { colour: [0.1, 0.25, 0.6], strength: 1.0 })?;
+        add(
+            sphere([side * 0.12, 0.55, 0.36], 0.03),
+            Operation::Paint {
+                colour: [0.1, 0.25, 0.6],
+                strength: 1.0,
+            },
+        )?;
     }
-    add(sphere([0.0, 0.3, 0.34], 0.05), Operation::Paint { colour: [0.7, 0.25, 0.22], strength: 0.8 })?;
+    add(
+        sphere([0.0, 0.3, 0.34], 0.05),
+        Operation::Paint {
+            colour: [0.7, 0.25, 0.22],
+            strength: 0.8,
+        },
+    )?;
     add(
         Tool::sphere(DVec3::ZERO, 0.16).and_then(|t| t.swept(&ring(0.3, -0.3), h * 0.5)),
-        Operation::Paint { colour: [0.55, 0.12, 0.15], strength: 1.0 },
+        Operation::Paint {
+            colour: [0.55, 0.12, 0.15],
+            strength: 1.0,
+        },
     )?;
     // 5. Smooth where neck meets shoulders and jaw.
     for c in [[0.0, -0.3, 0.0], [0.0, 0.2, -0.1], [0.0, 0.2, 0.25]] {

@@ -19,7 +19,10 @@ fn sculpt() -> Sculpt {
 }
 
 fn full<I: Integrator>(s: &Sculpt, integrator: &I, settings: &RenderSettings, camera: &Camera) -> Image {
-    Renderer::new(s, integrator, settings).unwrap().render(camera, &NoProgress).0
+    Renderer::new(s, integrator, settings)
+        .unwrap()
+        .render(camera, &NoProgress)
+        .0
 }
 
 fn check<I: Integrator>(integrator: &I, camera: &Camera) {
@@ -36,7 +39,11 @@ fn check<I: Integrator>(integrator: &I, camera: &Camera) {
             },
         )
         .unwrap(),
-        Stroke::new(Tool::sphere(DVec3::new(9.0, 9.0, 9.0), 2.0).unwrap(), Operation::Smooth { strength: 1.0 }).unwrap(),
+        Stroke::new(
+            Tool::sphere(DVec3::new(9.0, 9.0, 9.0), 2.0).unwrap(),
+            Operation::Smooth { strength: 1.0 },
+        )
+        .unwrap(),
     ];
     for stroke in &strokes {
         let changed = s.apply(stroke).changed_world.expect("the stroke changes the block");
@@ -44,7 +51,11 @@ fn check<I: Integrator>(integrator: &I, camera: &Camera) {
         let (count, _) = renderer.rerender_box(camera, &changed, &mut image);
         let reference = full(&s, integrator, &settings, camera);
         assert!(count > 0 && count < (72 * 56) / 2, "re-rendered {count} pixels");
-        let same = image.pixels.iter().zip(&reference.pixels).all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits));
+        let same = image
+            .pixels
+            .iter()
+            .zip(&reference.pixels)
+            .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits));
         assert!(same, "localized re-render differs from a full render");
     }
 }
@@ -73,8 +84,12 @@ fn localized_rerender_equals_full_render_bit_for_bit() {
         check(&iso, camera);
     }
     let volume = Volume::new(
-        TransferFunction::new(vec![(0.0, Vec4::ZERO), (0.5, Vec4::new(0.9, 0.8, 0.6, 0.3)), (1.0, Vec4::new(0.7, 0.5, 0.3, 0.05))])
-            .unwrap(),
+        TransferFunction::new(vec![
+            (0.0, Vec4::ZERO),
+            (0.5, Vec4::new(0.9, 0.8, 0.6, 0.3)),
+            (1.0, Vec4::new(0.7, 0.5, 0.3, 0.05)),
+        ])
+        .unwrap(),
         true,
     );
     check(&volume, &persp);

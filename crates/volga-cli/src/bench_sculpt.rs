@@ -111,7 +111,11 @@ fn load(volume: &SparseVolume) -> Result<Sculpt, Failure> {
     }
     let t = volume.grid.transform;
     let grid = SculptGrid::new(t.origin(), t.spacing().x, levels).map_err(|e| failed(e.to_string()))?;
-    Ok(Sculpt::from_field(grid, &Sampled::new(volume, Filter::Nearest), [0.8, 0.75, 0.7]))
+    Ok(Sculpt::from_field(
+        grid,
+        &Sampled::new(volume, Filter::Nearest),
+        [0.8, 0.75, 0.7],
+    ))
 }
 
 pub fn run(args: SculptBenchArgs) -> Result<(), Failure> {
@@ -135,8 +139,11 @@ pub fn run(args: SculptBenchArgs) -> Result<(), Failure> {
     let mut changed_voxels = 0u64;
     for _ in 0..args.edits {
         let c = rng.centroid(&mesh);
-        let stroke = Stroke::new(Tool::sphere(c, args.radius_voxels * h).map_err(|e| failed(e.to_string()))?, Operation::Carve)
-            .map_err(|e| failed(e.to_string()))?;
+        let stroke = Stroke::new(
+            Tool::sphere(c, args.radius_voxels * h).map_err(|e| failed(e.to_string()))?,
+            Operation::Carve,
+        )
+        .map_err(|e| failed(e.to_string()))?;
         let t = Instant::now();
         let report = sculpt.apply(&stroke);
         times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -165,7 +172,8 @@ pub fn run(args: SculptBenchArgs) -> Result<(), Failure> {
             },
             _ => Operation::Smooth { strength: 0.7 },
         };
-        let stroke = Stroke::new(Tool::sphere(c, r).map_err(|e| failed(e.to_string()))?, op).map_err(|e| failed(e.to_string()))?;
+        let stroke = Stroke::new(Tool::sphere(c, r).map_err(|e| failed(e.to_string()))?, op)
+            .map_err(|e| failed(e.to_string()))?;
         sculpt.apply(&stroke);
     }
     let strokes_s = t.elapsed().as_secs_f64();
@@ -260,8 +268,11 @@ fn rerender(sculpt: &Sculpt, mesh: &TriMesh, size: u32, radius: f64) -> Result<V
         .map(|i| mesh.triangle(i))
         .find(|t| (t[1] - t[0]).cross(t[2] - t[0]).dot(camera.eye() - t[0]) > 0.0)
         .map_or(centre, |t| (t[0] + t[1] + t[2]) / 3.0);
-    let stroke = Stroke::new(Tool::sphere(c, radius).map_err(|e| failed(e.to_string()))?, Operation::Carve)
-        .map_err(|e| failed(e.to_string()))?;
+    let stroke = Stroke::new(
+        Tool::sphere(c, radius).map_err(|e| failed(e.to_string()))?,
+        Operation::Carve,
+    )
+    .map_err(|e| failed(e.to_string()))?;
     let changed = edited.apply(&stroke).changed_world;
     let t = Instant::now();
     let renderer = Renderer::new(&edited, &iso, &settings).map_err(|e| failed(e.to_string()))?;
@@ -343,8 +354,12 @@ fn extraction(mesh: &TriMesh, resolution: u32, python: Option<&Path>) -> Result<
             .map_err(|e| failed(format!("--skimage-python: {e}")))?;
         let _ = std::fs::remove_dir_all(&dir);
         let text = String::from_utf8_lossy(&peer.stdout);
-        let v: Value = serde_json::from_str(text.trim())
-            .map_err(|e| failed(format!("skimage peer output {text:?}: {e}; stderr {}", String::from_utf8_lossy(&peer.stderr))))?;
+        let v: Value = serde_json::from_str(text.trim()).map_err(|e| {
+            failed(format!(
+                "skimage peer output {text:?}: {e}; stderr {}",
+                String::from_utf8_lossy(&peer.stderr)
+            ))
+        })?;
         if let Some(s) = v.get("median_s").and_then(Value::as_f64) {
             out["skimage_s"] = json!(s);
             out["volga_linear_speedup_vs_skimage"] = json!(s / linear_s);

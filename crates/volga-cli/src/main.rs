@@ -7,9 +7,9 @@ mod accuracy;
 mod bench;
 mod bench_render;
 mod bench_sculpt;
-mod sculpt;
 mod failure;
 mod progress;
+mod sculpt;
 mod validate;
 mod voxelize;
 

@@ -53,13 +53,12 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
             let bytes = std::fs::read(path).map_err(|e| bad_input(format!("{}: {e}", path.display())))?;
             Sculpt::from_bytes(&bytes).map_err(|e| bad_input(format!("{}: {e}", path.display())))?
         }
-        (None, Some(start)) => {
-            start_sculpt(
-                &args.strokes,
-                start,
-                volga_core::memory::available_bytes().unwrap_or(FALLBACK_MEMORY_LIMIT),
-            ).map_err(|e| bad_input(e.to_string()))?
-        }
+        (None, Some(start)) => start_sculpt(
+            &args.strokes,
+            start,
+            volga_core::memory::available_bytes().unwrap_or(FALLBACK_MEMORY_LIMIT),
+        )
+        .map_err(|e| bad_input(e.to_string()))?,
         (None, None) => {
             return Err(bad_input(format!(
                 "{}: no `start` in the stroke file and no --sculpt to apply it to",
@@ -70,7 +69,12 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
     let strokes =
         validate_strokes(&args.strokes, &file, sculpt.grid().spacing()).map_err(|e| bad_input(e.to_string()))?;
     let mesh_format = match &args.mesh {
-        Some(p) => match p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some(p) => match p
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
             Some("obj") => Some(false),
             Some("ply") => Some(true),
             _ => return Err(bad_input(format!("--mesh {}: expected .obj or .ply", p.display()))),

@@ -93,7 +93,12 @@ pub struct Surface {
 /// The iso-surface of `field` at `iso` on the lattice of spacing `cell` over `region`,
 /// with vertices refined onto the surface (tolerance `1e-9` of the field's units, at most
 /// 32 regula falsi steps). See the module documentation.
-pub fn extract_surface<F: Field + ?Sized>(field: &F, region: Aabb, cell: f64, iso: f64) -> Result<Surface, ExtractError> {
+pub fn extract_surface<F: Field + ?Sized>(
+    field: &F,
+    region: Aabb,
+    cell: f64,
+    iso: f64,
+) -> Result<Surface, ExtractError> {
     extract_surface_with(
         field,
         &Extraction {
@@ -290,7 +295,8 @@ fn mesh_block<F: Field + ?Sized>(
                             local[slot] = out.positions.len() as u32;
                             out.keys.push(lattice.linear(lo + pa) * 8 + (a ^ b) as u64);
                             let pb = base + corner(b);
-                            out.positions.push(place(field, lattice, lo + pa, lo + pb, vals[a], vals[b], job, inward));
+                            out.positions
+                                .push(place(field, lattice, lo + pa, lo + pb, vals[a], vals[b], job, inward));
                         }
                         local[slot]
                     };
@@ -470,10 +476,25 @@ mod tests {
     fn refused_inputs() {
         let ball = Ball { c: DVec3::ZERO, r: 1.0 };
         let r = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0));
-        assert!(matches!(extract_surface(&ball, r, 0.0, 0.0), Err(ExtractError::Cell(_))));
-        assert!(matches!(extract_surface(&ball, r, f64::NAN, 0.0), Err(ExtractError::Cell(_))));
-        assert!(matches!(extract_surface(&ball, Aabb::EMPTY, 0.1, 0.0), Err(ExtractError::Region { .. })));
-        assert!(matches!(extract_surface(&ball, r, 1e-9, 0.0), Err(ExtractError::TooLarge { .. })));
-        assert!(matches!(extract_surface(&ball, r, 0.1, f64::NAN), Err(ExtractError::Iso(_))));
+        assert!(matches!(
+            extract_surface(&ball, r, 0.0, 0.0),
+            Err(ExtractError::Cell(_))
+        ));
+        assert!(matches!(
+            extract_surface(&ball, r, f64::NAN, 0.0),
+            Err(ExtractError::Cell(_))
+        ));
+        assert!(matches!(
+            extract_surface(&ball, Aabb::EMPTY, 0.1, 0.0),
+            Err(ExtractError::Region { .. })
+        ));
+        assert!(matches!(
+            extract_surface(&ball, r, 1e-9, 0.0),
+            Err(ExtractError::TooLarge { .. })
+        ));
+        assert!(matches!(
+            extract_surface(&ball, r, 0.1, f64::NAN),
+            Err(ExtractError::Iso(_))
+        ));
     }
 }

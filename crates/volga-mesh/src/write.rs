@@ -113,6 +113,9 @@ mod tests {
         assert_eq!(f64::from_le_bytes(bytes[v7..v7 + 8].try_into().unwrap()), 1.0);
         let f0 = end + 8 * 36;
         assert_eq!(bytes[f0], 3);
-        assert_eq!(u32::from_le_bytes(bytes[f0 + 5..f0 + 9].try_into().unwrap()), cube.triangles[0][1]);
+        assert_eq!(
+            u32::from_le_bytes(bytes[f0 + 5..f0 + 9].try_into().unwrap()),
+            cube.triangles[0][1]
+        );
     }
 }

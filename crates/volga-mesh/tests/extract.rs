@@ -36,14 +36,21 @@ fn check_closed_manifold(mesh: &TriMesh) {
     assert!(!mesh.triangles.is_empty());
     let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
     for t in &mesh.triangles {
-        assert!(t[0] != t[1] && t[1] != t[2] && t[0] != t[2], "triangle {t:?} repeats a vertex");
+        assert!(
+            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
+            "triangle {t:?} repeats a vertex"
+        );
         for k in 0..3 {
             *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
         }
     }
     for (&(a, b), &n) in &directed {
         assert_eq!(n, 1, "directed edge {a}->{b} used {n} times");
-        assert_eq!(directed.get(&(b, a)), Some(&1), "edge {a}-{b} is not in exactly two faces");
+        assert_eq!(
+            directed.get(&(b, a)),
+            Some(&1),
+            "edge {a}-{b} is not in exactly two faces"
+        );
     }
     // Every vertex is used, and its link is one disc (a single cycle of neighbours).
     let mut next: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
@@ -75,7 +82,10 @@ fn euler_characteristic(mesh: &TriMesh) -> i64 {
 }
 
 fn ball(c: DVec3, r: f64) -> Sdf<impl Fn(DVec3) -> f64 + Sync> {
-    Sdf(move |p: DVec3| (p - c).length() - r, Aabb::new(c - r - 1.0, c + r + 1.0))
+    Sdf(
+        move |p: DVec3| (p - c).length() - r,
+        Aabb::new(c - r - 1.0, c + r + 1.0),
+    )
 }
 
 #[test]
@@ -101,8 +111,16 @@ fn sphere_vertices_lie_on_the_surface_within_1e_9() {
         },
     )
     .unwrap();
-    assert_eq!(linear.mesh.triangles, s.mesh.triangles, "placement moves vertices, never topology");
-    let worst = linear.mesh.positions.iter().map(|p| ((*p - c).length() - r).abs()).fold(0.0, f64::max);
+    assert_eq!(
+        linear.mesh.triangles, s.mesh.triangles,
+        "placement moves vertices, never topology"
+    );
+    let worst = linear
+        .mesh
+        .positions
+        .iter()
+        .map(|p| ((*p - c).length() - r).abs())
+        .fold(0.0, f64::max);
     assert!(worst > 1e-6 && worst < 0.37 * 0.37 * 3.0 / r, "{worst}");
 }
 
@@ -131,8 +149,13 @@ fn two_touching_spheres_stay_manifold_by_index() {
         Aabb::new(DVec3::new(-5.0, -3.0, -3.0), DVec3::new(5.0, 3.0, 3.0)),
     );
     for cell in [0.25, 0.3] {
-        let s = extract_surface(&pair, Aabb::new(DVec3::new(-5.0, -3.0, -3.0), DVec3::new(5.0, 3.0, 3.0)), cell, 0.0)
-            .unwrap();
+        let s = extract_surface(
+            &pair,
+            Aabb::new(DVec3::new(-5.0, -3.0, -3.0), DVec3::new(5.0, 3.0, 3.0)),
+            cell,
+            0.0,
+        )
+        .unwrap();
         check_closed_manifold(&s.mesh);
         // Two spheres (the half-open rule puts the touching point inside, so they join
         // through it as one component of genus 0, or stay two): χ is 2 or 4.
@@ -179,7 +202,13 @@ fn a_surface_cut_by_the_region_has_a_rim_and_density_fields_work() {
             (0.0, 1.0)
         }
     }
-    let s = extract_surface(&Density, Aabb::new(DVec3::splat(-3.0), DVec3::new(3.0, 3.0, 0.5)), 0.2, 0.5).unwrap();
+    let s = extract_surface(
+        &Density,
+        Aabb::new(DVec3::splat(-3.0), DVec3::new(3.0, 3.0, 0.5)),
+        0.2,
+        0.5,
+    )
+    .unwrap();
     // By index: rim edges in one face, every other edge in two, none in more. (Welding by
     // position would merge the vertices that a lattice point exactly at the iso value puts
     // on each of its edges; the module documents manifoldness by index.)

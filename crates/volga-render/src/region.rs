@@ -27,7 +27,10 @@ impl<F: Field + ?Sized, I: Integrator> Renderer<'_, F, I> {
     pub fn rerender_box(&self, camera: &Camera, changed: &Aabb, image: &mut Image) -> (u64, RenderStats) {
         use rayon::prelude::*;
         let (w, h) = (self.settings.image.width, self.settings.image.height);
-        assert!(image.width == w && image.height == h, "image size differs from the settings");
+        assert!(
+            image.width == w && image.height == h,
+            "image size differs from the settings"
+        );
         if changed.is_empty() {
             return (0, RenderStats::default());
         }

@@ -136,7 +136,10 @@ pub fn start_sculpt(path: &Path, start: &StartSpec, memory_limit: u64) -> Result
     if grid.levels() > 11 {
         return Err(cx.err(
             "start.voxel_size",
-            format!("{} voxels per axis is more than the 16384 a stroke file may ask for", grid.dims()),
+            format!(
+                "{} voxels per axis is more than the 16384 a stroke file may ask for",
+                grid.dims()
+            ),
         ));
     }
     let mut node = nodes::leaf(&cx, "start.object", 0, &start.object)?;
@@ -203,7 +206,9 @@ fn tool_shape(cx: &Ctx, dir: &Path, f: &str, s: &ShapeSpec) -> Result<ToolShape,
     let v = |name: &str, x: V3| cx.finite3(&format!("{f}.{name}"), x);
     let euler = |d: DVec3| DQuat::from_euler(EulerRot::XYZ, d.x.to_radians(), d.y.to_radians(), d.z.to_radians());
     let shape = match s {
-        ShapeSpec::Sphere { center, radius } => Shape::Sphere(Sphere::new(v("center", *center)?, *radius).map_err(bad)?),
+        ShapeSpec::Sphere { center, radius } => {
+            Shape::Sphere(Sphere::new(v("center", *center)?, *radius).map_err(bad)?)
+        }
         ShapeSpec::Box { min, max } => Shape::AxisBox(AxisBox::new(v("min", *min)?, v("max", *max)?).map_err(bad)?),
         ShapeSpec::OrientedBox {
             center,
@@ -222,25 +227,34 @@ fn tool_shape(cx: &Ctx, dir: &Path, f: &str, s: &ShapeSpec) -> Result<ToolShape,
             radii,
             rotation_deg,
         } => Shape::Ellipsoid(
-            Ellipsoid::new(v("center", *center)?, v("radii", *radii)?, euler(v("rotation_deg", *rotation_deg)?))
-                .map_err(bad)?,
+            Ellipsoid::new(
+                v("center", *center)?,
+                v("radii", *radii)?,
+                euler(v("rotation_deg", *rotation_deg)?),
+            )
+            .map_err(bad)?,
         ),
         ShapeSpec::Cylinder {
             center,
             axis,
             radius,
             half_length: Some(half),
-        } => Shape::Cylinder(
-            Cylinder::new(v("center", *center)?, v("axis", *axis)?, *radius, Some(*half)).map_err(bad)?,
-        ),
+        } => {
+            Shape::Cylinder(Cylinder::new(v("center", *center)?, v("axis", *axis)?, *radius, Some(*half)).map_err(bad)?)
+        }
         ShapeSpec::Cone {
             apex,
             axis,
             half_angle_deg,
             height: Some(height),
         } => Shape::Cone(
-            Cone::new(v("apex", *apex)?, v("axis", *axis)?, half_angle_deg.to_radians(), Some(*height))
-                .map_err(bad)?,
+            Cone::new(
+                v("apex", *apex)?,
+                v("axis", *axis)?,
+                half_angle_deg.to_radians(),
+                Some(*height),
+            )
+            .map_err(bad)?,
         ),
         ShapeSpec::Capsule { a, b, radius } => {
             Shape::Capsule(Capsule::new(v("a", *a)?, v("b", *b)?, *radius).map_err(bad)?)
@@ -256,26 +270,32 @@ fn tool_shape(cx: &Ctx, dir: &Path, f: &str, s: &ShapeSpec) -> Result<ToolShape,
             ))
         }
         ShapeSpec::Triangles { vertices, triangles } => {
-            let mesh = volga_mesh::TriMesh::new(vertices.iter().map(|p| DVec3::from_array(*p)).collect(), triangles.clone())
-                .map_err(|e| cx.err(f, e.to_string()))?;
-            return Ok(ToolShape::Mesh(Arc::new(MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?)));
+            let mesh = volga_mesh::TriMesh::new(
+                vertices.iter().map(|p| DVec3::from_array(*p)).collect(),
+                triangles.clone(),
+            )
+            .map_err(|e| cx.err(f, e.to_string()))?;
+            return Ok(ToolShape::Mesh(Arc::new(
+                MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?,
+            )));
         }
-        ShapeSpec::Mesh {
-            path,
-            translate,
-            scale,
-        } => {
-            let mesh = volga_mesh::load_mesh(&dir.join(path)).map_err(|e| cx.err(format!("{f}.path"), e.to_string()))?;
+        ShapeSpec::Mesh { path, translate, scale } => {
+            let mesh = volga_mesh::load_mesh(dir.join(path)).map_err(|e| cx.err(format!("{f}.path"), e.to_string()))?;
             let scale = cx.positive(&format!("{f}.scale"), *scale)?;
             let offset = v("translate", *translate)?;
             let mesh = volga_mesh::TriMesh {
                 positions: mesh.positions.iter().map(|p| *p * scale + offset).collect(),
                 triangles: mesh.triangles,
             };
-            return Ok(ToolShape::Mesh(Arc::new(MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?)));
+            return Ok(ToolShape::Mesh(Arc::new(
+                MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?,
+            )));
         }
         ShapeSpec::Cylinder { .. } | ShapeSpec::Cone { .. } => {
-            return Err(cx.err(f, "a tool must be bounded: give the cylinder a half_length or the cone a height"))
+            return Err(cx.err(
+                f,
+                "a tool must be bounded: give the cylinder a half_length or the cone a height",
+            ))
         }
         ShapeSpec::Quadric { .. } => {
             return Err(cx.err(f, "a quadric is not a sculpting tool (its distance is not exact)"))
@@ -320,6 +340,9 @@ mod tests {
                 path: Some(vec![[0.0; 3], [f64::NAN, 0.0, 0.0]]),
             }],
         };
-        assert!(validate_strokes(p, &saw, 0.1).unwrap_err().to_string().contains("strokes[0].path[1]"));
+        assert!(validate_strokes(p, &saw, 0.1)
+            .unwrap_err()
+            .to_string()
+            .contains("strokes[0].path[1]"));
     }
 }

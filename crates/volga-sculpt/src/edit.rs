@@ -61,7 +61,9 @@ impl Operation {
         if ok {
             Ok(())
         } else {
-            Err(SculptError::Operation(format!("{self:?}: strengths must be in (0, 1], colours in [0, 1], falloff ≥ 0")))
+            Err(SculptError::Operation(format!(
+                "{self:?}: strengths must be in (0, 1], colours in [0, 1], falloff ≥ 0"
+            )))
         }
     }
 
@@ -221,7 +223,11 @@ pub(crate) fn edit(
             }
             if t_lo == t_hi && !p.stroke.operation.reads_neighbours() {
                 let new = p.apply(*v, t_lo, 0.0);
-                return if new == *v { (None, None) } else { (Some(Node::Uniform(new)), Some(mine)) };
+                return if new == *v {
+                    (None, None)
+                } else {
+                    (Some(Node::Uniform(new)), Some(mine))
+                };
             }
             if level == 0 {
                 return edit_brick(p, old_root, &[*v; BRICK_VOXELS], origin);

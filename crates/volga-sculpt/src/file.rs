@@ -146,7 +146,9 @@ fn write_node(n: &Node, out: &mut Vec<u8>) {
                 }
                 BrickColour::PerVoxel(cs) => {
                     out.push(1);
-                    cs.iter().flatten().for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
+                    cs.iter()
+                        .flatten()
+                        .for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
                 }
             }
         }
@@ -164,7 +166,10 @@ struct Reader<'a> {
 
 impl Reader<'_> {
     fn malformed(&self, message: String) -> FileError {
-        FileError::Malformed { offset: self.at, message }
+        FileError::Malformed {
+            offset: self.at,
+            message,
+        }
     }
     fn take<const N: usize>(&mut self) -> Result<[u8; N], FileError> {
         let end = self.at.checked_add(N).filter(|&e| e <= self.bytes.len());

@@ -62,7 +62,11 @@ pub use tool::{MeshTool, Pose, Tool, ToolError, ToolShape, MAX_SWEEP_SAMPLES};
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SculptError {
     #[error("sculpt grid needs a finite origin, a finite positive spacing and at most {MAX_LEVELS} levels; got origin {origin:?}, spacing {spacing}, levels {levels}")]
-    Grid { origin: [f64; 3], spacing: f64, levels: u32 },
+    Grid {
+        origin: [f64; 3],
+        spacing: f64,
+        levels: u32,
+    },
     #[error("invalid operation {0}")]
     Operation(String),
     #[error(transparent)]

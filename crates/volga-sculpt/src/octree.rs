@@ -85,7 +85,10 @@ impl Brick {
             min = min.min(v.density);
             max = max.max(v.density);
         }
-        let colour = if voxels.iter().all(|v| v.colour.map(f32::to_bits) == first.colour.map(f32::to_bits)) {
+        let colour = if voxels
+            .iter()
+            .all(|v| v.colour.map(f32::to_bits) == first.colour.map(f32::to_bits))
+        {
             BrickColour::Uniform(first.colour)
         } else {
             BrickColour::PerVoxel(Box::new(std::array::from_fn(|i| voxels[i].colour)))
@@ -279,7 +282,7 @@ impl SculptGrid {
     /// Refuses a non-finite origin, a spacing that is not finite and positive, or more
     /// than [`MAX_LEVELS`] levels.
     pub fn new(origin: DVec3, spacing: f64, levels: u32) -> Result<SculptGrid, crate::SculptError> {
-        if !origin.is_finite() || !(spacing.is_finite() && spacing > 0.0) || levels > MAX_LEVELS {
+        if !(origin.is_finite() && spacing.is_finite() && spacing > 0.0) || levels > MAX_LEVELS {
             return Err(crate::SculptError::Grid {
                 origin: origin.to_array(),
                 spacing,
@@ -337,7 +340,10 @@ impl SculptGrid {
             return IndexBox::new(IVec3::ZERO, IVec3::ZERO);
         }
         let lo = self.world_to_index(world_box.min).floor().max(DVec3::splat(-1.0));
-        let hi = self.world_to_index(world_box.max).ceil().min(DVec3::splat(self.dims() as f64 + 1.0));
+        let hi = self
+            .world_to_index(world_box.max)
+            .ceil()
+            .min(DVec3::splat(self.dims() as f64 + 1.0));
         if !(lo.is_finite() && hi.is_finite()) {
             return IndexBox::new(IVec3::ZERO, IVec3::ZERO);
         }

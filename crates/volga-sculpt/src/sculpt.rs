@@ -31,13 +31,7 @@ impl Sculpt {
     /// Empty space (density 0) everywhere, coloured `colour` (what later material shows
     /// until painted).
     pub fn empty(grid: SculptGrid, colour: [f32; 3]) -> Sculpt {
-        Sculpt::from_root(
-            grid,
-            Node::Uniform(Voxel {
-                density: 0.0,
-                colour,
-            }),
-        )
+        Sculpt::from_root(grid, Node::Uniform(Voxel { density: 0.0, colour }))
     }
 
     pub(crate) fn from_root(grid: SculptGrid, root: Node) -> Sculpt {
@@ -274,7 +268,16 @@ fn build<F: Field + ?Sized>(
         debug_assert_eq!(Brick::offset(IVec3::new(1, 2, 3)), 1 + 8 * 2 + 64 * 3);
         return Brick::from_voxels(&voxels);
     }
-    let child = |k: usize| build(grid, field, to_density, colour, origin + child_offset(k, level), level - 1);
+    let child = |k: usize| {
+        build(
+            grid,
+            field,
+            to_density,
+            colour,
+            origin + child_offset(k, level),
+            level - 1,
+        )
+    };
     let children: Vec<Node> = if level >= PARALLEL_BUILD_LEVEL {
         (0..8).into_par_iter().map(child).collect()
     } else {

@@ -71,7 +71,7 @@ impl Pose {
     }
 
     #[inline]
-    fn to_local(&self, world_pos: DVec3) -> DVec3 {
+    fn local_of(&self, world_pos: DVec3) -> DVec3 {
         let p = world_pos - self.translation;
         if self.rotated {
             self.inverse * p
@@ -205,7 +205,7 @@ impl Tool {
         for pair in path.windows(2) {
             let (a, b) = (pair[0], pair[1]);
             let n = ((b - a).length() / max_step).ceil();
-            if !(n <= MAX_SWEEP_SAMPLES as f64) {
+            if n.is_nan() || n > MAX_SWEEP_SAMPLES as f64 {
                 return Err(ToolError::PathTooLong {
                     samples: u64::MAX,
                     max: MAX_SWEEP_SAMPLES,
@@ -243,11 +243,11 @@ impl Tool {
     #[inline]
     pub fn distance(&self, world_pos: DVec3) -> f64 {
         if let [o] = *self.sweep {
-            return self.shape.distance(self.pose.to_local(world_pos - o));
+            return self.shape.distance(self.pose.local_of(world_pos - o));
         }
         let mut d = f64::INFINITY;
         for o in self.sweep.iter() {
-            d = d.min(self.shape.distance(self.pose.to_local(world_pos - *o)));
+            d = d.min(self.shape.distance(self.pose.local_of(world_pos - *o)));
         }
         d
     }
@@ -300,7 +300,11 @@ mod tests {
     fn posed_box_and_sweep_distances() {
         let cube = volga_shapes::AxisBox::new(DVec3::splat(-1.0), DVec3::ONE).unwrap();
         let rot = DQuat::from_rotation_z(std::f64::consts::FRAC_PI_4);
-        let tool = Tool::new(ToolShape::Shape(Shape::AxisBox(cube)), Pose::new(rot, DVec3::X * 10.0).unwrap()).unwrap();
+        let tool = Tool::new(
+            ToolShape::Shape(Shape::AxisBox(cube)),
+            Pose::new(rot, DVec3::X * 10.0).unwrap(),
+        )
+        .unwrap();
         // The rotated cube's corner points along +x: at distance √2 from its centre.
         assert!((tool.distance(DVec3::new(10.0 + 2f64.sqrt() + 0.5, 0.0, 0.0)) - 0.5).abs() < 1e-12);
         assert!((tool.bounds().max.x - (10.0 + 2f64.sqrt())).abs() < 1e-12);
@@ -309,9 +313,15 @@ mod tests {
             .swept(&[DVec3::ZERO, DVec3::ZERO, DVec3::X * 4.0, DVec3::X * 4.0], 0.25)
             .unwrap();
         assert!((saw.distance(DVec3::new(2.0, 3.0, 0.0)) - 2.0).abs() < 1e-12);
-        assert_eq!(saw.bounds(), Aabb::new(DVec3::new(-1.0, -1.0, -1.0), DVec3::new(5.0, 1.0, 1.0)));
+        assert_eq!(
+            saw.bounds(),
+            Aabb::new(DVec3::new(-1.0, -1.0, -1.0), DVec3::new(5.0, 1.0, 1.0))
+        );
         // Zero length: one copy.
-        let dot = Tool::sphere(DVec3::ZERO, 1.0).unwrap().swept(&[DVec3::Y; 3], 0.25).unwrap();
+        let dot = Tool::sphere(DVec3::ZERO, 1.0)
+            .unwrap()
+            .swept(&[DVec3::Y; 3], 0.25)
+            .unwrap();
         assert_eq!(dot.sweep.len(), 1);
         assert!(Tool::sphere(DVec3::ZERO, 1.0).unwrap().swept(&[], 0.25).is_err());
         assert!(Tool::sphere(DVec3::ZERO, 1.0)

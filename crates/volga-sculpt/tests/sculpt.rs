@@ -37,7 +37,10 @@ impl Dense {
         let voxels = (0..n * n * n)
             .map(|k| s.voxel(IVec3::new(k % n, (k / n) % n, k / (n * n))).unwrap())
             .collect();
-        Dense { grid: *s.grid(), voxels }
+        Dense {
+            grid: *s.grid(),
+            voxels,
+        }
     }
     fn at(&self, ijk: IVec3) -> Option<Voxel> {
         let n = self.grid.dims();
@@ -54,7 +57,7 @@ impl Dense {
                 0.0
             }
         };
-        for k in 0..(n * n * n) as usize {
+        for (k, voxel) in self.voxels.iter_mut().enumerate() {
             let ijk = IVec3::new(k as i32 % n, (k as i32 / n) % n, k as i32 / (n * n));
             let mut sum = 0.0;
             for dz in -1..=1 {
@@ -64,7 +67,7 @@ impl Dense {
                     }
                 }
             }
-            self.voxels[k] = stroke.voxel_after(&self.grid, ijk, old[k], sum / 27.0);
+            *voxel = stroke.voxel_after(&self.grid, ijk, old[k], sum / 27.0);
         }
     }
     /// Trilinear density, background 0 (the reference for the sculpt's `Field::value`).
@@ -97,7 +100,11 @@ fn carve_then_undo_restores_the_octree_exactly_and_redo_reapplies() {
     let grid = SculptGrid::new(DVec3::new(-3.0, 1.0, 2.0), 0.5, 3).unwrap();
     let mut s = block(grid, 10.0, 50.0);
     let start = s.clone();
-    let report = s.apply(&sphere(grid.voxel_center(IVec3::new(30, 30, 10)), 7.0, Operation::Carve));
+    let report = s.apply(&sphere(
+        grid.voxel_center(IVec3::new(30, 30, 10)),
+        7.0,
+        Operation::Carve,
+    ));
     let after = s.clone();
     assert!(report.changed_voxels.is_some());
     assert!(!s.same_tree(&start));
@@ -109,7 +116,12 @@ fn carve_then_undo_restores_the_octree_exactly_and_redo_reapplies() {
     assert!(s.same_tree(&after));
     assert!(!s.redo());
     // A history step costs the changed subtrees, far less than the tree.
-    assert!(s.history_bytes() < s.stats().bytes, "{} vs {}", s.history_bytes(), s.stats().bytes);
+    assert!(
+        s.history_bytes() < s.stats().bytes,
+        "{} vs {}",
+        s.history_bytes(),
+        s.stats().bytes
+    );
 }
 
 #[derive(Debug, Clone)]
@@ -136,7 +148,11 @@ fn stroke_from(op: &Op, centre: DVec3, size: f64, boxy: bool, angle: f64, grid: 
     let r = size * grid.spacing();
     let tool = if boxy {
         let shape = Shape::AxisBox(AxisBox::new(DVec3::splat(-r), DVec3::new(r, r * 0.5, r * 0.7)).unwrap());
-        Tool::new(ToolShape::Shape(shape), Pose::new(DQuat::from_rotation_y(angle), c).unwrap()).unwrap()
+        Tool::new(
+            ToolShape::Shape(shape),
+            Pose::new(DQuat::from_rotation_y(angle), c).unwrap(),
+        )
+        .unwrap()
     } else {
         Tool::sphere(c, r).unwrap()
     };
@@ -217,11 +233,16 @@ fn save_load_round_trip_and_damaged_files_are_refused() {
     let grid = SculptGrid::new(DVec3::new(1e6, -2.0, 0.5), 0.25, 2).unwrap();
     let mut s = block(grid, 5.0, 27.0);
     s.apply(&sphere(grid.voxel_center(IVec3::new(16, 16, 5)), 2.5, Operation::Carve));
-    s.apply(&Stroke::new(
-        Tool::sphere(grid.voxel_center(IVec3::new(10, 20, 16)), 2.0).unwrap(),
-        Operation::Paint { colour: [0.1, 0.9, 0.2], strength: 0.7 },
-    )
-    .unwrap());
+    s.apply(
+        &Stroke::new(
+            Tool::sphere(grid.voxel_center(IVec3::new(10, 20, 16)), 2.0).unwrap(),
+            Operation::Paint {
+                colour: [0.1, 0.9, 0.2],
+                strength: 0.7,
+            },
+        )
+        .unwrap(),
+    );
     let bytes = s.to_bytes();
     let back = Sculpt::from_bytes(&bytes).unwrap();
     assert!(back.same_tree(&s));
@@ -244,7 +265,10 @@ fn save_load_round_trip_and_damaged_files_are_refused() {
     }
     let mut future = bytes.clone();
     future[8] = 2;
-    assert!(matches!(Sculpt::from_bytes(&future), Err(volga_sculpt::FileError::Version { found: 2 })));
+    assert!(matches!(
+        Sculpt::from_bytes(&future),
+        Err(volga_sculpt::FileError::Version { found: 2 })
+    ));
     target.load_bytes(&bytes).unwrap();
     assert!(target.same_tree(&s));
 }
@@ -278,19 +302,34 @@ fn extracted_sculpt_meshes_are_closed_manifold_and_on_the_half_surface() {
 #[test]
 fn edits_are_identical_for_1_and_2_threads() {
     let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
-            let grid = SculptGrid::new(DVec3::ZERO, 1.0, 4).unwrap(); // 128³: parallel levels
-            let mut s = block(grid, 4.0, 124.0);
-            let mut reports = Vec::new();
-            // Its box covers the whole 128³ grid: large enough to run on several threads.
-            reports.push(s.apply(&sphere(DVec3::splat(64.0), 62.0, Operation::Carve)));
-            reports.push(s.apply(&sphere(DVec3::new(30.0, 64.0, 64.0), 20.0, Operation::Smooth { strength: 0.8 })));
-            reports.push(s.apply(&Stroke::new(
-                Tool::sphere(DVec3::new(64.0, 100.0, 64.0), 30.0).unwrap(),
-                Operation::Paint { colour: [1.0, 0.0, 0.0], strength: 1.0 },
-            ).unwrap()));
-            (s.to_bytes(), reports)
-        })
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let grid = SculptGrid::new(DVec3::ZERO, 1.0, 4).unwrap(); // 128³: parallel levels
+                let mut s = block(grid, 4.0, 124.0);
+                // The first box covers the whole 128³ grid: large enough to run on several threads.
+                let mut reports = vec![s.apply(&sphere(DVec3::splat(64.0), 62.0, Operation::Carve))];
+                reports.push(s.apply(&sphere(
+                    DVec3::new(30.0, 64.0, 64.0),
+                    20.0,
+                    Operation::Smooth { strength: 0.8 },
+                )));
+                reports.push(
+                    s.apply(
+                        &Stroke::new(
+                            Tool::sphere(DVec3::new(64.0, 100.0, 64.0), 30.0).unwrap(),
+                            Operation::Paint {
+                                colour: [1.0, 0.0, 0.0],
+                                strength: 1.0,
+                            },
+                        )
+                        .unwrap(),
+                    ),
+                );
+                (s.to_bytes(), reports)
+            })
     };
     assert_eq!(run(1), run(2));
 }
@@ -334,7 +373,10 @@ fn strokes_at_maximum_depth_stay_local() {
     let st = s.stats();
     // The tool's box (6 voxels plus the filter band) meets at most 3 bricks per axis:
     // at most 27 bricks, each on a path of 17 branches.
-    assert!(st.branches >= 17 && st.bricks >= 1 && st.bricks <= 27 && st.branches <= 17 * 27, "{st:?}");
+    assert!(
+        st.branches >= 17 && st.bricks >= 1 && st.bricks <= 27 && st.branches <= 17 * 27,
+        "{st:?}"
+    );
     assert!(st.bytes < 200_000, "{st:?}");
     assert!((s.value(deep) - 1.0).abs() < 1e-12);
     assert!(s.value(deep + DVec3::X * 10.0) == 0.0);
@@ -372,15 +414,23 @@ fn saw_paths_with_repeated_points_or_zero_length() {
     b.apply(&sphere(p, 3.0, Operation::Carve));
     assert!(a.same_tree(&b));
     // Repeated points change nothing compared with the path without them.
-    let path = [DVec3::new(20.0, 32.0, 56.0), DVec3::new(44.0, 32.0, 56.0), DVec3::new(44.0, 40.0, 50.0)];
+    let path = [
+        DVec3::new(20.0, 32.0, 56.0),
+        DVec3::new(44.0, 32.0, 56.0),
+        DVec3::new(44.0, 40.0, 50.0),
+    ];
     let repeated = [path[0], path[0], path[1], path[1], path[1], path[2], path[2]];
     let (mut c, mut d) = (base.clone(), base.clone());
     c.apply(&saw(&path));
     d.apply(&saw(&repeated));
     assert!(c.same_tree(&d));
     // The cut is smooth: along the groove's floor the density varies by less than 1 %.
-    let floor: Vec<f64> = (0..40).map(|k| c.value(DVec3::new(22.0 + k as f64 * 0.5, 32.0, 53.0))).collect();
-    let (lo, hi) = floor.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    let floor: Vec<f64> = (0..40)
+        .map(|k| c.value(DVec3::new(22.0 + k as f64 * 0.5, 32.0, 53.0)))
+        .collect();
+    let (lo, hi) = floor
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
     assert!(hi - lo < 0.01, "{lo} .. {hi}");
 }
 
@@ -409,7 +459,8 @@ fn value_range_is_conservative_and_bounds_hold_the_content() {
     s.apply(&sphere(grid.voxel_center(IVec3::splat(16)), 4.0, Operation::Carve));
     let bounds = s.bounds();
     for k in 0..300 {
-        let c = bounds.min + DVec3::new((k * 37 % 101) as f64, (k * 53 % 97) as f64, (k * 71 % 89) as f64) / 100.0 * bounds.size();
+        let c = bounds.min
+            + DVec3::new((k * 37 % 101) as f64, (k * 53 % 97) as f64, (k * 71 % 89) as f64) / 100.0 * bounds.size();
         let b = Aabb::new(c, c + DVec3::splat(0.3 + (k % 5) as f64));
         let (lo, hi) = s.value_range(&b);
         for t in 0..8 {
@@ -425,7 +476,16 @@ fn value_range_is_conservative_and_bounds_hold_the_content() {
 fn sparse_volume_export_holds_the_same_voxels() {
     let grid = SculptGrid::new(DVec3::new(2.0, 3.0, 4.0), 0.5, 2).unwrap();
     let mut s = block(grid, 6.0, 26.0);
-    s.apply(&Stroke::new(Tool::sphere(grid.voxel_center(IVec3::splat(8)), 3.0).unwrap(), Operation::Paint { colour: [0.0, 0.0, 1.0], strength: 1.0 }).unwrap());
+    s.apply(
+        &Stroke::new(
+            Tool::sphere(grid.voxel_center(IVec3::splat(8)), 3.0).unwrap(),
+            Operation::Paint {
+                colour: [0.0, 0.0, 1.0],
+                strength: 1.0,
+            },
+        )
+        .unwrap(),
+    );
     let v = s.to_sparse_volume(true);
     let colour = v.colour.as_ref().unwrap();
     for ijk in grid.index_box().iter() {
