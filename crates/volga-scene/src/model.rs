@@ -70,6 +70,12 @@ pub enum NodeSpec {
         #[serde(default)]
         colour: Option<V3>,
     },
+    /// The operand sampled into a sculpt (Bærentzen's octree on the scene grid), then
+    /// edited by `strokes` (stroke files' syntax: carve, add, spray, paint, smooth, saws).
+    Sculpt {
+        operand: Box<NodeSpec>,
+        strokes: Vec<crate::strokes::StrokeSpec>,
+    },
 }
 
 /// A solid of the scene: a leaf whose shape decides its node kind.

@@ -159,12 +159,23 @@ pub fn start_sculpt(path: &Path, start: &StartSpec, memory_limit: u64) -> Result
 
 /// Validates the strokes for a sculpt of voxel size `spacing` (saws are sampled every half voxel).
 pub fn validate_strokes(path: &Path, file: &StrokeFile, spacing: f64) -> Result<Vec<Stroke>, SceneError> {
+    validate_stroke_list(path, "strokes", &file.strokes, spacing)
+}
+
+/// Validates `strokes` found at the field path `field` of the file `path` (mesh tools are
+/// read relative to its folder).
+pub fn validate_stroke_list(
+    path: &Path,
+    field: &str,
+    strokes: &[StrokeSpec],
+    spacing: f64,
+) -> Result<Vec<Stroke>, SceneError> {
     let cx = Ctx { path };
     let dir = path.parent().unwrap_or(Path::new("."));
-    file.strokes
+    strokes
         .iter()
         .enumerate()
-        .map(|(i, s)| validate_stroke(&cx, dir, &format!("strokes[{i}]"), s, spacing))
+        .map(|(i, s)| validate_stroke(&cx, dir, &format!("{field}[{i}]"), s, spacing))
         .collect()
 }
 

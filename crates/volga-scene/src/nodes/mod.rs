@@ -13,6 +13,7 @@
 //! [`leaf`] (or `union::from_spec`). `nodes/torus.rs` is the worked example.
 
 pub mod mesh;
+pub mod sculpt;
 pub mod shape;
 pub mod torus;
 pub mod union;
