@@ -69,4 +69,28 @@ fn stroke_errors_name_their_field_path_and_the_scene_builds() {
     )
     .unwrap();
     assert!(out.join("sculpt_baked.png").exists() && out.join("sculpt_lazy.png").exists());
+    assert!(out.join("sculpt_mesh.ply").exists());
+}
+
+#[test]
+fn a_mesh_output_of_any_object_is_a_closed_manifold_torus() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"Scene(grid: (bounds: (min: (-1, -1, -1), max: (1, 1, 1)), resolution: 32),
+        objects: [(shape: Torus(center: (0.05, 0, 0), axis: (0, 0.2, 1), major_radius: 0.6, minor_radius: 0.25))],
+        cameras: [], outputs: (meshes: [(name: "torus", format: Obj)]))"#;
+    let out = dir.path().join("out");
+    build(
+        &scene_in(dir.path(), text),
+        &BuildOptions {
+            out_dir: out.clone(),
+            memory_limit: None,
+        },
+        &NoProgress,
+    )
+    .unwrap();
+    let mesh = volga::mesh::load_obj(&out.join("torus.obj")).unwrap();
+    let stats = mesh.edge_stats();
+    assert_eq!((stats.boundary_edges, stats.non_manifold_edges), (0, 0));
+    let euler = stats.welded_vertices as i64 - stats.edges as i64 + mesh.triangle_count() as i64;
+    assert_eq!(euler, 0, "a torus");
 }

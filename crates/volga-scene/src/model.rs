@@ -232,6 +232,25 @@ pub struct OutputsSpec {
     pub images: Vec<ImageSpec>,
     #[serde(default)]
     pub volumes: Vec<VolumeOutputSpec>,
+    /// Meshes of the scene's ½ iso-surface (`volga-mesh`'s shared extractor).
+    #[serde(default)]
+    pub meshes: Vec<MeshOutputSpec>,
+}
+
+/// A mesh output: the ½ iso-surface of the node tree (its lazy field) on the grid's
+/// lattice, closed and manifold where the surface lies inside the grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshOutputSpec {
+    /// File stem: `{out}/{name}.obj` or `.ply`.
+    pub name: String,
+    pub format: MeshFormatSpec,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MeshFormatSpec {
+    Obj,
+    Ply,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
