@@ -88,7 +88,7 @@ fn a_mesh_output_of_any_object_is_a_closed_manifold_torus() {
         &NoProgress,
     )
     .unwrap();
-    let mesh = volga::mesh::load_obj(&out.join("torus.obj")).unwrap();
+    let mesh = volga::mesh::load_obj(out.join("torus.obj")).unwrap();
     let stats = mesh.edge_stats();
     assert_eq!((stats.boundary_edges, stats.non_manifold_edges), (0, 0));
     let euler = stats.welded_vertices as i64 - stats.edges as i64 + mesh.triangle_count() as i64;
