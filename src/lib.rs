@@ -12,6 +12,8 @@
 //! * [`render`] (`volga-render`): cameras, transfer functions, iso-surface and volume
 //!   rendering over any [`Field`];
 //! * [`io`] (`volga-io`): PNG and NRRD files, atomic writes;
+//! * [`sculpt`] (`volga-sculpt`): volume sculpting on a dynamic-resolution octree
+//!   (carve, saw, spray, paint, smooth; undo/redo; save/load; exports);
 //! * [`scene`] (`volga-scene`): scene files, planning and the `volga build` pipeline.
 //!
 //! World coordinates are `f64`, voxel payloads `f32` (see [`core`] for why).
@@ -35,6 +37,7 @@ pub use volga_io as io;
 pub use volga_mesh as mesh;
 pub use volga_render as render;
 pub use volga_scene as scene;
+pub use volga_sculpt as sculpt;
 pub use volga_shapes as shapes;
 pub use volga_texture as texture;
 pub use volga_topology as topology;

@@ -30,6 +30,8 @@ pub enum BenchCommand {
     Render(crate::bench_render::RenderBenchArgs),
     /// Noise throughput (4-octave fBm) against the `noise` crate and simdnoise, as JSON.
     Noise(crate::bench_noise::NoiseBenchArgs),
+    /// Sculpt edit latency, memory, re-render and mesh extraction against OpenVDB and scikit-image, as JSON.
+    Sculpt(crate::bench_sculpt::SculptBenchArgs),
 }
 
 #[derive(Args)]
@@ -55,6 +57,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
         BenchCommand::Voxelize(args) => args,
         BenchCommand::Render(args) => return crate::bench_render::run(args),
         BenchCommand::Noise(args) => return crate::bench_noise::run(args),
+        BenchCommand::Sculpt(args) => return crate::bench_sculpt::run(args),
     };
     let job_args = &args.job;
     let binary = job_args.spec()?.is_binary();

@@ -7,8 +7,10 @@ mod accuracy;
 mod bench;
 mod bench_noise;
 mod bench_render;
+mod bench_sculpt;
 mod failure;
 mod progress;
+mod sculpt;
 mod validate;
 mod voxelize;
 
@@ -49,6 +51,8 @@ enum Command {
     /// Validate a voxel model (.binvox, .nrrd) as a discrete surface: components, N-separability,
     /// simple voxels, Euler characteristic; with --mesh, tunnels through it and cover.
     Validate(validate::ValidateArgs),
+    /// Apply a stroke file to a saved sculpt (or its start object); write the sculpt, a mesh, voxels, an image.
+    Sculpt(sculpt::SculptArgs),
     /// Time a job warm, in one process (for benchmarks; see docs/BENCHMARKS.md).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -158,6 +162,13 @@ fn main() -> ExitCode {
         Command::Validate(args) => match validate::run(args) {
             Ok(true) => ExitCode::SUCCESS,
             Ok(false) => ExitCode::from(1),
+            Err(f) => {
+                eprintln!("error: {}", f.message);
+                ExitCode::from(f.code)
+            }
+        },
+        Command::Sculpt(args) => match sculpt::run(args) {
+            Ok(()) => ExitCode::SUCCESS,
             Err(f) => {
                 eprintln!("error: {}", f.message);
                 ExitCode::from(f.code)

@@ -17,6 +17,9 @@
 //!   until it proves what is asked. [`unclean`] generates the meshes users bring
 //!   (self-intersecting, overlapping, open, flat, single triangles) for tests.
 //!   [`signed_distance`] combines the exact distance with the winding-number sign.
+//! * [`extract_surface`] meshes the iso-surface of any [`volga_core::Field`] (marching
+//!   tetrahedra, watertight and manifold for closed surfaces, normals from the gradient);
+//!   [`obj_bytes`] and [`ply_bytes`] write meshes as bytes for atomic output.
 //!
 //! ## Spaces, units, precision
 //! Everything here is **world space**, in the mesh file's units, as `f64`
@@ -47,6 +50,7 @@
 mod bvh;
 mod closest;
 mod error;
+pub mod extract;
 mod intersect;
 mod load;
 mod mesh;
@@ -55,10 +59,12 @@ mod segment;
 mod signed;
 pub mod unclean;
 mod winding;
+mod write;
 
 pub use bvh::{Bvh, Closest, WindingBound, FAR_FIELD_BETA};
 pub use closest::{closest_point_on_segment, closest_point_on_triangle, point_triangle_distance_squared, Feature};
 pub use error::{InvalidMesh, MeshError};
+pub use extract::{extract_surface, extract_surface_with, ExtractError, Extraction, Surface, VertexPlacement};
 pub use intersect::triangles_may_intersect;
 pub use load::{load_gltf, load_mesh, load_obj, read_gltf, read_obj};
 pub use mesh::{EdgeStats, TriMesh};
@@ -66,3 +72,4 @@ pub use overlap::{triangle_box_overlap, triangle_meets_open_box};
 pub use segment::segment_crosses_triangle;
 pub use signed::{signed_distance, signed_distance_within};
 pub use winding::{solid_angle, winding_number};
+pub use write::{obj_bytes, ply_bytes};

@@ -226,3 +226,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         (image, stats)
     }
 }
+
+// Localized re-render (`Renderer::rerender_box`), in its own file.
+#[path = "region.rs"]
+mod region;

@@ -173,6 +173,11 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
         }
         Ok(())
     })?;
+    for m in &scene.meshes {
+        stages.run(format!("mesh:{}", m.name), || {
+            write_mesh(&scene, m, &options.out_dir, &mut staged)
+        })?;
+    }
     let outputs = staged.staged_paths();
 
     let report_path = options.out_dir.join("report.json");
@@ -233,4 +238,34 @@ fn image_report(name: &str, file: PathBuf, image: &volga_render::Image, s: Rende
         rays_terminated_early: s.rays_terminated_early,
         cells_skipped: s.cells_skipped,
     }
+}
+
+/// A mesh output: the ½ iso-surface of the lazy tree on the grid's voxel-centre lattice
+/// (refined onto the surface), through volga-mesh's shared extractor.
+fn write_mesh(
+    scene: &Scene,
+    m: &crate::model::MeshOutputSpec,
+    out_dir: &Path,
+    staged: &mut StagedOutputs,
+) -> Result<(), BuildError> {
+    let field = scene.root.lazy_field(&scene.grid)?;
+    let surface = volga_mesh::extract_surface(
+        field.as_ref(),
+        scene.grid.world_bounds(),
+        scene.grid.transform.min_spacing(),
+        0.5,
+    )
+    .map_err(|e| {
+        BuildError::Scene(SceneError::Invalid {
+            path: scene.source.clone(),
+            field: format!("outputs.meshes.{}", m.name),
+            message: e.to_string(),
+        })
+    })?;
+    let (ext, bytes) = match m.format {
+        crate::model::MeshFormatSpec::Obj => ("obj", volga_mesh::obj_bytes(&surface.mesh, Some(&surface.normals))),
+        crate::model::MeshFormatSpec::Ply => ("ply", volga_mesh::ply_bytes(&surface.mesh, Some(&surface.normals))),
+    };
+    staged.stage(&out_dir.join(format!("{}.{ext}", m.name)), |w| w.write_all(&bytes))?;
+    Ok(())
 }

@@ -30,6 +30,7 @@ pub mod model;
 pub mod nodes;
 pub mod plan;
 mod stages;
+pub mod strokes;
 mod validate;
 
 pub use build::{build, load_scene, validate_scene, BuildOptions, GridReport, ImageReport, Report, VoxelReport};

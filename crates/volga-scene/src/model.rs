@@ -80,6 +80,12 @@ pub enum NodeSpec {
     Textured(crate::nodes::textured::TexturedSpec),
     /// A Perlin–Hoffert hypertexture (`nodes/hypertexture.rs`).
     Hypertexture(crate::nodes::hypertexture::HypertextureSpec),
+    /// The operand sampled into a sculpt (Bærentzen's octree on the scene grid), then
+    /// edited by `strokes` (stroke files' syntax: carve, add, spray, paint, smooth, saws).
+    Sculpt {
+        operand: Box<NodeSpec>,
+        strokes: Vec<crate::strokes::StrokeSpec>,
+    },
 }
 
 /// A solid of the scene: a leaf whose shape decides its node kind.
@@ -236,6 +242,25 @@ pub struct OutputsSpec {
     pub images: Vec<ImageSpec>,
     #[serde(default)]
     pub volumes: Vec<VolumeOutputSpec>,
+    /// Meshes of the scene's ½ iso-surface (`volga-mesh`'s shared extractor).
+    #[serde(default)]
+    pub meshes: Vec<MeshOutputSpec>,
+}
+
+/// A mesh output: the ½ iso-surface of the node tree (its lazy field) on the grid's
+/// lattice, closed and manifold where the surface lies inside the grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshOutputSpec {
+    /// File stem: `{out}/{name}.obj` or `.ply`.
+    pub name: String,
+    pub format: MeshFormatSpec,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MeshFormatSpec {
+    Obj,
+    Ply,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

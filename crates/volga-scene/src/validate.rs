@@ -29,6 +29,7 @@ pub struct Scene {
     pub root: Union,
     pub images: Vec<ImageJob>,
     pub volumes: Vec<VolumeOutputSpec>,
+    pub meshes: Vec<crate::model::MeshOutputSpec>,
 }
 
 impl Scene {
@@ -189,7 +190,14 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
             return Err(cx.err(f, format!("output name `{}` is used twice (or is reserved)", v.name)));
         }
     }
-    if images.is_empty() && file.outputs.volumes.is_empty() {
+    for (i, m) in file.outputs.meshes.iter().enumerate() {
+        let f = format!("outputs.meshes[{i}].name");
+        cx.file_stem(&f, &m.name)?;
+        if !stems.insert(m.name.clone()) {
+            return Err(cx.err(f, format!("output name `{}` is used twice (or is reserved)", m.name)));
+        }
+    }
+    if images.is_empty() && file.outputs.volumes.is_empty() && file.outputs.meshes.is_empty() {
         return Err(cx.err("outputs", "the scene asks for no output (no images, no volumes)"));
     }
 
@@ -199,6 +207,7 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
         root,
         images,
         volumes: file.outputs.volumes.clone(),
+        meshes: file.outputs.meshes.clone(),
     })
 }
 

@@ -17,6 +17,7 @@ pub mod fuzzy;
 pub mod hypertexture;
 pub mod mesh;
 pub mod procedural;
+pub mod sculpt;
 pub mod shape;
 pub mod textured;
 pub mod torus;

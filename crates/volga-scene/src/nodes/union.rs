@@ -131,6 +131,14 @@ fn from_spec(cx: &Ctx, f: &str, spec: &NodeSpec, leaves: &mut usize) -> Result<S
                 *leaves - 1,
             )?))
         }
+        NodeSpec::Sculpt { operand, strokes } => {
+            let sf = format!("{f}.Sculpt");
+            let child: Box<dyn Node> = match from_spec(cx, &format!("{sf}.operand"), operand, leaves)? {
+                Spec::Union(u) => Box::new(u),
+                Spec::Other(n) => n,
+            };
+            Spec::Other(Box::new(super::sculpt::SculptNode::new(&sf, child, strokes.clone())))
+        }
     })
 }
 

@@ -1,0 +1,166 @@
+//! `volga sculpt`: apply a stroke file to a saved sculpt (or to the stroke file's start
+//! object) and write the sculpt, a mesh, a voxel model and an image, all or nothing.
+//!
+//! Prints one JSON object: strokes applied, the world box each changed, node counts and
+//! memory, and the files written.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+use glam::{DVec3, Vec3};
+use serde_json::json;
+use volga_core::NoProgress;
+use volga_io::{StagedOutputs, VoxelFormat};
+
+/// Bytes a mesh file named by a stroke file may take to parse when the available memory is unknown.
+const FALLBACK_MEMORY_LIMIT: u64 = 4 << 30;
+use volga_render::{Camera, Iso, Projection, RenderSettings, Renderer, SurfaceColour};
+use volga_scene::strokes::{parse_stroke_file, start_sculpt, validate_strokes};
+use volga_sculpt::Sculpt;
+
+use crate::failure::{bad_input, failed, Failure};
+
+#[derive(Args)]
+pub struct SculptArgs {
+    /// The stroke file (.ron or .json).
+    #[arg(long)]
+    strokes: PathBuf,
+    /// A saved sculpt to start from (else the stroke file's `start`).
+    #[arg(long)]
+    sculpt: Option<PathBuf>,
+    /// Write the sculpt here (versioned binary, checksummed).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the ½ iso-surface as a mesh (.obj or .ply).
+    #[arg(long)]
+    mesh: Option<PathBuf>,
+    /// Write the voxels (.nrrd or .binvox).
+    #[arg(long)]
+    volume: Option<PathBuf>,
+    /// Render the sculpt (iso-surface, its colours) to this PNG.
+    #[arg(long)]
+    image: Option<PathBuf>,
+    /// Image width and height.
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=8192))]
+    size: u32,
+}
+
+pub fn run(args: SculptArgs) -> Result<(), Failure> {
+    let file = parse_stroke_file(&args.strokes).map_err(|e| bad_input(e.to_string()))?;
+    let mut sculpt = match (&args.sculpt, &file.start) {
+        (Some(path), _) => {
+            let bytes = std::fs::read(path).map_err(|e| bad_input(format!("{}: {e}", path.display())))?;
+            Sculpt::from_bytes(&bytes).map_err(|e| bad_input(format!("{}: {e}", path.display())))?
+        }
+        (None, Some(start)) => start_sculpt(
+            &args.strokes,
+            start,
+            volga_core::memory::available_bytes().unwrap_or(FALLBACK_MEMORY_LIMIT),
+        )
+        .map_err(|e| bad_input(e.to_string()))?,
+        (None, None) => {
+            return Err(bad_input(format!(
+                "{}: no `start` in the stroke file and no --sculpt to apply it to",
+                args.strokes.display()
+            )))
+        }
+    };
+    let strokes =
+        validate_strokes(&args.strokes, &file, sculpt.grid().spacing()).map_err(|e| bad_input(e.to_string()))?;
+    let mesh_format = match &args.mesh {
+        Some(p) => match p
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("obj") => Some(false),
+            Some("ply") => Some(true),
+            _ => return Err(bad_input(format!("--mesh {}: expected .obj or .ply", p.display()))),
+        },
+        None => None,
+    };
+    let voxel_format = match &args.volume {
+        Some(p) => Some(VoxelFormat::from_path(p).map_err(|e| bad_input(format!("--volume: {e}")))?),
+        None => None,
+    };
+
+    let start = Instant::now();
+    let mut changed = Vec::new();
+    for stroke in &strokes {
+        let report = sculpt.apply(stroke);
+        changed.push(report.changed_world.map(|b| [b.min.to_array(), b.max.to_array()]));
+    }
+    let edit_s = start.elapsed().as_secs_f64();
+    let stats = sculpt.stats();
+
+    let mut staged = StagedOutputs::new();
+    let io = |e: volga_io::IoError| failed(e.to_string());
+    if let Some(out) = &args.out {
+        let bytes = sculpt.to_bytes();
+        staged.stage(out, |w| w.write_all(&bytes)).map_err(io)?;
+    }
+    let mut triangles = None;
+    if let (Some(path), Some(ply)) = (&args.mesh, mesh_format) {
+        let surface = sculpt.surface(1.0).map_err(|e| failed(e.to_string()))?;
+        triangles = Some(surface.mesh.triangle_count());
+        let bytes = if ply {
+            volga_mesh::ply_bytes(&surface.mesh, Some(&surface.normals))
+        } else {
+            volga_mesh::obj_bytes(&surface.mesh, Some(&surface.normals))
+        };
+        staged.stage(path, |w| w.write_all(&bytes)).map_err(io)?;
+    }
+    if let (Some(path), Some(_)) = (&args.volume, voxel_format) {
+        let volume = sculpt.to_sparse_volume(true);
+        volga_io::write_voxel_model(path, &volume, &mut staged).map_err(io)?;
+    }
+    if let Some(path) = &args.image {
+        let rgba = render(&sculpt, args.size)?;
+        staged
+            .stage(path, |w| volga_io::encode_png(w, args.size, args.size, &rgba))
+            .map_err(io)?;
+    }
+    let written = staged.commit().map_err(io)?;
+    let out = json!({
+        "strokes": strokes.len(),
+        "edit_s": edit_s,
+        "changed_world": changed,
+        "nodes": stats.nodes(),
+        "bricks": stats.bricks,
+        "octree_bytes": stats.bytes,
+        "voxels_per_axis": sculpt.grid().dims(),
+        "mesh_triangles": triangles,
+        "written": written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+    });
+    println!("{out}");
+    Ok(())
+}
+
+/// The iso-surface at ½ in the sculpt's colours, seen from the front (+z), slightly from
+/// above and the right, framing the material.
+pub fn render(sculpt: &Sculpt, size: u32) -> Result<Vec<u8>, Failure> {
+    use volga_core::Field;
+    let bounds = sculpt.content_bounds().unwrap_or_else(|| sculpt.bounds());
+    let centre = bounds.center();
+    let radius = 0.5 * bounds.size().length().max(sculpt.grid().spacing());
+    let fov = 30.0f64;
+    let dir = DVec3::new(0.35, 0.2, 1.0).normalize();
+    let camera = Camera::look_at(
+        centre + dir * (radius / (fov.to_radians() * 0.5).sin()),
+        centre,
+        DVec3::Y,
+        Projection::Perspective { fov_y_deg: fov },
+    )
+    .map_err(|e| failed(e.to_string()))?;
+    let mut settings = RenderSettings::new(size, size);
+    settings.lighting.lights[0].direction = DVec3::new(0.6, 0.8, 1.0);
+    settings.lighting.ambient_colour = Vec3::splat(0.35);
+    let iso = Iso {
+        value: 0.5,
+        colour: SurfaceColour::FromField,
+    };
+    let renderer = Renderer::new(sculpt, &iso, &settings).map_err(|e| failed(e.to_string()))?;
+    Ok(renderer.render(&camera, &NoProgress).0.to_rgba8())
+}

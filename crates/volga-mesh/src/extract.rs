@@ -1,0 +1,500 @@
+//! Iso-surface extraction from any [`Field`]: the one mesher that sculpts, ADFs and scene
+//! outputs share.
+//!
+//! **Algorithm.** Marching tetrahedra on the lattice `region.min + ijk·cell`: each lattice
+//! cube is split into the six Kuhn (Freudenthal) tetrahedra around its main diagonal, the
+//! same split in every cube, so neighbouring cubes agree on their shared faces. A vertex
+//! sits on every lattice edge whose end points lie on different sides of the iso value and
+//! is shared by every triangle that uses that edge. Unlike surface nets or marching cubes
+//! there is no ambiguous configuration: each tetrahedron face carries at most one segment
+//! of the surface, seen identically from its two tetrahedra, so the output for a closed
+//! iso-surface inside `region` is **watertight and manifold by index** (every edge in
+//! exactly two triangles, every vertex's link one disc) whatever the field, including
+//! surfaces that touch themselves. The survey's marching cubes discussion is §4.1; the
+//! tetrahedral split follows Doi & Koide (1991).
+//!
+//! **Sides.** A lattice point is *inside* when `inward·(value − iso) ≥ 0`
+//! ([`FieldKind::inward_sign`]): a half-open rule, so a value exactly at `iso` counts as
+//! inside and a vertex never needs a tie-break. Triangles are counter-clockwise seen from
+//! outside (volga-mesh's convention); the orientation is decided from the lattice corners'
+//! integer positions, never from interpolated vertices, so it is exact.
+//!
+//! **Vertex placement.** [`VertexPlacement::Linear`] interpolates the two lattice values
+//! (what marching-cubes tools do: error `O(cell²·curvature)`); [`VertexPlacement::Refined`]
+//! then runs regula falsi (Illinois) on the field along the edge until the value is within
+//! `tolerance` of `iso` or the bracket is shorter than `1e-9·cell`. Normals are the field's
+//! gradient turned outward by its kind ([`FieldKind::outward`]), unit length (zero where the
+//! gradient vanishes).
+//!
+//! **Speed.** The lattice is cut into blocks of 16³ cubes; a block whose conservative
+//! [`Field::value_range`] lies on one side of `iso` is skipped without sampling (an
+//! octree-backed field answers that per node), the others are sampled and meshed in
+//! parallel, and vertices are merged by lattice edge in block order, so the mesh is
+//! identical for any thread count.
+
+use rustc_hash::FxHashMap as HashMap;
+
+use glam::{DVec3, IVec3};
+use rayon::prelude::*;
+use volga_core::{Aabb, Field};
+
+use crate::TriMesh;
+
+/// Cubes per block edge.
+const BLOCK: i32 = 16;
+/// At most this many lattice points per axis (edge keys must fit in 64 bits).
+pub const MAX_LATTICE_POINTS_PER_AXIS: u64 = 1 << 20;
+
+/// Why an extraction was refused (before any sampling).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ExtractError {
+    #[error("extraction region must be finite and non-empty, got {min:?} .. {max:?}")]
+    Region { min: [f64; 3], max: [f64; 3] },
+    #[error("extraction cell size must be finite and positive, got {0}")]
+    Cell(f64),
+    #[error("iso value must be finite, got {0}")]
+    Iso(f64),
+    #[error("extraction lattice of {points:?} points is too large (at most {max} per axis)")]
+    TooLarge { points: [u64; 3], max: u64 },
+}
+
+/// Where a vertex is placed on its lattice edge.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum VertexPlacement {
+    /// Linear interpolation of the two lattice values (marching-cubes placement).
+    Linear,
+    /// Linear, then regula falsi on the field until `|value − iso| ≤ tolerance` (in the
+    /// field's units) or the bracket is below `1e-9·cell`, at most `max_iterations` steps.
+    Refined { tolerance: f64, max_iterations: u32 },
+}
+
+/// What to extract: the lattice and the level.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Extraction {
+    /// World box sampled; a closed surface must lie strictly inside it to come out closed.
+    pub region: Aabb,
+    /// Lattice spacing (world units).
+    pub cell: f64,
+    /// The iso value (0.5 for volga's filtered densities, 0 for signed distances).
+    pub iso: f64,
+    pub placement: VertexPlacement,
+}
+
+/// An extracted surface: the mesh and one unit outward normal per vertex.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Surface {
+    pub mesh: TriMesh,
+    pub normals: Vec<DVec3>,
+    /// Blocks of 16³ cubes sampled, and skipped by `value_range`.
+    pub blocks_sampled: u64,
+    pub blocks_skipped: u64,
+}
+
+/// The iso-surface of `field` at `iso` on the lattice of spacing `cell` over `region`,
+/// with vertices refined onto the surface (tolerance `1e-9` of the field's units, at most
+/// 32 regula falsi steps). See the module documentation.
+pub fn extract_surface<F: Field + ?Sized>(
+    field: &F,
+    region: Aabb,
+    cell: f64,
+    iso: f64,
+) -> Result<Surface, ExtractError> {
+    extract_surface_with(
+        field,
+        &Extraction {
+            region,
+            cell,
+            iso,
+            placement: VertexPlacement::Refined {
+                tolerance: 1e-9,
+                max_iterations: 32,
+            },
+        },
+    )
+}
+
+/// The lattice of an extraction: points `region.min + ijk·cell`, `0 ≤ ijk < points`.
+#[derive(Clone, Copy)]
+struct Lattice {
+    origin: DVec3,
+    cell: f64,
+    points: IVec3,
+}
+
+impl Lattice {
+    #[inline]
+    fn world(&self, ijk: IVec3) -> DVec3 {
+        self.origin + ijk.as_dvec3() * self.cell
+    }
+    #[inline]
+    fn linear(&self, ijk: IVec3) -> u64 {
+        let p = self.points.as_u64vec3();
+        ijk.x as u64 + p.x * (ijk.y as u64 + p.y * ijk.z as u64)
+    }
+}
+
+/// [`extract_surface`] with every choice explicit.
+pub fn extract_surface_with<F: Field + ?Sized>(field: &F, job: &Extraction) -> Result<Surface, ExtractError> {
+    let region = job.region;
+    if !(region.min.is_finite() && region.max.is_finite()) || region.is_empty() {
+        return Err(ExtractError::Region {
+            min: region.min.to_array(),
+            max: region.max.to_array(),
+        });
+    }
+    if !(job.cell.is_finite() && job.cell > 0.0) {
+        return Err(ExtractError::Cell(job.cell));
+    }
+    if !job.iso.is_finite() {
+        return Err(ExtractError::Iso(job.iso));
+    }
+    let cubes = (region.size() / job.cell).ceil().max(DVec3::ONE);
+    let points = [cubes.x + 1.0, cubes.y + 1.0, cubes.z + 1.0];
+    if points.iter().any(|&p| p > MAX_LATTICE_POINTS_PER_AXIS as f64) {
+        return Err(ExtractError::TooLarge {
+            points: points.map(|p| p as u64),
+            max: MAX_LATTICE_POINTS_PER_AXIS,
+        });
+    }
+    let lattice = Lattice {
+        origin: region.min,
+        cell: job.cell,
+        points: IVec3::new(points[0] as i32, points[1] as i32, points[2] as i32),
+    };
+    let inward = field.kind().inward_sign();
+    let blocks = (lattice.points - 1 + BLOCK - 1) / BLOCK;
+    let block_list: Vec<IVec3> = (0..blocks.z)
+        .flat_map(|z| (0..blocks.y).flat_map(move |y| (0..blocks.x).map(move |x| IVec3::new(x, y, z))))
+        .collect();
+    let outs: Vec<Option<BlockMesh>> = block_list
+        .par_iter()
+        .map(|&b| mesh_block(field, &lattice, b, job, inward))
+        .collect();
+
+    // Merge by lattice edge, in block order: deterministic for any thread count.
+    let mut surface = Surface::default();
+    let mut index: HashMap<u64, u32> = HashMap::default();
+    let mut remap = Vec::new();
+    for out in outs {
+        let Some(out) = out else {
+            surface.blocks_skipped += 1;
+            continue;
+        };
+        surface.blocks_sampled += 1;
+        remap.clear();
+        for (key, pos) in out.keys.iter().zip(&out.positions) {
+            let next = surface.mesh.positions.len() as u32;
+            let id = *index.entry(*key).or_insert_with(|| {
+                surface.mesh.positions.push(*pos);
+                next
+            });
+            remap.push(id);
+        }
+        surface
+            .mesh
+            .triangles
+            .extend(out.triangles.iter().map(|t| t.map(|v| remap[v as usize])));
+    }
+    let positions = &surface.mesh.positions;
+    surface.normals = positions
+        .par_chunks(1024)
+        .flat_map_iter(|chunk| {
+            let mut grads = vec![DVec3::ZERO; chunk.len()];
+            field.gradients_at(chunk, &mut grads);
+            grads.into_iter().map(|g| field.kind().outward(g).normalize_or_zero())
+        })
+        .collect();
+    Ok(surface)
+}
+
+/// One block's triangles over its own vertex list; `keys[v]` names vertex `v`'s lattice edge.
+struct BlockMesh {
+    keys: Vec<u64>,
+    positions: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+}
+
+/// The six Kuhn tetrahedra of a cube (corner `c` at `(c & 1, c >> 1 & 1, c >> 2 & 1)`):
+/// chains `0 → e_a → e_a + e_b → 7` over the permutations of the axes.
+const TETRAHEDRA: [[usize; 4]; 6] = [
+    [0, 1, 3, 7],
+    [0, 1, 5, 7],
+    [0, 2, 3, 7],
+    [0, 2, 6, 7],
+    [0, 4, 5, 7],
+    [0, 4, 6, 7],
+];
+
+#[inline]
+fn corner(c: usize) -> IVec3 {
+    IVec3::new((c & 1) as i32, (c >> 1 & 1) as i32, (c >> 2 & 1) as i32)
+}
+
+fn mesh_block<F: Field + ?Sized>(
+    field: &F,
+    lattice: &Lattice,
+    block: IVec3,
+    job: &Extraction,
+    inward: f64,
+) -> Option<BlockMesh> {
+    let lo = block * BLOCK;
+    let hi = (lo + BLOCK).min(lattice.points - 1); // last lattice point of the block
+    let world_box = Aabb::new(lattice.world(lo), lattice.world(hi));
+    let (vlo, vhi) = field.value_range(&world_box);
+    let (slo, shi) = if inward > 0.0 {
+        (vlo - job.iso, vhi - job.iso)
+    } else {
+        (job.iso - vhi, job.iso - vlo)
+    };
+    if slo >= 0.0 || shi < 0.0 {
+        return None; // all inside or all outside: no edge changes side
+    }
+    let n = hi - lo + 1; // lattice points in the block per axis
+    let at = |p: IVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
+    // Rows along x through the batch path (`values_along`: a sampled field reads its
+    // bricks once per row instead of looking each point up).
+    let mut s = vec![0.0f64; (n.x * n.y * n.z) as usize];
+    let step = DVec3::new(lattice.cell, 0.0, 0.0);
+    for z in 0..n.z {
+        for y in 0..n.y {
+            let row_start = at(IVec3::new(0, y, z));
+            let row = &mut s[row_start..row_start + n.x as usize];
+            let line = volga_core::Line {
+                origin: lattice.world(IVec3::new(0, lo.y + y, lo.z + z)),
+                step,
+            };
+            field.values_along(&line, lo.x as u64, row);
+            for v in row.iter_mut() {
+                *v = inward * (*v - job.iso);
+            }
+        }
+    }
+    let mut out = BlockMesh {
+        keys: Vec::new(),
+        positions: Vec::new(),
+        triangles: Vec::new(),
+    };
+    // Local vertex of (lattice point, direction bits 1..7), u32::MAX if none yet.
+    let mut local = vec![u32::MAX; s.len() * 8];
+    for z in 0..n.z - 1 {
+        for y in 0..n.y - 1 {
+            for x in 0..n.x - 1 {
+                let base = IVec3::new(x, y, z);
+                let vals: [f64; 8] = std::array::from_fn(|c| s[at(base + corner(c))]);
+                let inside_mask = (0..8).fold(0u8, |m, c| m | ((vals[c] >= 0.0) as u8) << c);
+                if inside_mask == 0 || inside_mask == 0xff {
+                    continue;
+                }
+                for tet in TETRAHEDRA {
+                    let mut edge_vertex = |a: usize, b: usize| -> u32 {
+                        // Edge from the lower corner to the upper one (chains are ordered).
+                        let (a, b) = if a < b { (a, b) } else { (b, a) };
+                        let pa = base + corner(a);
+                        let slot = at(pa) * 8 + (a ^ b);
+                        if local[slot] == u32::MAX {
+                            local[slot] = out.positions.len() as u32;
+                            out.keys.push(lattice.linear(lo + pa) * 8 + (a ^ b) as u64);
+                            let pb = base + corner(b);
+                            out.positions
+                                .push(place(field, lattice, lo + pa, lo + pb, vals[a], vals[b], job, inward));
+                        }
+                        local[slot]
+                    };
+                    emit_tetrahedron(tet, &vals, &mut edge_vertex, &mut out.triangles);
+                }
+            }
+        }
+    }
+    Some(out)
+}
+
+/// Triangles of one tetrahedron, oriented counter-clockwise seen from outside.
+fn emit_tetrahedron(
+    tet: [usize; 4],
+    vals: &[f64; 8],
+    edge_vertex: &mut impl FnMut(usize, usize) -> u32,
+    triangles: &mut Vec<[u32; 3]>,
+) {
+    let (mut inside, mut outside) = ([0usize; 4], [0usize; 4]);
+    let (mut n_in, mut n_out) = (0, 0);
+    for c in tet {
+        if vals[c] >= 0.0 {
+            inside[n_in] = c;
+            n_in += 1;
+        } else {
+            outside[n_out] = c;
+            n_out += 1;
+        }
+    }
+    if n_in == 0 || n_out == 0 {
+        return;
+    }
+    let (inside, outside) = (&inside[..n_in], &outside[..n_out]);
+    // From inside to outside: the direction every triangle's normal must take (from the
+    // corners' small integer positions, so its dot with a normal is never near zero).
+    let centroid = |cs: &[usize]| cs.iter().map(|&c| corner(c).as_dvec3()).sum::<DVec3>() / cs.len() as f64;
+    let out_dir = centroid(outside) - centroid(inside);
+    let mut push = |edges: [(usize, usize); 3]| {
+        let mid = edges.map(|(a, b)| (corner(a) + corner(b)).as_dvec3());
+        let normal = (mid[1] - mid[0]).cross(mid[2] - mid[0]);
+        let mut tri = edges.map(|(a, b)| edge_vertex(a, b));
+        if normal.dot(out_dir) < 0.0 {
+            tri.swap(1, 2);
+        }
+        triangles.push(tri);
+    };
+    match (inside.len(), outside.len()) {
+        (1, 3) => {
+            let a = inside[0];
+            push([(a, outside[0]), (a, outside[1]), (a, outside[2])]);
+        }
+        (3, 1) => {
+            let o = outside[0];
+            push([(inside[0], o), (inside[1], o), (inside[2], o)]);
+        }
+        (2, 2) => {
+            let ([a, b], [c, d]) = ([inside[0], inside[1]], [outside[0], outside[1]]);
+            // The quad ac–ad–bd–bc, split along ac–bd (inside this tetrahedron only).
+            push([(a, c), (a, d), (b, d)]);
+            push([(a, c), (b, d), (b, c)]);
+        }
+        _ => {}
+    }
+}
+
+/// The vertex on the lattice edge `pa → pb` (values `sa`, `sb` on opposite sides, in the
+/// inward-signed space where inside is `≥ 0`).
+#[allow(clippy::too_many_arguments)]
+fn place<F: Field + ?Sized>(
+    field: &F,
+    lattice: &Lattice,
+    pa: IVec3,
+    pb: IVec3,
+    sa: f64,
+    sb: f64,
+    job: &Extraction,
+    inward: f64,
+) -> DVec3 {
+    let (wa, wb) = (lattice.world(pa), lattice.world(pb));
+    let at = |t: f64| wa + (wb - wa) * t;
+    let t = (sa / (sa - sb)).clamp(0.0, 1.0);
+    let VertexPlacement::Refined {
+        tolerance,
+        max_iterations,
+    } = job.placement
+    else {
+        return at(t);
+    };
+    // Regula falsi with the Illinois modification on s(t), bracket [t0, t1].
+    let (mut t0, mut t1, mut s0, mut s1) = (0.0, 1.0, sa, sb);
+    let mut t = t;
+    let mut side = 0i8;
+    let min_width = 1e-9 / (wb - wa).length().max(f64::MIN_POSITIVE) * lattice.cell;
+    for _ in 0..max_iterations {
+        let s = inward * (field.value(at(t)) - job.iso);
+        if !s.is_finite() || s.abs() <= tolerance {
+            break;
+        }
+        if (s >= 0.0) == (s0 >= 0.0) {
+            t0 = t;
+            s0 = s;
+            if side == -1 {
+                s1 *= 0.5;
+            }
+            side = -1;
+        } else {
+            t1 = t;
+            s1 = s;
+            if side == 1 {
+                s0 *= 0.5;
+            }
+            side = 1;
+        }
+        if t1 - t0 <= min_width {
+            break;
+        }
+        let next = t0 + (t1 - t0) * s0 / (s0 - s1);
+        t = if next.is_finite() && next > t0 && next < t1 {
+            next
+        } else {
+            0.5 * (t0 + t1)
+        };
+    }
+    at(t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `|p − c| − r`, exact range.
+    struct Ball {
+        c: DVec3,
+        r: f64,
+    }
+    impl Field for Ball {
+        fn kind(&self) -> volga_core::FieldKind {
+            volga_core::FieldKind::SignedDistance
+        }
+        fn bounds(&self) -> Aabb {
+            Aabb::new(self.c - self.r - 1.0, self.c + self.r + 1.0)
+        }
+        fn value(&self, p: DVec3) -> f64 {
+            (p - self.c).length() - self.r
+        }
+        fn gradient_step(&self) -> DVec3 {
+            DVec3::splat(1e-4)
+        }
+        fn value_range(&self, b: &Aabb) -> (f64, f64) {
+            let d = self.value(b.center());
+            let h = b.size().length() * 0.5;
+            (d - h, d + h)
+        }
+    }
+
+    #[test]
+    fn a_ball_is_closed_and_outward_and_blocks_are_skipped() {
+        let ball = Ball {
+            c: DVec3::new(0.1, 0.2, 0.3),
+            r: 10.0,
+        };
+        let region = Aabb::new(DVec3::splat(-40.0), DVec3::splat(40.0));
+        let s = extract_surface(&ball, region, 0.7, 0.0).unwrap();
+        assert_eq!(s.mesh.edge_stats().boundary_edges, 0);
+        assert_eq!(s.mesh.edge_stats().non_manifold_edges, 0);
+        assert!(s.blocks_skipped > 0 && s.blocks_sampled > 0);
+        for (tri, _) in s.mesh.triangles.iter().zip(0..) {
+            let [a, b, c] = tri.map(|v| s.mesh.positions[v as usize]);
+            let n = (b - a).cross(c - a);
+            if n.length() > 1e-9 {
+                assert!(n.dot((a + b + c) / 3.0 - ball.c) > 0.0, "inward triangle");
+            }
+        }
+    }
+
+    #[test]
+    fn refused_inputs() {
+        let ball = Ball { c: DVec3::ZERO, r: 1.0 };
+        let r = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0));
+        assert!(matches!(
+            extract_surface(&ball, r, 0.0, 0.0),
+            Err(ExtractError::Cell(_))
+        ));
+        assert!(matches!(
+            extract_surface(&ball, r, f64::NAN, 0.0),
+            Err(ExtractError::Cell(_))
+        ));
+        assert!(matches!(
+            extract_surface(&ball, Aabb::EMPTY, 0.1, 0.0),
+            Err(ExtractError::Region { .. })
+        ));
+        assert!(matches!(
+            extract_surface(&ball, r, 1e-9, 0.0),
+            Err(ExtractError::TooLarge { .. })
+        ));
+        assert!(matches!(
+            extract_surface(&ball, r, 0.1, f64::NAN),
+            Err(ExtractError::Iso(_))
+        ));
+    }
+}

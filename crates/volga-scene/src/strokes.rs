@@ -1,0 +1,359 @@
+//! Stroke files: a sculpt's starting object and a list of strokes, as users write them
+//! (RON or JSON), validated into `volga-sculpt` types with errors naming the field path.
+//!
+//! ```ron
+//! Strokes(
+//!     start: Some(Start(bounds: (min: (-1, -1, -1), max: (1, 1, 1)), voxel_size: 0.02,
+//!         object: (shape: Box(min: (-0.6, -0.8, -0.5), max: (0.6, 0.8, 0.5)), colour: Some((0.8, 0.7, 0.6))))),
+//!     strokes: [
+//!         (op: Carve, tool: Sphere(center: (0, 0.3, 0.5), radius: 0.2)),
+//!         (op: Carve, tool: Sphere(center: (0, 0, 0), radius: 0.04), path: Some([(-0.5, -0.5, 0.5), (0.5, -0.5, 0.5)])),
+//!         (op: Paint(colour: (0.2, 0.3, 0.9)), tool: Sphere(center: (0.3, 0.3, 0.5), radius: 0.1)),
+//!     ],
+//! )
+//! ```
+//!
+//! A tool is any shape of a scene object (`Sphere`, `Box`, `OrientedBox`, `Ellipsoid`,
+//! `Cylinder` with a `half_length`, `Cone` with a `height`, `Capsule`, `Torus`, inline
+//! `Triangles` or a `Mesh` file, both closed), optionally rotated (`rotation_deg`, XYZ
+//! Euler, about the world origin) and moved (`translate`); with a `path` it is swept along
+//! that polyline (the saw: the tool's placement is offset by each path point), sampled every
+//! half voxel.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use glam::{DQuat, DVec3, EulerRot, UVec3};
+use serde::{Deserialize, Serialize};
+use volga_core::{Grid, Transform};
+use volga_sculpt::{MeshTool, Operation, Pose, Sculpt, SculptGrid, Stroke, Tool, ToolShape};
+use volga_shapes::{AxisBox, Capsule, Cone, Cylinder, Ellipsoid, OrientedBox, Shape, Sphere, Torus};
+
+use crate::ctx::Ctx;
+use crate::model::{BoundsSpec, ObjectSpec, ShapeSpec, V3};
+use crate::nodes::{self, Resolve};
+use crate::SceneError;
+
+/// A stroke file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Strokes")]
+pub struct StrokeFile {
+    /// A new sculpt (needed unless the strokes apply to a saved one).
+    #[serde(default)]
+    pub start: Option<StartSpec>,
+    pub strokes: Vec<StrokeSpec>,
+}
+
+/// The object a new sculpt starts from, voxelized on a grid covering `bounds`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Start")]
+pub struct StartSpec {
+    pub bounds: BoundsSpec,
+    /// Voxel edge length (cubic voxels; the grid is `8·2^L` voxels per axis).
+    pub voxel_size: f64,
+    pub object: ObjectSpec,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StrokeSpec {
+    pub op: OpSpec,
+    pub tool: ShapeSpec,
+    #[serde(default)]
+    pub rotation_deg: V3,
+    #[serde(default)]
+    pub translate: V3,
+    /// Sweep the tool along this polyline (the saw).
+    #[serde(default)]
+    pub path: Option<Vec<V3>>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum OpSpec {
+    Carve,
+    Add,
+    Spray {
+        strength: f64,
+        /// Extra soft-edge width (world units).
+        #[serde(default)]
+        falloff: f64,
+    },
+    Paint {
+        colour: V3,
+        #[serde(default = "one")]
+        strength: f64,
+    },
+    Smooth {
+        #[serde(default = "one")]
+        strength: f64,
+    },
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// Parses a stroke file (`.ron` or `.json`); errors name the file, line and column.
+pub fn parse_stroke_file(path: &Path) -> Result<StrokeFile, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+        path: path.to_owned(),
+        source,
+    })?;
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("ron") => ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+            .from_str(&text)
+            .map_err(|e| SceneError::Parse {
+                path: path.to_owned(),
+                line: e.position.line,
+                column: e.position.col,
+                message: e.code.to_string(),
+            }),
+        Some("json") => serde_json::from_str(&text).map_err(|e| SceneError::Parse {
+            path: path.to_owned(),
+            line: e.line(),
+            column: e.column(),
+            message: e.to_string(),
+        }),
+        _ => Err(SceneError::Extension { path: path.to_owned() }),
+    }
+}
+
+/// The sculpt a `start` describes: the object's lazy field (the same node as in a scene)
+/// sampled on a [`SculptGrid`] covering `bounds`.
+pub fn start_sculpt(path: &Path, start: &StartSpec, memory_limit: u64) -> Result<Sculpt, SceneError> {
+    let cx = Ctx { path };
+    let min = cx.finite3("start.bounds.min", start.bounds.min)?;
+    let max = cx.finite3("start.bounds.max", start.bounds.max)?;
+    if min.cmpge(max).any() {
+        return Err(cx.err("start.bounds", "min must be below max on every axis"));
+    }
+    let h = cx.positive("start.voxel_size", start.voxel_size)?;
+    let grid = SculptGrid::covering(&volga_core::Aabb::new(min, max), h)
+        .map_err(|e| cx.err("start.voxel_size", e.to_string()))?;
+    if grid.levels() > 11 {
+        return Err(cx.err(
+            "start.voxel_size",
+            format!(
+                "{} voxels per axis is more than the 16384 a stroke file may ask for",
+                grid.dims()
+            ),
+        ));
+    }
+    let mut node = nodes::leaf(&cx, "start.object", 0, &start.object)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    node.resolve(&Resolve {
+        scene: path,
+        dir,
+        memory_limit,
+    })?;
+    let transform = Transform::new(grid.origin(), DVec3::splat(h)).map_err(|e| cx.err("start", e.to_string()))?;
+    let core_grid =
+        Grid::new(transform, UVec3::splat(grid.dims() as u32)).map_err(|e| cx.err("start", e.to_string()))?;
+    let field = node.lazy_field(&core_grid)?;
+    let colour = node.colour();
+    Ok(Sculpt::from_field(grid, &*field, colour))
+}
+
+/// Validates the strokes for a sculpt of voxel size `spacing` (saws are sampled every half voxel).
+pub fn validate_strokes(path: &Path, file: &StrokeFile, spacing: f64) -> Result<Vec<Stroke>, SceneError> {
+    validate_stroke_list(path, "strokes", &file.strokes, spacing)
+}
+
+/// Validates `strokes` found at the field path `field` of the file `path` (mesh tools are
+/// read relative to its folder).
+pub fn validate_stroke_list(
+    path: &Path,
+    field: &str,
+    strokes: &[StrokeSpec],
+    spacing: f64,
+) -> Result<Vec<Stroke>, SceneError> {
+    let cx = Ctx { path };
+    let dir = path.parent().unwrap_or(Path::new("."));
+    strokes
+        .iter()
+        .enumerate()
+        .map(|(i, s)| validate_stroke(&cx, dir, &format!("{field}[{i}]"), s, spacing))
+        .collect()
+}
+
+fn validate_stroke(cx: &Ctx, dir: &Path, f: &str, s: &StrokeSpec, spacing: f64) -> Result<Stroke, SceneError> {
+    let operation = match &s.op {
+        OpSpec::Carve => Operation::Carve,
+        OpSpec::Add => Operation::Add,
+        OpSpec::Spray { strength, falloff } => Operation::Spray {
+            strength: *strength,
+            falloff_world: *falloff,
+        },
+        OpSpec::Paint { colour, strength } => Operation::Paint {
+            colour: cx.colour(&format!("{f}.op.colour"), Some(*colour))?,
+            strength: *strength,
+        },
+        OpSpec::Smooth { strength } => Operation::Smooth { strength: *strength },
+    };
+    let r = cx.finite3(&format!("{f}.rotation_deg"), s.rotation_deg)?;
+    let t = cx.finite3(&format!("{f}.translate"), s.translate)?;
+    let rotation = DQuat::from_euler(EulerRot::XYZ, r.x.to_radians(), r.y.to_radians(), r.z.to_radians());
+    let pose = Pose::new(rotation, t).map_err(|e| cx.err(format!("{f}.rotation_deg"), e.to_string()))?;
+    let shape = tool_shape(cx, dir, &format!("{f}.tool"), &s.tool)?;
+    let mut tool = Tool::new(shape, pose).map_err(|e| cx.err(format!("{f}.tool"), e.to_string()))?;
+    if let Some(path) = &s.path {
+        let points = path
+            .iter()
+            .enumerate()
+            .map(|(k, p)| cx.finite3(&format!("{f}.path[{k}]"), *p))
+            .collect::<Result<Vec<_>, _>>()?;
+        tool = tool
+            .swept(&points, spacing * 0.5)
+            .map_err(|e| cx.err(format!("{f}.path"), e.to_string()))?;
+    }
+    Stroke::new(tool, operation).map_err(|e| cx.err(format!("{f}.op"), e.to_string()))
+}
+
+fn tool_shape(cx: &Ctx, dir: &Path, f: &str, s: &ShapeSpec) -> Result<ToolShape, SceneError> {
+    let bad = |e: volga_shapes::InvalidShape| cx.err(f, e.to_string());
+    let v = |name: &str, x: V3| cx.finite3(&format!("{f}.{name}"), x);
+    let euler = |d: DVec3| DQuat::from_euler(EulerRot::XYZ, d.x.to_radians(), d.y.to_radians(), d.z.to_radians());
+    let shape = match s {
+        ShapeSpec::Sphere { center, radius } => {
+            Shape::Sphere(Sphere::new(v("center", *center)?, *radius).map_err(bad)?)
+        }
+        ShapeSpec::Box { min, max } => Shape::AxisBox(AxisBox::new(v("min", *min)?, v("max", *max)?).map_err(bad)?),
+        ShapeSpec::OrientedBox {
+            center,
+            half_extents,
+            rotation_deg,
+        } => Shape::OrientedBox(
+            OrientedBox::new(
+                v("center", *center)?,
+                v("half_extents", *half_extents)?,
+                euler(v("rotation_deg", *rotation_deg)?),
+            )
+            .map_err(bad)?,
+        ),
+        ShapeSpec::Ellipsoid {
+            center,
+            radii,
+            rotation_deg,
+        } => Shape::Ellipsoid(
+            Ellipsoid::new(
+                v("center", *center)?,
+                v("radii", *radii)?,
+                euler(v("rotation_deg", *rotation_deg)?),
+            )
+            .map_err(bad)?,
+        ),
+        ShapeSpec::Cylinder {
+            center,
+            axis,
+            radius,
+            half_length: Some(half),
+        } => {
+            Shape::Cylinder(Cylinder::new(v("center", *center)?, v("axis", *axis)?, *radius, Some(*half)).map_err(bad)?)
+        }
+        ShapeSpec::Cone {
+            apex,
+            axis,
+            half_angle_deg,
+            height: Some(height),
+        } => Shape::Cone(
+            Cone::new(
+                v("apex", *apex)?,
+                v("axis", *axis)?,
+                half_angle_deg.to_radians(),
+                Some(*height),
+            )
+            .map_err(bad)?,
+        ),
+        ShapeSpec::Capsule { a, b, radius } => {
+            Shape::Capsule(Capsule::new(v("a", *a)?, v("b", *b)?, *radius).map_err(bad)?)
+        }
+        ShapeSpec::Torus {
+            center,
+            axis,
+            major_radius,
+            minor_radius,
+        } => {
+            return Ok(ToolShape::Torus(
+                Torus::new(v("center", *center)?, v("axis", *axis)?, *major_radius, *minor_radius).map_err(bad)?,
+            ))
+        }
+        ShapeSpec::Triangles { vertices, triangles } => {
+            let mesh = volga_mesh::TriMesh::new(
+                vertices.iter().map(|p| DVec3::from_array(*p)).collect(),
+                triangles.clone(),
+            )
+            .map_err(|e| cx.err(f, e.to_string()))?;
+            return Ok(ToolShape::Mesh(Arc::new(
+                MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?,
+            )));
+        }
+        ShapeSpec::Mesh { path, translate, scale } => {
+            let mesh = volga_mesh::load_mesh(dir.join(path)).map_err(|e| cx.err(format!("{f}.path"), e.to_string()))?;
+            let scale = cx.positive(&format!("{f}.scale"), *scale)?;
+            let offset = v("translate", *translate)?;
+            let mesh = volga_mesh::TriMesh {
+                positions: mesh.positions.iter().map(|p| *p * scale + offset).collect(),
+                triangles: mesh.triangles,
+            };
+            return Ok(ToolShape::Mesh(Arc::new(
+                MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?,
+            )));
+        }
+        ShapeSpec::Cylinder { .. } | ShapeSpec::Cone { .. } => {
+            return Err(cx.err(
+                f,
+                "a tool must be bounded: give the cylinder a half_length or the cone a height",
+            ))
+        }
+        ShapeSpec::Quadric { .. } => {
+            return Err(cx.err(f, "a quadric is not a sculpting tool (its distance is not exact)"))
+        }
+    };
+    Ok(ToolShape::Shape(shape))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_name_the_field_path() {
+        let p = Path::new("bust.ron");
+        let file: StrokeFile = ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+            .from_str(
+                "Strokes(strokes: [(op: Carve, tool: Sphere(center: (0, 0, 0), radius: 1)), \
+                 (op: Spray(strength: 2.0), tool: Sphere(center: (0, 0, 0), radius: 1)), \
+                 (op: Carve, tool: Sphere(center: (0, 0, 0), radius: -1))])",
+            )
+            .unwrap();
+        let e = validate_strokes(p, &file, 0.1).unwrap_err().to_string();
+        assert!(e.contains("strokes[1].op"), "{e}");
+        let file = StrokeFile {
+            start: None,
+            strokes: vec![file.strokes[2].clone()],
+        };
+        let e = validate_strokes(p, &file, 0.1).unwrap_err().to_string();
+        assert!(e.contains("strokes[0].tool"), "{e}");
+        let saw = StrokeFile {
+            start: None,
+            strokes: vec![StrokeSpec {
+                op: OpSpec::Carve,
+                tool: ShapeSpec::Sphere {
+                    center: [0.0; 3],
+                    radius: 1.0,
+                },
+                rotation_deg: [0.0; 3],
+                translate: [0.0; 3],
+                path: Some(vec![[0.0; 3], [f64::NAN, 0.0, 0.0]]),
+            }],
+        };
+        assert!(validate_strokes(p, &saw, 0.1)
+            .unwrap_err()
+            .to_string()
+            .contains("strokes[0].path[1]"));
+    }
+}
