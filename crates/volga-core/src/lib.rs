@@ -40,6 +40,7 @@
 
 mod aabb;
 mod adjacency;
+mod atlas;
 mod channel;
 mod dense;
 mod error;
@@ -54,6 +55,7 @@ mod units;
 
 pub use aabb::Aabb;
 pub use adjacency::Adjacency;
+pub use atlas::{AtlasReader, BrickAtlas, MAX_ATLAS_BYTES};
 pub use channel::ChannelKind;
 pub use dense::{Dense, DenseVolume};
 pub use error::CoreError;

@@ -3,7 +3,8 @@ use glam::{DVec3, IVec3, Vec3};
 use crate::grid::{clamp_to_ivec3, fast_floor};
 use crate::sparse::brick_of;
 use crate::{
-    Aabb, Brick, DenseVolume, Field, Grid, IndexBox, Line, Rgb, SparseGrid, SparseVolume, BRICK_DIM, BRICK_SHAPE,
+    Aabb, Brick, BrickAtlas, DenseVolume, Field, Grid, IndexBox, Line, Rgb, SparseGrid, SparseVolume, BRICK_DIM,
+    BRICK_SHAPE,
 };
 
 /// Reconstruction filter used between voxel centres (survey §5).
@@ -36,6 +37,13 @@ pub trait VoxelSource: Sync {
     where
         Self: 'a;
     fn reader(&self) -> Self::Reader<'_>;
+    /// What [`Field::prepare`] returns for a [`Sampled`] over this source with
+    /// `filter`: the same reconstruction over a faster copy of the voxels (the same
+    /// bits), or `None` (the default) to sample the source itself. Dense and sparse
+    /// volumes return a [`Sampled`] over their [`BrickAtlas`](crate::BrickAtlas).
+    fn prepared_field(&self, _filter: Filter) -> Option<Box<dyn Field + '_>> {
+        None
+    }
 }
 
 /// Reads densities like [`VoxelSource::density`] and [`VoxelSource::density_cube`]
@@ -46,6 +54,15 @@ pub trait VoxelReader {
     #[inline]
     fn density_cube(&mut self, base: IVec3) -> [f32; 8] {
         std::array::from_fn(|c| self.density(base + corner(c)))
+    }
+    /// Writes the 4×4×4 densities at `base − 1 + {0,1,2,3}³` into `out` (x fastest:
+    /// `out[x + 4y + 16z]`) and returns `true` if the reader can copy them from one
+    /// contiguous block (a [`BrickAtlas`](crate::BrickAtlas) tile); returns `false`
+    /// (the default) otherwise, and callers gather them from 2×2×2 cubes. Either way
+    /// the values are the same.
+    #[inline]
+    fn density_block(&mut self, _base: IVec3, _out: &mut [f32; 64]) -> bool {
+        false
     }
 }
 
@@ -196,6 +213,10 @@ impl VoxelSource for DenseVolume {
     fn reader(&self) -> DenseReader<'_> {
         DenseReader(self)
     }
+    fn prepared_field(&self, filter: Filter) -> Option<Box<dyn Field + '_>> {
+        let atlas = BrickAtlas::build(self)?;
+        Some(Box::new(Sampled::new(atlas, filter)))
+    }
 }
 
 impl VoxelSource for SparseVolume {
@@ -257,6 +278,10 @@ impl VoxelSource for SparseVolume {
     fn reader(&self) -> SparseReader<'_> {
         SparseReader::new(self)
     }
+    fn prepared_field(&self, filter: Filter) -> Option<Box<dyn Field + '_>> {
+        let atlas = BrickAtlas::build(self)?;
+        Some(Box::new(Sampled::new(atlas, filter)))
+    }
 }
 
 /// A voxel source seen as a continuous [`Field`] through a reconstruction filter.
@@ -305,13 +330,19 @@ impl<S: VoxelSource> Sampled<S> {
                 let base_pos = floor(index_pos);
                 let f = index_pos - base_pos;
                 let base = clamp_to_ivec3(base_pos);
-                for a in 0..3 {
-                    let mut e = IVec3::ZERO;
-                    e[a] = 1;
-                    let forward = trilerp(reader.density_cube(base + e), f);
-                    let backward = trilerp(reader.density_cube(base - e), f);
-                    g[a] = (forward - backward) / (2.0 * spacing[a]);
+                let mut block = [0.0f32; 64];
+                if !reader.density_block(base, &mut block) {
+                    // Gather the block from the eight 2×2×2 cubes at `base − 1 + {0, 2}³`.
+                    for c in 0..8 {
+                        let o = corner(c) * 2;
+                        let cube = reader.density_cube(base - IVec3::ONE + o);
+                        for (k, v) in cube.iter().enumerate() {
+                            let q = o + corner(k);
+                            block[q.x as usize + 4 * q.y as usize + 16 * q.z as usize] = *v;
+                        }
+                    }
                 }
+                return trilinear_gradient(&block, f, spacing);
             }
             Filter::Nearest => {
                 for a in 0..3 {
@@ -339,6 +370,40 @@ impl<S: VoxelSource> Sampled<S> {
 #[inline]
 fn floor(v: DVec3) -> DVec3 {
     v.map(fast_floor)
+}
+
+/// Central differences one voxel apart, along each index axis, of the trilinear
+/// reconstruction at fractions `f` of the block's voxel `(1, 1, 1)`, divided by the
+/// world distance `2·spacing`: per axis, the differences `v[i + 1] − v[i − 1]` at the
+/// two lattice points the axis' lerp uses, interpolated like a trilinear sample. Equal
+/// to `(T(p + e) − T(p − e)) / 2h` up to rounding; the one formula every path uses.
+#[inline(always)]
+fn trilinear_gradient(b: &[f32; 64], f: DVec3, spacing: DVec3) -> DVec3 {
+    #[inline(always)]
+    fn at(b: &[f32; 64], x: usize, y: usize, z: usize) -> f64 {
+        b[x + 4 * y + 16 * z] as f64
+    }
+    #[inline(always)]
+    fn lerp(a: f64, b: f64, t: f64) -> f64 {
+        a + (b - a) * t
+    }
+    // `d(x, y, z)`: the central difference along one axis at block voxel (x, y, z).
+    #[inline(always)]
+    fn bilerp(d: impl Fn(usize, usize, usize) -> f64, u: f64, v: f64, w: f64) -> f64 {
+        let x00 = lerp(d(1, 1, 1), d(2, 1, 1), u);
+        let x10 = lerp(d(1, 2, 1), d(2, 2, 1), u);
+        let x01 = lerp(d(1, 1, 2), d(2, 1, 2), u);
+        let x11 = lerp(d(1, 2, 2), d(2, 2, 2), u);
+        lerp(lerp(x00, x10, v), lerp(x01, x11, v), w)
+    }
+    let dx = |x: usize, y: usize, z: usize| at(b, x + 1, y, z) - at(b, x - 1, y, z);
+    let dy = |x: usize, y: usize, z: usize| at(b, x, y + 1, z) - at(b, x, y - 1, z);
+    let dz = |x: usize, y: usize, z: usize| at(b, x, y, z + 1) - at(b, x, y, z - 1);
+    DVec3::new(
+        bilerp(dx, f.x, f.y, f.z) / (2.0 * spacing.x),
+        bilerp(dy, f.x, f.y, f.z) / (2.0 * spacing.y),
+        bilerp(dz, f.x, f.y, f.z) / (2.0 * spacing.z),
+    )
 }
 
 /// Trilinear interpolation of the 2×2×2 corner values `c` (x fastest) at fractions `f`.
@@ -411,6 +476,13 @@ impl<S: VoxelSource> Field for Sampled<S> {
 
     fn gradient_step(&self) -> DVec3 {
         self.source.grid().transform.spacing()
+    }
+
+    /// The same reconstruction over a [`BrickAtlas`] of the source (bit-identical
+    /// densities, so bit-identical values and gradients); `None` if the source is one
+    /// already or the atlas would exceed [`MAX_ATLAS_BYTES`](crate::MAX_ATLAS_BYTES).
+    fn prepare(&self) -> Option<Box<dyn Field + '_>> {
+        self.source.prepared_field(self.filter)
     }
 
     fn value_range(&self, world_box: &Aabb) -> (f64, f64) {
@@ -497,5 +569,8 @@ impl<S: VoxelSource + ?Sized> VoxelSource for &S {
         Self: 'a;
     fn reader(&self) -> S::Reader<'_> {
         (**self).reader()
+    }
+    fn prepared_field(&self, filter: Filter) -> Option<Box<dyn Field + '_>> {
+        (**self).prepared_field(filter)
     }
 }

@@ -1,6 +1,6 @@
 use glam::Vec4;
 use rayon::prelude::*;
-use volga_core::{Aabb, Field, Progress};
+use volga_core::{Aabb, Field, FieldKind, Progress};
 
 use crate::integrators::{clip, over_background, March, ModeJob};
 use crate::march::MacroGrid;
@@ -107,20 +107,38 @@ pub fn render_with<F: Field + ?Sized, I: Integrator>(
     Ok(Renderer::new(field, integrator, settings)?.render(camera, progress))
 }
 
-/// A field, an integrator and settings prepared for rendering: validated, with the
-/// empty-space skipping grid built (one pass over the field's value ranges, the costly
-/// part of preparing). Each [`Renderer::render`] then renders one view, so a
+/// A field, an integrator and settings prepared for rendering: validated, the field
+/// prepared for sampling ([`Field::prepare`]: a sampled volume's brick atlas, the same
+/// values bit for bit) and the empty-space skipping grid built (one pass over the
+/// field's value ranges). Each [`Renderer::render`] then renders one view, so a
 /// turntable or an interactive viewer prepares once per field and mode.
 pub struct Renderer<'a, F: ?Sized, I> {
     integrator: &'a I,
     settings: &'a RenderSettings,
     bounds: Aabb,
-    march: March<'a, F>,
+    field: &'a F,
+    /// What [`Field::prepare`] returned: sampled instead of `field` when present.
+    prepared: Option<Box<dyn Field + 'a>>,
+    constants: MarchConstants,
+    shader: Shader,
+    grid: Option<MacroGrid>,
+}
+
+/// The scalar per-image constants of a [`March`].
+#[derive(Clone, Copy)]
+struct MarchConstants {
+    inward: f64,
+    kind: FieldKind,
+    step: f64,
+    tol: f64,
+    alpha_exponent: f64,
+    early_termination_alpha: f32,
 }
 
 impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
     /// Validates and prepares. The field's [`kind`](Field::kind) is read once; the
-    /// integrator is monomorphized with the field, so nothing is dispatched per sample.
+    /// integrator is monomorphized with the field, so nothing is dispatched per sample
+    /// (a prepared field is called through its vtable once per run of samples).
     ///
     /// Errors: invalid settings ([`RenderSettings::validate`]) or mode parameters
     /// ([`Integrator::validate`]), a field whose bounds are not finite/non-empty or
@@ -134,29 +152,59 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         let step = settings.sampling.world_step(&bounds, spacing)?;
         let kind = field.kind();
 
-        let grid = (settings.sampling.empty_space_skipping && integrator.skips_cells())
-            .then(|| MacroGrid::build(field, bounds, spacing, |lo, hi| integrator.classify_cell(lo, hi, kind)));
+        let prepared = if settings.sampling.prepare_field {
+            field.prepare()
+        } else {
+            None
+        };
+        let grid = (settings.sampling.empty_space_skipping && integrator.skips_cells()).then(|| {
+            let classify = |lo, hi| integrator.classify_cell(lo, hi, kind);
+            match &prepared {
+                Some(p) => MacroGrid::build(&**p, bounds, spacing, classify),
+                None => MacroGrid::build(field, bounds, spacing, classify),
+            }
+        });
         debug_assert!(grid.as_ref().is_none_or(|g| g.len() <= 64 * 64 * 64));
 
         let sampling = &settings.sampling;
         let lighting = &settings.lighting;
-        let march = March {
-            field,
-            inward: kind.inward_sign(),
-            kind,
-            step,
-            tol: 1e-9 * spacing,
-            alpha_exponent: sampling.step_voxels / sampling.reference_step_voxels,
-            early_termination_alpha: sampling.early_termination_alpha,
-            shader: Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing),
-            grid,
-        };
         Ok(Renderer {
             integrator,
             settings,
             bounds,
-            march,
+            field,
+            prepared,
+            constants: MarchConstants {
+                inward: kind.inward_sign(),
+                kind,
+                step,
+                tol: 1e-9 * spacing,
+                alpha_exponent: sampling.step_voxels / sampling.reference_step_voxels,
+                early_termination_alpha: sampling.early_termination_alpha,
+            },
+            shader: Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing),
+            grid,
         })
+    }
+
+    /// Whether [`Field::prepare`] gave a faster field that this renderer samples.
+    pub fn is_prepared(&self) -> bool {
+        self.prepared.is_some()
+    }
+
+    fn march<'r, G: Field + ?Sized>(&'r self, field: &'r G) -> March<'r, G> {
+        let c = self.constants;
+        March {
+            field,
+            inward: c.inward,
+            kind: c.kind,
+            step: c.step,
+            tol: c.tol,
+            alpha_exponent: c.alpha_exponent,
+            early_termination_alpha: c.early_termination_alpha,
+            shader: &self.shader,
+            grid: self.grid.as_ref(),
+        }
     }
 
     /// Renders the view of `camera`.
@@ -167,7 +215,19 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
     /// any thread count. Progress: `start("render", tiles)`, `inc(1)` per tile,
     /// `finish()`.
     pub fn render(&self, camera: &Camera, progress: &dyn Progress) -> (Image, RenderStats) {
-        let (bounds, integrator, march) = (&self.bounds, self.integrator, &self.march);
+        match &self.prepared {
+            Some(p) => self.render_march(&self.march(&**p), camera, progress),
+            None => self.render_march(&self.march(self.field), camera, progress),
+        }
+    }
+
+    fn render_march<G: Field + ?Sized>(
+        &self,
+        march: &March<'_, G>,
+        camera: &Camera,
+        progress: &dyn Progress,
+    ) -> (Image, RenderStats) {
+        let (bounds, integrator) = (&self.bounds, self.integrator);
         let background = self.settings.image.background;
         let trace = |ray: &crate::Ray, stats: &mut RenderStats| {
             stats.rays += 1;

@@ -50,6 +50,10 @@ pub struct Sampling {
     pub early_termination_alpha: f32,
     /// Skip macro cells that cannot contribute (never changes the image); default on.
     pub empty_space_skipping: bool,
+    /// Sample the field [`Field::prepare`](volga_core::Field::prepare) returns (a
+    /// sampled volume's brick atlas: the same bits, faster) instead of the field
+    /// itself; default on. Never changes the image.
+    pub prepare_field: bool,
 }
 
 impl Default for Sampling {
@@ -59,6 +63,7 @@ impl Default for Sampling {
             reference_step_voxels: 1.0,
             early_termination_alpha: 0.99,
             empty_space_skipping: true,
+            prepare_field: true,
         }
     }
 }
