@@ -129,7 +129,7 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
         let (image, stats) = stages
             .run(format!("render:{}", job.name), || match (job.source, &volume) {
                 (RenderSource::Baked, Some(volume)) => {
-                    let field = Sampled::new(volume, job.filter);
+                    let field = Sampled::new(volume, job.filter).with_gradient(job.gradient);
                     render(&field, &job.camera, &job.mode, &job.settings, progress)
                 }
                 _ => {

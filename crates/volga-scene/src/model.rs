@@ -242,6 +242,10 @@ pub struct ImageSpec {
     pub step_voxels: Option<f64>,
     #[serde(default)]
     pub filter: Option<FilterSpec>,
+    /// How shading normals are taken from the baked volume: `CentralDifference`
+    /// (default) or `Analytic` (the filter's own derivative).
+    #[serde(default)]
+    pub gradient: Option<GradientSpec>,
     /// Phong shading from the scene's lights (default true; needs lights).
     #[serde(default)]
     pub shading: Option<bool>,
@@ -267,6 +271,14 @@ pub enum SourceSpec {
 pub enum FilterSpec {
     Nearest,
     Trilinear,
+    CatmullRom,
+    BSpline,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum GradientSpec {
+    CentralDifference,
+    Analytic,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
