@@ -130,7 +130,12 @@ pub(crate) fn cubic_derivatives(filter: Filter, t: f64) -> [f64; 4] {
         ],
         _ => {
             let s = 1.0 - t;
-            [-0.5 * s * s, 0.5 * (3.0 * t2 - 4.0 * t), 0.5 * (-3.0 * t2 + 2.0 * t + 1.0), 0.5 * t2]
+            [
+                -0.5 * s * s,
+                0.5 * (3.0 * t2 - 4.0 * t),
+                0.5 * (-3.0 * t2 + 2.0 * t + 1.0),
+                0.5 * t2,
+            ]
         }
     }
 }
@@ -193,7 +198,8 @@ pub(crate) fn trilinear_central_gradient(b: &[f32; 64], f: DVec3, spacing: DVec3
 /// differences across the cell, interpolated along the other two axes), in world units.
 #[inline(always)]
 pub(crate) fn trilinear_analytic_gradient(b: &[f32; 64], f: DVec3, spacing: DVec3) -> DVec3 {
-    let bilerp = |d: &dyn Fn(usize, usize) -> f64, u: f64, v: f64| lerp(lerp(d(1, 1), d(2, 1), u), lerp(d(1, 2), d(2, 2), u), v);
+    let bilerp =
+        |d: &dyn Fn(usize, usize) -> f64, u: f64, v: f64| lerp(lerp(d(1, 1), d(2, 1), u), lerp(d(1, 2), d(2, 2), u), v);
     let gx = bilerp(&|y, z| at(b, 2, y, z) - at(b, 1, y, z), f.y, f.z);
     let gy = bilerp(&|x, z| at(b, x, 2, z) - at(b, x, 1, z), f.x, f.z);
     let gz = bilerp(&|x, y| at(b, x, y, 2) - at(b, x, y, 1), f.x, f.y);
@@ -204,7 +210,11 @@ pub(crate) fn trilinear_analytic_gradient(b: &[f32; 64], f: DVec3, spacing: DVec
 /// their derivatives, in world units.
 #[inline]
 pub(crate) fn cubic_analytic_gradient(filter: Filter, b: &[f32; 64], f: DVec3, spacing: DVec3) -> DVec3 {
-    let (wx, wy, wz) = (cubic_weights(filter, f.x), cubic_weights(filter, f.y), cubic_weights(filter, f.z));
+    let (wx, wy, wz) = (
+        cubic_weights(filter, f.x),
+        cubic_weights(filter, f.y),
+        cubic_weights(filter, f.z),
+    );
     let (dx, dy, dz) = (
         cubic_derivatives(filter, f.x),
         cubic_derivatives(filter, f.y),

@@ -132,12 +132,20 @@ fn linear_signals_are_reproduced() {
         for method in GradientMethod::ALL {
             let f = Sampled::new(&sparse, filter).with_gradient(method);
             for k in 0..200 {
-                let t = DVec3::new((k as f64 * 0.37).fract(), (k as f64 * 0.61).fract(), (k as f64 * 0.83).fract());
+                let t = DVec3::new(
+                    (k as f64 * 0.37).fract(),
+                    (k as f64 * 0.61).fract(),
+                    (k as f64 * 0.83).fract(),
+                );
                 let index_pos = DVec3::splat(3.0) + t * 13.0;
                 let p = transform.index_to_world(index_pos);
                 // f32 payloads: the voxel values carry rounding of ~3e-8.
                 assert!((f.value(p) - signal(p)).abs() < 1e-6, "{filter:?} {p}");
-                assert!((f.gradient(p) - g).length() < 1e-5, "{filter:?} {method:?} {p}: {}", f.gradient(p));
+                assert!(
+                    (f.gradient(p) - g).length() < 1e-5,
+                    "{filter:?} {method:?} {p}: {}",
+                    f.gradient(p)
+                );
             }
         }
     }
@@ -153,7 +161,11 @@ fn analytic_gradients_are_derivatives_of_the_reconstruction() {
     for filter in [Filter::Trilinear, Filter::CatmullRom, Filter::BSpline] {
         let f = Sampled::new(&dense, filter).with_gradient(GradientMethod::Analytic);
         for k in 0..300 {
-            let t = DVec3::new((k as f64 * 0.29).fract(), (k as f64 * 0.53).fract(), (k as f64 * 0.71).fract());
+            let t = DVec3::new(
+                (k as f64 * 0.29).fract(),
+                (k as f64 * 0.53).fract(),
+                (k as f64 * 0.71).fract(),
+            );
             // Fractions kept away from cell faces, so h stays in one cell.
             let index_pos = DVec3::new(4.0, 3.0, 2.0) + (k % 9) as f64 + 0.05 + 0.9 * t;
             let p = tr.index_to_world(index_pos);
@@ -164,7 +176,10 @@ fn analytic_gradients_are_derivatives_of_the_reconstruction() {
                 f.value(p + DVec3::Z * h) - f.value(p - DVec3::Z * h),
             ) / (2.0 * h);
             let g = f.gradient(p);
-            assert!((g - fd).length() < 1e-5 * (1.0 + g.length()), "{filter:?} {p}: {g} vs {fd}");
+            assert!(
+                (g - fd).length() < 1e-5 * (1.0 + g.length()),
+                "{filter:?} {p}: {g} vs {fd}"
+            );
         }
     }
     let nearest = Sampled::new(&dense, Filter::Nearest).with_gradient(GradientMethod::Analytic);
