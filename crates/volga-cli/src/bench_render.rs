@@ -73,6 +73,11 @@ pub struct RenderBenchArgs {
     /// Timed rounds; medians are reported.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..))]
     repeat: u64,
+    /// Reconstruction filter of the `iso` and `dvr` renders: `trilinear` (default),
+    /// `nearest`, `catmull-rom`, `b-spline` (the baseline stays trilinear, so
+    /// `dvr_baseline_max_abs_diff` compares like with like only for trilinear).
+    #[arg(long, default_value = "trilinear")]
+    filter: String,
     /// Modes to time: `iso`, `dvr`, `baseline` (comma separated; for profiling one
     /// mode). A mode left out reports `null`.
     #[arg(long, value_delimiter = ',', default_values_t = [String::from("iso"), String::from("dvr"), String::from("baseline")])]
@@ -132,6 +137,7 @@ pub fn run(args: RenderBenchArgs) -> Result<(), Failure> {
         "height": args.height,
         "size": args.size,
         "step_voxels": args.step_voxels,
+        "filter": args.filter,
         "threads": rayon::current_num_threads(),
         "warmup": args.warmup,
         "repeat": args.repeat,
@@ -185,7 +191,16 @@ fn timed_cpu<T>(f: impl FnOnce() -> T) -> (f64, f64, T) {
 }
 
 fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failure> {
-    let field = Sampled::new(&v.volume, Filter::Trilinear);
+    let filter = Filter::ALL
+        .into_iter()
+        .find(|f| f.name() == args.filter)
+        .ok_or_else(|| {
+            bad_input(format!(
+                "--filter: unknown filter `{}` (nearest, trilinear, catmull-rom, b-spline)",
+                args.filter
+            ))
+        })?;
+    let field = Sampled::new(&v.volume, filter);
     let mut lit = RenderSettings::new(args.width, args.height);
     lit.sampling.step_voxels = args.step_voxels;
     let iso_mode = Iso {
