@@ -72,6 +72,9 @@
 //!   nearest, trilinear, Catmull–Rom and cubic B-spline filters
 //!   ([`volga_core::Filter`]) with central-difference or analytic gradients
 //!   ([`volga_core::GradientMethod`]); the renderer does not know which.
+//! * Anti-aliasing: [`ImageSettings::supersampling`] `k` casts `k × k` rays per pixel
+//!   through a regular grid of sub-pixel centres and averages their premultiplied
+//!   colours (the box-filtered image of `k` times the resolution).
 //! * Tiles are rendered in parallel with rayon; each pixel is a pure function of its
 //!   coordinates, so images are bit-identical for any thread count.
 //!
@@ -129,7 +132,9 @@ pub use error::RenderError;
 pub use integrators::*;
 pub use march::{first_hit, CellClass, Hit};
 pub use render::{render, render_with, Image, RenderStats, Renderer};
-pub use settings::{ImageSettings, Lighting, RenderSettings, Sampling, MAX_PIXELS, MAX_SAMPLES_PER_RAY};
+pub use settings::{
+    ImageSettings, Lighting, RenderSettings, Sampling, MAX_PIXELS, MAX_SAMPLES_PER_RAY, MAX_SUPERSAMPLING,
+};
 pub(crate) use shading::Shader;
 pub use shading::{Light, Material};
 pub use transfer::TransferFunction;

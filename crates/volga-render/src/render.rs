@@ -40,7 +40,7 @@ impl Image {
 /// Work counters of one [`render`] call (integer sums: independent of scheduling).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RenderStats {
-    /// Rays cast (one per pixel).
+    /// Rays cast (`supersampling²` per pixel).
     pub rays: u64,
     /// Field values evaluated along rays ([`Field::values_along`] samples, including a
     /// run's samples read past an iso hit or an early termination, and the iso
@@ -209,7 +209,9 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
 
     /// Renders the view of `camera`.
     ///
-    /// One ray per pixel centre, clipped to the field's bounds; tiles of
+    /// One ray per pixel centre (or `k × k` per pixel with
+    /// [`ImageSettings::supersampling`](crate::ImageSettings::supersampling)), clipped
+    /// to the field's bounds; tiles of
     /// `tile_size × tile_size` pixels are rendered in parallel with rayon, and each
     /// pixel is a pure function of its coordinates, so the image is bit-identical for
     /// any thread count. Progress: `start("render", tiles)`, `inc(1)` per tile,
@@ -229,16 +231,38 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
     ) -> (Image, RenderStats) {
         let (bounds, integrator) = (&self.bounds, self.integrator);
         let background = self.settings.image.background;
-        let trace = |ray: &crate::Ray, stats: &mut RenderStats| {
+        let k = self.settings.image.supersampling.max(1);
+        let (w, h) = (self.settings.image.width, self.settings.image.height);
+        let integrate = |ray: &crate::Ray, stats: &mut RenderStats| {
             stats.rays += 1;
-            let (c, a) = match clip(bounds, ray) {
+            match clip(bounds, ray) {
                 None => (glam::Vec3::ZERO, 0.0),
                 Some(interval) => integrator.integrate(march, ray, interval, stats),
-            };
-            over_background(background, c, a)
+            }
+        };
+        // One pixel: one ray through its centre, or the mean premultiplied colour of
+        // `k × k` rays through its sub-pixel centres (summed in a fixed order).
+        let trace = |x: u32, y: u32, stats: &mut RenderStats| {
+            if k == 1 {
+                let (c, a) = integrate(&camera.ray(x as f64, y as f64, w, h), stats);
+                return over_background(background, c, a);
+            }
+            let (mut c_sum, mut a_sum) = (glam::Vec3::ZERO, 0.0f32);
+            for j in 0..k {
+                for i in 0..k {
+                    let sx = x as f64 - 0.5 + (i as f64 + 0.5) / k as f64;
+                    let sy = y as f64 - 0.5 + (j as f64 + 0.5) / k as f64;
+                    let (c, a) = integrate(&camera.ray(sx, sy, w, h), stats);
+                    if c.is_finite() && a.is_finite() {
+                        c_sum += c;
+                        a_sum += a.clamp(0.0, 1.0);
+                    }
+                }
+            }
+            let n = (k * k) as f32;
+            over_background(background, c_sum / n, a_sum / n)
         };
 
-        let (w, h) = (self.settings.image.width, self.settings.image.height);
         let ts = self.settings.image.tile_size.min(w.max(h));
         let (tiles_x, tiles_y) = (w.div_ceil(ts), h.div_ceil(ts));
         let n_tiles = tiles_x as usize * tiles_y as usize;
@@ -255,8 +279,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        let ray = camera.ray(x as f64, y as f64, w, h);
-                        px.push(trace(&ray, &mut stats));
+                        px.push(trace(x, y, &mut stats));
                     }
                 }
                 progress.inc(1);

@@ -246,6 +246,9 @@ pub struct ImageSpec {
     /// (default) or `Analytic` (the filter's own derivative).
     #[serde(default)]
     pub gradient: Option<GradientSpec>,
+    /// Rays per pixel along each axis (`k × k` per pixel, averaged; default 1).
+    #[serde(default)]
+    pub supersampling: Option<u32>,
     /// Phong shading from the scene's lights (default true; needs lights).
     #[serde(default)]
     pub shading: Option<bool>,

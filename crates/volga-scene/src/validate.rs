@@ -359,6 +359,7 @@ fn validate_image(
             width: im.width,
             height: im.height,
             background,
+            supersampling: im.supersampling.unwrap_or(1),
             ..defaults.image
         },
         sampling: Sampling {
@@ -499,6 +500,13 @@ mod tests {
         assert_eq!(scene.images[1].gradient, GradientMethod::CentralDifference);
         let scene = load(&with("filter: Some(BSpline)")).unwrap();
         assert_eq!(scene.images[0].filter, Filter::BSpline);
+        // Supersampling: per image, checked by the renderer's rule, named by field path.
+        let scene = load(&with("supersampling: Some(3)")).unwrap();
+        assert_eq!(scene.images[0].settings.image.supersampling, 3);
+        assert_eq!(scene.images[1].settings.image.supersampling, 1);
+        let (field, message) = invalid_field(&with("supersampling: Some(0)"));
+        assert_eq!(field, "outputs.images[0].supersampling");
+        assert!(message.contains("1 to 16"), "{message}");
         // A lazy image has no reconstruction to differentiate.
         let (field, message) = invalid_field(&with("source: Some(Lazy), gradient: Some(Analytic)"));
         assert_eq!(field, "outputs.images[0].gradient");
