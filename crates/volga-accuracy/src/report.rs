@@ -153,8 +153,11 @@ mod tests {
     #[test]
     fn names_cover_every_experiment() {
         let names = output_names();
-        assert_eq!(names.len(), 2 * EXPERIMENTS.len() + 1);
+        let attached = crate::experiments::attachment_names();
+        assert_eq!(names.len(), 2 * EXPERIMENTS.len() + 1 + attached.len());
         assert!(names.contains(&"resolution.svg".to_string()));
-        assert_eq!(names.last().map(String::as_str), Some(RAW_JSON));
+        assert_eq!(names[2 * EXPERIMENTS.len()], RAW_JSON);
+        assert!(attached.contains(&"render_filters_catmull-rom_analytic.png".to_string()));
+        assert_eq!(&names[2 * EXPERIMENTS.len() + 1..], &attached[..]);
     }
 }

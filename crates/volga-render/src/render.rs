@@ -37,6 +37,23 @@ impl Image {
     }
 }
 
+impl Image {
+    /// 16-bit RGBA, 4 channels per pixel in the same order: the same gamma 1/2.2 on RGB
+    /// and linear alpha as [`Image::to_rgba8`], scaled to 0–65535 (256 times finer
+    /// steps for smooth gradients and post-processing).
+    pub fn to_rgba16(&self) -> Vec<u16> {
+        let q = |v: f32| (v.clamp(0.0, 1.0) * 65535.0).round() as u16; // NaN casts to 0
+        let mut out = Vec::with_capacity(self.pixels.len() * 4);
+        for p in &self.pixels {
+            for c in [p.x, p.y, p.z] {
+                out.push(q(c.max(0.0).powf(1.0 / 2.2)));
+            }
+            out.push(q(p.w));
+        }
+        out
+    }
+}
+
 /// Work counters of one [`render`] call (integer sums: independent of scheduling).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RenderStats {

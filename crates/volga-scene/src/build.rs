@@ -149,8 +149,13 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
             })?;
         let file = options.out_dir.join(format!("{}.png", job.name));
         stages.run(format!("encode:{}", job.name), || {
-            let rgba = image.to_rgba8();
-            staged.stage(&file, |w| volga_io::encode_png(w, image.width, image.height, &rgba))
+            if job.bit_depth == 16 {
+                let rgba = image.to_rgba16();
+                staged.stage(&file, |w| volga_io::encode_png16(w, image.width, image.height, &rgba))
+            } else {
+                let rgba = image.to_rgba8();
+                staged.stage(&file, |w| volga_io::encode_png(w, image.width, image.height, &rgba))
+            }
         })?;
         images.push(image_report(&job.name, file, &image, stats));
     }

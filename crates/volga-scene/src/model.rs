@@ -246,6 +246,9 @@ pub struct ImageSpec {
     /// (default) or `Analytic` (the filter's own derivative).
     #[serde(default)]
     pub gradient: Option<GradientSpec>,
+    /// PNG bits per channel: 8 (default) or 16.
+    #[serde(default)]
+    pub bit_depth: Option<u8>,
     /// Rays per pixel along each axis (`k × k` per pixel, averaged; default 1).
     #[serde(default)]
     pub supersampling: Option<u32>,

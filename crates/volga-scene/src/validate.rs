@@ -75,6 +75,8 @@ pub struct ImageJob {
     pub filter: Filter,
     /// How the baked volume's gradients are taken.
     pub gradient: GradientMethod,
+    /// PNG bits per channel: 8 or 16.
+    pub bit_depth: u8,
     pub source: RenderSource,
     /// The image reads the volume's colour channel.
     pub reads_colour: bool,
@@ -402,6 +404,10 @@ fn validate_image(
         FilterSpec::CatmullRom => Filter::CatmullRom,
         FilterSpec::BSpline => Filter::BSpline,
     };
+    let bit_depth = im.bit_depth.unwrap_or(8);
+    if bit_depth != 8 && bit_depth != 16 {
+        return Err(cx.err(format!("{f}.bit_depth"), format!("must be 8 or 16, got {bit_depth}")));
+    }
     let gradient = match im.gradient.unwrap_or(GradientSpec::CentralDifference) {
         GradientSpec::CentralDifference => GradientMethod::CentralDifference,
         GradientSpec::Analytic => GradientMethod::Analytic,
@@ -430,6 +436,7 @@ fn validate_image(
         settings,
         filter,
         gradient,
+        bit_depth,
         source,
         reads_colour,
     })
@@ -504,6 +511,10 @@ mod tests {
         let scene = load(&with("supersampling: Some(3)")).unwrap();
         assert_eq!(scene.images[0].settings.image.supersampling, 3);
         assert_eq!(scene.images[1].settings.image.supersampling, 1);
+        assert_eq!(scene.images[0].bit_depth, 8);
+        assert_eq!(load(&with("bit_depth: Some(16)")).unwrap().images[0].bit_depth, 16);
+        let (field, _) = invalid_field(&with("bit_depth: Some(12)"));
+        assert_eq!(field, "outputs.images[0].bit_depth");
         let (field, message) = invalid_field(&with("supersampling: Some(0)"));
         assert_eq!(field, "outputs.images[0].supersampling");
         assert!(message.contains("1 to 16"), "{message}");
