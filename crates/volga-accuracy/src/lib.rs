@@ -56,6 +56,24 @@ pub fn run(size: Size, command: &str, progress: &dyn Progress) -> Report {
     for experiment in EXPERIMENTS {
         report.experiments.push((experiment.run)(&ctx));
     }
+    report.attachments = ctx.take_attachments();
     report.finish(start.elapsed().as_secs_f64());
     report
+}
+
+/// Runs only the experiments of [`EXPERIMENTS`] whose ids are in `ids` (in registry
+/// order), like [`run`]; `None` if an id names no experiment.
+pub fn run_only(size: Size, command: &str, ids: &[String], progress: &dyn Progress) -> Option<Report> {
+    if ids.iter().any(|id| !EXPERIMENTS.iter().any(|e| e.id == id.as_str())) {
+        return None;
+    }
+    let start = Instant::now();
+    let mut report = Report::new(command.to_string(), size, Machine::current());
+    let ctx = Context::new(size, progress);
+    for experiment in EXPERIMENTS.iter().filter(|e| ids.iter().any(|id| id == e.id)) {
+        report.experiments.push((experiment.run)(&ctx));
+    }
+    report.attachments = ctx.take_attachments();
+    report.finish(start.elapsed().as_secs_f64());
+    Some(report)
 }

@@ -20,16 +20,21 @@ pub struct Report {
     pub wall_time_s: f64,
     pub machine: Machine,
     pub experiments: Vec<KnobResult>,
+    /// Files the experiments attached (rendered images), written after the tables.
+    #[serde(skip)]
+    pub attachments: Vec<(String, Vec<u8>)>,
 }
 
 /// The file names a run writes, in order: `<id>.md` and `<id>.svg` per experiment, then
-/// [`RAW_JSON`]. The same for `--quick` and the full run.
+/// [`RAW_JSON`], then the images experiments attach. The same for `--quick` and the
+/// full run.
 pub fn output_names() -> Vec<String> {
     let mut names: Vec<String> = EXPERIMENTS
         .iter()
         .flat_map(|e| [format!("{}.md", e.id), format!("{}.svg", e.id)])
         .collect();
     names.push(RAW_JSON.to_string());
+    names.extend(crate::experiments::attachment_names());
     names
 }
 
@@ -41,6 +46,7 @@ impl Report {
             wall_time_s: 0.0,
             machine,
             experiments: Vec::new(),
+            attachments: Vec::new(),
         }
     }
 
@@ -49,7 +55,8 @@ impl Report {
         self.machine.load_average_end = load_average();
     }
 
-    /// The output files as `(name, contents)`, in [`output_names`] order.
+    /// The output files as `(name, contents)`, in [`output_names`] order, then the
+    /// attached files.
     pub fn files(&self) -> Result<Vec<(String, Vec<u8>)>, String> {
         let mut out = Vec::new();
         for result in &self.experiments {
@@ -58,6 +65,7 @@ impl Report {
         }
         let json = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
         out.push((RAW_JSON.to_string(), json.into_bytes()));
+        out.extend(self.attachments.iter().cloned());
         Ok(out)
     }
 }
@@ -145,8 +153,11 @@ mod tests {
     #[test]
     fn names_cover_every_experiment() {
         let names = output_names();
-        assert_eq!(names.len(), 2 * EXPERIMENTS.len() + 1);
+        let attached = crate::experiments::attachment_names();
+        assert_eq!(names.len(), 2 * EXPERIMENTS.len() + 1 + attached.len());
         assert!(names.contains(&"resolution.svg".to_string()));
-        assert_eq!(names.last().map(String::as_str), Some(RAW_JSON));
+        assert_eq!(names[2 * EXPERIMENTS.len()], RAW_JSON);
+        assert!(attached.contains(&"render_filters_catmull-rom_analytic.png".to_string()));
+        assert_eq!(&names[2 * EXPERIMENTS.len() + 1..], &attached[..]);
     }
 }

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use volga_accuracy::{run as run_experiments, Size};
+use volga_accuracy::{run as run_experiments, run_only, Size, RAW_JSON};
 use volga_io::StagedOutputs;
 
 use crate::failure::{bad_input, failed, Failure};
@@ -16,6 +16,10 @@ pub struct AccuracyArgs {
     /// same files are written.
     #[arg(long)]
     quick: bool,
+    /// Run only these experiments (comma-separated ids, e.g. `render_filters`): their
+    /// tables, plots and images are written, the JSON of every figure is not.
+    #[arg(long, value_delimiter = ',')]
+    only: Vec<String>,
     /// Output directory (created if missing).
     #[arg(long, default_value = "docs/accuracy")]
     out: PathBuf,
@@ -42,10 +46,19 @@ pub fn run(args: AccuracyArgs) -> Result<(), Failure> {
         .map_err(|e| bad_input(format!("--out {}: cannot create the directory: {e}", out.display())))?;
     let size = if args.quick { Size::Quick } else { Size::Full };
     let progress = BarProgress::new();
-    let report = run_experiments(size, &command_line(), &progress);
-    let files = report
+    let report = if args.only.is_empty() {
+        run_experiments(size, &command_line(), &progress)
+    } else {
+        run_only(size, &command_line(), &args.only, &progress)
+            .ok_or_else(|| bad_input(format!("--only {}: unknown experiment id", args.only.join(","))))?
+    };
+    let mut files = report
         .files()
         .map_err(|e| failed(format!("cannot draw the plots: {e}")))?;
+    if !args.only.is_empty() {
+        // A partial run must not replace the JSON of every figure.
+        files.retain(|(name, _)| name != RAW_JSON);
+    }
     let mut staged = StagedOutputs::new();
     for (name, bytes) in &files {
         staged

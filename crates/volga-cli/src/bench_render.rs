@@ -73,6 +73,15 @@ pub struct RenderBenchArgs {
     /// Timed rounds; medians are reported.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..))]
     repeat: u64,
+    /// Reconstruction filter of the `iso` and `dvr` renders: `trilinear` (default),
+    /// `nearest`, `catmull-rom`, `b-spline` (the baseline stays trilinear, so
+    /// `dvr_baseline_max_abs_diff` compares like with like only for trilinear).
+    #[arg(long, default_value = "trilinear")]
+    filter: String,
+    /// Modes to time: `iso`, `dvr`, `baseline` (comma separated; for profiling one
+    /// mode). A mode left out reports `null`.
+    #[arg(long, value_delimiter = ',', default_values_t = [String::from("iso"), String::from("dvr"), String::from("baseline")])]
+    modes: Vec<String>,
     /// Write each volume's iso, DVR and baseline images here as PNG (to look at them).
     #[arg(long)]
     images: Option<PathBuf>,
@@ -128,6 +137,7 @@ pub fn run(args: RenderBenchArgs) -> Result<(), Failure> {
         "height": args.height,
         "size": args.size,
         "step_voxels": args.step_voxels,
+        "filter": args.filter,
         "threads": rayon::current_num_threads(),
         "warmup": args.warmup,
         "repeat": args.repeat,
@@ -141,7 +151,9 @@ fn median(times: &[f64]) -> f64 {
     let mut s = times.to_vec();
     s.sort_by(f64::total_cmp);
     let n = s.len();
-    if n % 2 == 1 {
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
         s[n / 2]
     } else {
         0.5 * (s[n / 2 - 1] + s[n / 2])
@@ -179,7 +191,16 @@ fn timed_cpu<T>(f: impl FnOnce() -> T) -> (f64, f64, T) {
 }
 
 fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failure> {
-    let field = Sampled::new(&v.volume, Filter::Trilinear);
+    let filter = Filter::ALL
+        .into_iter()
+        .find(|f| f.name() == args.filter)
+        .ok_or_else(|| {
+            bad_input(format!(
+                "--filter: unknown filter `{}` (nearest, trilinear, catmull-rom, b-spline)",
+                args.filter
+            ))
+        })?;
+    let field = Sampled::new(&v.volume, filter);
     let mut lit = RenderSettings::new(args.width, args.height);
     lit.sampling.step_voxels = args.step_voxels;
     let iso_mode = Iso {
@@ -199,41 +220,75 @@ fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failur
     let (baseline_prepare_s, plain) = timed(|| PlainDvr::new(&v.volume, &v.transfer, &dvr));
     let plain = plain?;
 
+    for m in &args.modes {
+        if !["iso", "dvr", "baseline"].contains(&m.as_str()) {
+            return Err(bad_input(format!("--modes: unknown mode `{m}` (iso, dvr, baseline)")));
+        }
+    }
+    let wants = |m: &str| args.modes.iter().any(|x| x == m);
     let mut iso_times = Vec::new();
     let mut dvr_times = Vec::new();
     let mut base_times = Vec::new();
     let mut cpu_times = [Vec::new(), Vec::new(), Vec::new()];
     /// The last round's images and counters: iso, DVR, baseline (with its sample count).
-    type Round = ((Image, RenderStats), (Image, RenderStats), (Image, u64));
-    let mut last: Option<Round> = None;
+    type Round = (
+        Option<(Image, RenderStats)>,
+        Option<(Image, RenderStats)>,
+        Option<(Image, u64)>,
+    );
+    let mut last: Round = (None, None, None);
     for round in 0..args.warmup + args.repeat as usize {
-        let (ti, ci, iso) = timed_cpu(|| iso_renderer.render(&v.camera, &NoProgress));
-        let (td, cd, dvr_out) = timed_cpu(|| dvr_renderer.render(&v.camera, &NoProgress));
-        let (tb, cb, base) = timed_cpu(|| plain.render(&v.camera));
-        if round >= args.warmup {
-            iso_times.push(ti);
-            dvr_times.push(td);
-            base_times.push(tb);
-            for (list, c) in cpu_times.iter_mut().zip([ci, cd, cb]) {
-                list.push(c);
+        let timed_round = round >= args.warmup;
+        if wants("iso") {
+            let (t, c, out) = timed_cpu(|| iso_renderer.render(&v.camera, &NoProgress));
+            if timed_round {
+                iso_times.push(t);
+                cpu_times[0].push(c);
             }
+            last.0 = Some(out);
         }
-        last = Some((iso, dvr_out, base));
+        if wants("dvr") {
+            let (t, c, out) = timed_cpu(|| dvr_renderer.render(&v.camera, &NoProgress));
+            if timed_round {
+                dvr_times.push(t);
+                cpu_times[1].push(c);
+            }
+            last.1 = Some(out);
+        }
+        if wants("baseline") {
+            let (t, c, out) = timed_cpu(|| plain.render(&v.camera));
+            if timed_round {
+                base_times.push(t);
+                cpu_times[2].push(c);
+            }
+            last.2 = Some(out);
+        }
     }
-    let ((iso_img, iso_stats), (dvr_img, dvr_stats), (base_img, base_samples)) = last.expect("at least one round");
-    let max_diff = dvr_img
-        .pixels
-        .iter()
-        .zip(&base_img.pixels)
-        .map(|(a, b)| (*a - *b).abs().max_element())
-        .fold(0.0f32, f32::max);
+    let max_diff = match (&last.1, &last.2) {
+        (Some((dvr_img, _)), Some((base_img, _))) => dvr_img
+            .pixels
+            .iter()
+            .zip(&base_img.pixels)
+            .map(|(a, b)| (*a - *b).abs().max_element())
+            .fold(0.0f32, f32::max),
+        _ => f32::NAN,
+    };
     if let Some(dir) = &args.images {
         std::fs::create_dir_all(dir).map_err(|e| failed(format!("{}: {e}", dir.display())))?;
-        for (kind, img) in [("iso", &iso_img), ("dvr", &dvr_img), ("baseline", &base_img)] {
+        let images = [
+            ("iso", last.0.as_ref().map(|x| &x.0)),
+            ("dvr", last.1.as_ref().map(|x| &x.0)),
+            ("baseline", last.2.as_ref().map(|x| &x.0)),
+        ];
+        for (kind, img) in images {
+            let Some(img) = img else { continue };
             let path = dir.join(format!("bench_{}_{kind}.png", v.name));
             volga_io::write_png(&path, img.width, img.height, &img.to_rgba8()).map_err(|e| failed(e.to_string()))?;
         }
     }
+    let iso_stats = last.0.map(|x| x.1).unwrap_or_default();
+    let dvr_stats = last.1.map(|x| x.1).unwrap_or_default();
+    let base_samples = last.2.map_or(0, |x| x.1);
     let (iso_t, dvr_t, base_t) = (median(&iso_times), median(&dvr_times), median(&base_times));
     let dims = v.volume.grid.dims();
     Ok(json!({

@@ -122,6 +122,17 @@ pub trait Field: Sync {
     /// spacing for sampled fields.
     fn gradient_step(&self) -> DVec3;
 
+    /// A field equal to this one **bit for bit** (every method returns the same
+    /// bits) that samples faster, built once before many rays: a renderer calls it
+    /// once per prepared image and samples the result instead. A sampled volume
+    /// returns itself over a [`BrickAtlas`](crate::BrickAtlas) (padded tiles, one table
+    /// read per sample instead of a hash look-up). The default, `None`, means there is
+    /// nothing to prepare (analytic fields) or it would not fit; callers then sample
+    /// `self`.
+    fn prepare(&self) -> Option<Box<dyn Field + '_>> {
+        None
+    }
+
     /// A conservative `(min, max)` of the value over a world box: the true range lies
     /// inside it. Used for empty-space skipping; `(-∞, ∞)` is always correct.
     fn value_range(&self, world_box: &Aabb) -> (f64, f64);
@@ -167,6 +178,9 @@ impl<F: Field + ?Sized> Field for &F {
     }
     fn gradient_step(&self) -> DVec3 {
         (**self).gradient_step()
+    }
+    fn prepare(&self) -> Option<Box<dyn Field + '_>> {
+        (**self).prepare()
     }
     fn value_range(&self, b: &Aabb) -> (f64, f64) {
         (**self).value_range(b)

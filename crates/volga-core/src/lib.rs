@@ -40,10 +40,12 @@
 
 mod aabb;
 mod adjacency;
+mod atlas;
 mod channel;
 mod dense;
 mod error;
 mod field;
+mod filters;
 mod grid;
 mod layout;
 pub mod memory;
@@ -54,14 +56,16 @@ mod units;
 
 pub use aabb::Aabb;
 pub use adjacency::Adjacency;
+pub use atlas::{AtlasReader, BrickAtlas, MAX_ATLAS_BYTES};
 pub use channel::ChannelKind;
 pub use dense::{Dense, DenseVolume};
 pub use error::CoreError;
 pub use field::{Field, FieldKind, Line};
+pub use filters::{Filter, GradientMethod};
 pub use grid::{fast_floor, Grid, IndexBox, Transform};
 pub use layout::Shape3;
 pub use progress::{NoProgress, Progress};
-pub use sampled::{DenseReader, Filter, Sampled, SparseReader, VoxelReader, VoxelSource};
+pub use sampled::{DenseReader, Sampled, SparseReader, VoxelReader, VoxelSource};
 pub use sparse::{
     brick_extent, brick_index_box, brick_of, gather_brick, Brick, SparseGrid, SparseVolume, BRICK_DIM, BRICK_LOG2,
     BRICK_SHAPE, BRICK_VOXELS,

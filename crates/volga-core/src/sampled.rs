@@ -1,20 +1,14 @@
 use glam::{DVec3, IVec3, Vec3};
 
+use crate::filters::{
+    cubic_analytic_gradient, cubic_weights, separable_sum, trilinear_analytic_gradient, trilinear_central_gradient,
+};
 use crate::grid::{clamp_to_ivec3, fast_floor};
 use crate::sparse::brick_of;
 use crate::{
-    Aabb, Brick, DenseVolume, Field, Grid, IndexBox, Line, Rgb, SparseGrid, SparseVolume, BRICK_DIM, BRICK_SHAPE,
+    Aabb, Brick, BrickAtlas, DenseVolume, Field, Filter, GradientMethod, Grid, IndexBox, Line, Rgb, SparseGrid,
+    SparseVolume, BRICK_DIM, BRICK_SHAPE,
 };
-
-/// Reconstruction filter used between voxel centres (survey §5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Filter {
-    /// The value of the voxel whose cell contains the point (half-open rule).
-    Nearest,
-    /// Trilinear interpolation of the eight surrounding voxel centres.
-    #[default]
-    Trilinear,
-}
 
 /// Voxel storage that [`Sampled`] can reconstruct from. Reads outside the grid
 /// return the background value.
@@ -36,6 +30,13 @@ pub trait VoxelSource: Sync {
     where
         Self: 'a;
     fn reader(&self) -> Self::Reader<'_>;
+    /// What [`Field::prepare`] returns for a [`Sampled`] over this source with
+    /// `filter` and `gradient`: the same reconstruction over a faster copy of the voxels (the same
+    /// bits), or `None` (the default) to sample the source itself. Dense and sparse
+    /// volumes return a [`Sampled`] over their [`BrickAtlas`](crate::BrickAtlas).
+    fn prepared_field(&self, _filter: Filter, _gradient: GradientMethod) -> Option<Box<dyn Field + '_>> {
+        None
+    }
 }
 
 /// Reads densities like [`VoxelSource::density`] and [`VoxelSource::density_cube`]
@@ -46,6 +47,15 @@ pub trait VoxelReader {
     #[inline]
     fn density_cube(&mut self, base: IVec3) -> [f32; 8] {
         std::array::from_fn(|c| self.density(base + corner(c)))
+    }
+    /// Writes the 4×4×4 densities at `base − 1 + {0,1,2,3}³` into `out` (x fastest:
+    /// `out[x + 4y + 16z]`) and returns `true` if the reader can copy them from one
+    /// contiguous block (a [`BrickAtlas`](crate::BrickAtlas) tile); returns `false`
+    /// (the default) otherwise, and callers gather them from 2×2×2 cubes. Either way
+    /// the values are the same.
+    #[inline]
+    fn density_block(&mut self, _base: IVec3, _out: &mut [f32; 64]) -> bool {
+        false
     }
 }
 
@@ -196,6 +206,10 @@ impl VoxelSource for DenseVolume {
     fn reader(&self) -> DenseReader<'_> {
         DenseReader(self)
     }
+    fn prepared_field(&self, filter: Filter, gradient: GradientMethod) -> Option<Box<dyn Field + '_>> {
+        let atlas = BrickAtlas::build(self)?;
+        Some(Box::new(Sampled::new(atlas, filter).with_gradient(gradient)))
+    }
 }
 
 impl VoxelSource for SparseVolume {
@@ -257,18 +271,35 @@ impl VoxelSource for SparseVolume {
     fn reader(&self) -> SparseReader<'_> {
         SparseReader::new(self)
     }
+    fn prepared_field(&self, filter: Filter, gradient: GradientMethod) -> Option<Box<dyn Field + '_>> {
+        let atlas = BrickAtlas::build(self)?;
+        Some(Box::new(Sampled::new(atlas, filter).with_gradient(gradient)))
+    }
 }
 
-/// A voxel source seen as a continuous [`Field`] through a reconstruction filter.
+/// A voxel source seen as a continuous [`Field`] through a reconstruction filter
+/// ([`Filter`]), with gradients by the chosen [`GradientMethod`] (default: central
+/// differences of the reconstruction).
 #[derive(Debug, Clone, Copy)]
 pub struct Sampled<S> {
     source: S,
     filter: Filter,
+    gradient: GradientMethod,
 }
 
 impl<S: VoxelSource> Sampled<S> {
     pub fn new(source: S, filter: Filter) -> Self {
-        Sampled { source, filter }
+        Sampled {
+            source,
+            filter,
+            gradient: GradientMethod::default(),
+        }
+    }
+
+    /// The same field with gradients taken by `method`.
+    pub fn with_gradient(mut self, method: GradientMethod) -> Self {
+        self.gradient = method;
+        self
     }
 
     pub fn source(&self) -> &S {
@@ -277,6 +308,29 @@ impl<S: VoxelSource> Sampled<S> {
 
     pub fn filter(&self) -> Filter {
         self.filter
+    }
+
+    pub fn gradient_method(&self) -> GradientMethod {
+        self.gradient
+    }
+
+    /// The 4×4×4 voxels `base − 1 ..= base + 2` (x fastest): one copy from the reader's
+    /// block if it has one, else gathered from the eight 2×2×2 cubes at
+    /// `base − 1 + {0, 2}³` (which read across brick seams and the grid's faces).
+    #[inline(always)]
+    fn block<R: VoxelReader>(reader: &mut R, base: IVec3) -> [f32; 64] {
+        let mut block = [0.0f32; 64];
+        if !reader.density_block(base, &mut block) {
+            for c in 0..8 {
+                let o = corner(c) * 2;
+                let cube = reader.density_cube(base - IVec3::ONE + o);
+                for (k, v) in cube.iter().enumerate() {
+                    let q = o + corner(k);
+                    block[q.x as usize + 4 * q.y as usize + 16 * q.z as usize] = *v;
+                }
+            }
+        }
+        block
     }
 
     /// The reconstruction at continuous index coordinates `index_pos`, read through
@@ -289,31 +343,45 @@ impl<S: VoxelSource> Sampled<S> {
                 let base = floor(index_pos);
                 trilerp(reader.density_cube(clamp_to_ivec3(base)), index_pos - base)
             }
+            Filter::CatmullRom | Filter::BSpline => {
+                let base_pos = floor(index_pos);
+                let f = index_pos - base_pos;
+                let block = Self::block(reader, clamp_to_ivec3(base_pos));
+                let w = |t: f64| cubic_weights(self.filter, t);
+                separable_sum(&block, &w(f.x), &w(f.y), &w(f.z))
+            }
         }
     }
 
-    /// Central differences of the reconstruction one voxel apart along each index axis,
-    /// divided by the world distance: the world-space gradient. For trilinear
-    /// reconstruction the six neighbours share the point's cell fractions, so the base
-    /// voxel is found once and the six 2×2×2 cubes are read around it.
+    /// The world-space gradient at continuous index coordinates `index_pos` by the
+    /// field's [`GradientMethod`]. Central differences are taken one voxel apart along
+    /// each index axis and divided by the world distance; for trilinear reconstruction
+    /// the six neighbours share the point's cell fractions, so one 4×4×4 block serves
+    /// all of them.
     #[inline]
     fn gradient_at_index<R: VoxelReader>(&self, reader: &mut R, index_pos: DVec3) -> DVec3 {
         let spacing = self.source.grid().transform.spacing();
-        let mut g = DVec3::ZERO;
-        match self.filter {
-            Filter::Trilinear => {
-                let base_pos = floor(index_pos);
-                let f = index_pos - base_pos;
-                let base = clamp_to_ivec3(base_pos);
-                for a in 0..3 {
-                    let mut e = IVec3::ZERO;
-                    e[a] = 1;
-                    let forward = trilerp(reader.density_cube(base + e), f);
-                    let backward = trilerp(reader.density_cube(base - e), f);
-                    g[a] = (forward - backward) / (2.0 * spacing[a]);
-                }
+        let cell = |reader: &mut R| {
+            let base_pos = floor(index_pos);
+            (Self::block(reader, clamp_to_ivec3(base_pos)), index_pos - base_pos)
+        };
+        match (self.filter, self.gradient) {
+            (Filter::Trilinear, GradientMethod::CentralDifference) => {
+                let (block, f) = cell(reader);
+                trilinear_central_gradient(&block, f, spacing)
             }
-            Filter::Nearest => {
+            (Filter::Trilinear, GradientMethod::Analytic) => {
+                let (block, f) = cell(reader);
+                trilinear_analytic_gradient(&block, f, spacing)
+            }
+            (Filter::CatmullRom | Filter::BSpline, GradientMethod::Analytic) => {
+                let (block, f) = cell(reader);
+                cubic_analytic_gradient(self.filter, &block, f, spacing)
+            }
+            // A piecewise-constant reconstruction has zero derivative inside its cells.
+            (Filter::Nearest, GradientMethod::Analytic) => DVec3::ZERO,
+            (Filter::Nearest | Filter::CatmullRom | Filter::BSpline, GradientMethod::CentralDifference) => {
+                let mut g = DVec3::ZERO;
                 for a in 0..3 {
                     let mut e = DVec3::ZERO;
                     e[a] = 1.0;
@@ -321,9 +389,9 @@ impl<S: VoxelSource> Sampled<S> {
                     let backward = self.value_at_index(reader, index_pos - e);
                     g[a] = (forward - backward) / (2.0 * spacing[a]);
                 }
+                g
             }
         }
-        g
     }
 
     /// Trilinear weights' base voxel and fractions for a world point.
@@ -356,8 +424,11 @@ fn trilerp(c: [f32; 8], f: DVec3) -> f64 {
 
 impl<S: VoxelSource> Field for Sampled<S> {
     fn bounds(&self) -> Aabb {
-        // Trilinear samples are background beyond one voxel outside the centres.
-        self.source.grid().sampled_bounds()
+        // Samples are background beyond the filter's reach outside the centres (one
+        // voxel for nearest and trilinear, two for the cubics).
+        let g = self.source.grid();
+        g.center_bounds()
+            .expanded(g.transform.spacing() * self.filter.reach_voxels())
     }
 
     fn background(&self) -> f64 {
@@ -374,6 +445,10 @@ impl<S: VoxelSource> Field for Sampled<S> {
             Filter::Trilinear => {
                 let (base, f) = self.cell(world_pos);
                 trilerp(self.source.density_cube(base), f)
+            }
+            Filter::CatmullRom | Filter::BSpline => {
+                let index_pos = self.source.grid().transform.world_to_index(world_pos);
+                self.value_at_index(&mut self.source.reader(), index_pos)
             }
         }
     }
@@ -392,9 +467,8 @@ impl<S: VoxelSource> Field for Sampled<S> {
         }
     }
 
-    /// Central differences of the reconstruction one voxel apart along each axis, taken
-    /// in index space (so the six samples share the fractions of the point and a brick
-    /// look-up), divided by the world distance.
+    /// The gradient by the field's [`GradientMethod`], taken in index space (so the
+    /// samples share the fractions of the point and a brick look-up).
     fn gradient(&self, world_pos: DVec3) -> DVec3 {
         let index_pos = self.source.grid().transform.world_to_index(world_pos);
         self.gradient_at_index(&mut self.source.reader(), index_pos)
@@ -413,22 +487,44 @@ impl<S: VoxelSource> Field for Sampled<S> {
         self.source.grid().transform.spacing()
     }
 
+    /// The same reconstruction over a [`BrickAtlas`] of the source (bit-identical
+    /// densities, so bit-identical values and gradients); `None` if the source is one
+    /// already or the atlas would exceed [`MAX_ATLAS_BYTES`](crate::MAX_ATLAS_BYTES).
+    fn prepare(&self) -> Option<Box<dyn Field + '_>> {
+        self.source.prepared_field(self.filter, self.gradient)
+    }
+
+    /// The voxels' range over the box grown by the filter's reach (and the background
+    /// where samples blend it in), widened by the filter's
+    /// [`overshoot`](Filter::overshoot) around its midpoint.
     fn value_range(&self, world_box: &Aabb) -> (f64, f64) {
         let g = self.source.grid();
-        let ib = g.index_box_touching(world_box);
+        let spacing = g.transform.spacing();
+        // Cubic samples read one voxel further on each side than trilinear ones.
+        let extra = spacing * (self.filter.reach_voxels() - 1.0);
+        let ib = g.index_box_touching(&world_box.expanded(extra));
         let bg = self.source.background();
         let (mut lo, mut hi) = if ib.is_empty() {
             (bg, bg)
         } else {
             self.source.density_range(&ib)
         };
-        // Samples beyond the voxel centres blend in background voxels.
+        // Samples beyond the voxel centres (for cubics: within one voxel of them)
+        // blend in background voxels.
         let inner = g.center_bounds();
+        let inner = Aabb::new(inner.min + extra, inner.max - extra);
         if !(inner.contains(world_box.min) && inner.contains(world_box.max)) {
             lo = lo.min(bg);
             hi = hi.max(bg);
         }
-        (lo as f64, hi as f64)
+        let (lo, hi) = (lo as f64, hi as f64);
+        if !self.filter.is_cubic() {
+            return (lo, hi);
+        }
+        // The cubics' 64 products and sums round: pad by far more than their error.
+        let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo) * self.filter.overshoot());
+        let pad = 1e-12 * (lo.abs() + hi.abs()) + f64::MIN_POSITIVE;
+        (mid - half - pad, mid + half + pad)
     }
 
     fn has_colour(&self) -> bool {
@@ -450,6 +546,7 @@ impl<S: VoxelSource> Field for Sampled<S> {
         if self.filter == Filter::Nearest {
             return Some(nearest());
         }
+        // Every other filter colours by density-weighted trilinear weights.
         let (base, f) = self.cell(world_pos);
         let d = self.source.density_cube(base);
         let mut sum = DVec3::ZERO;
@@ -497,5 +594,8 @@ impl<S: VoxelSource + ?Sized> VoxelSource for &S {
         Self: 'a;
     fn reader(&self) -> S::Reader<'_> {
         (**self).reader()
+    }
+    fn prepared_field(&self, filter: Filter, gradient: GradientMethod) -> Option<Box<dyn Field + '_>> {
+        (**self).prepared_field(filter, gradient)
     }
 }

@@ -25,7 +25,7 @@
 //!   [`write_voxel_model`]): `.binvox` and `.nrrd` by extension, with what a NRRD's
 //!   values mean ([`VoxelValues`]: occupancy, density or distance) and the free-space
 //!   check before writing ([`check_free_space`], [`VoxelFormat::bytes_bound`]).
-//! * **PNG** images, 8-bit RGBA, non-interlaced ([`encode_png`], [`decode_png`],
+//! * **PNG** images, 8-bit RGBA, non-interlaced ([`encode_png`], 16-bit [`encode_png16`], [`decode_png`],
 //!   [`write_png`]).
 //! * **NRRD** volumes with a detached header (`{stem}.nrrd` + `{stem}.raw`)
 //!   ([`write_nrrd`]) and a reader for the common subset of the format
@@ -60,7 +60,7 @@ pub use model::{
 };
 pub use nrrd_read::{read_nrrd, read_nrrd_with_colour};
 pub use nrrd_write::write_nrrd;
-pub use png_io::{decode_png, encode_png, write_png};
+pub use png_io::{decode_png, encode_png, encode_png16, write_png};
 
 /// Errors of this crate; every message names the file it concerns.
 #[derive(Debug, thiserror::Error)]

@@ -40,6 +40,37 @@ pub fn encode_png(w: &mut dyn Write, width: u32, height: u32, rgba8: &[u8]) -> i
     writer.finish().map_err(encoding_error)
 }
 
+/// Encodes a 16-bit RGBA, non-interlaced PNG of `width × height` pixels, rows top to
+/// bottom, 4 channels per pixel (written big-endian, as PNG stores them).
+///
+/// Fails with [`io::ErrorKind::InvalidInput`] if `rgba16.len() != width·height·4` or a
+/// dimension is 0.
+pub fn encode_png16(w: &mut dyn Write, width: u32, height: u32, rgba16: &[u16]) -> io::Result<()> {
+    let expected = u128::from(width) * u128::from(height) * 4;
+    if width == 0 || height == 0 {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("PNG of {width}×{height} pixels: both dimensions must be ≥ 1"),
+        ));
+    }
+    if rgba16.len() as u128 != expected {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!(
+                "PNG of {width}×{height} RGBA16 pixels needs {expected} channels, got {}",
+                rgba16.len()
+            ),
+        ));
+    }
+    let bytes: Vec<u8> = rgba16.iter().flat_map(|c| c.to_be_bytes()).collect();
+    let mut encoder = png::Encoder::new(w, width, height);
+    encoder.set_color(png::ColorType::Rgba);
+    encoder.set_depth(png::BitDepth::Sixteen);
+    let mut writer = encoder.write_header().map_err(encoding_error)?;
+    writer.write_image_data(&bytes).map_err(encoding_error)?;
+    writer.finish().map_err(encoding_error)
+}
+
 fn encoding_error(e: png::EncodingError) -> io::Error {
     match e {
         png::EncodingError::IoError(e) => e,
@@ -95,6 +126,23 @@ pub fn decode_png(path: &Path) -> Result<(u32, u32, Vec<u8>), IoError> {
 
 #[cfg(test)]
 mod tests {
+
+    /// A 16-bit PNG reads back (through the 8-bit decoder) as the high bytes.
+    #[test]
+    fn sixteen_bit_png_round_trips_its_high_bytes() {
+        let rgba16: Vec<u16> = (0..2 * 3 * 4).map(|i| (i as u16) * 2741 + 13).collect();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.png");
+        let mut bytes = Vec::new();
+        encode_png16(&mut bytes, 2, 3, &rgba16).unwrap();
+        std::fs::write(&path, &bytes).unwrap();
+        let (w, h, rgba8) = decode_png(&path).unwrap();
+        assert_eq!((w, h), (2, 3));
+        let high: Vec<u8> = rgba16.iter().map(|c| (c >> 8) as u8).collect();
+        assert_eq!(rgba8, high);
+        assert!(encode_png16(&mut Vec::new(), 2, 2, &rgba16).is_err());
+    }
+
     use super::*;
 
     fn pattern(w: u32, h: u32) -> Vec<u8> {

@@ -60,6 +60,21 @@
 //!   call. Empty-space skipping walks a coarse macro-cell grid built from
 //!   `Field::value_range` with a 3D DDA; skipped samples are whole lattice indices and
 //!   every value is a function of its index alone, so skipping never changes the image.
+//! * **Preparation**: [`Renderer::new`] asks the field for a prepared equivalent
+//!   ([`Field::prepare`](volga_core::Field::prepare), default `None`) and samples it
+//!   instead; a sampled volume returns itself over a
+//!   [`BrickAtlas`](volga_core::BrickAtlas) (padded 16³ tiles behind a flat table: one
+//!   table read and eight loads per trilinear sample, one 4×4×4 copy per gradient),
+//!   the same bits as the volume ([`Sampling::prepare_field`] turns it off; a test
+//!   checks every mode draws the same image either way). Shading normalizes the
+//!   Blinn-Phong half vectors once per ray.
+//! * Reconstruction and gradients are the field's: [`volga_core::Sampled`] offers
+//!   nearest, trilinear, Catmull–Rom and cubic B-spline filters
+//!   ([`volga_core::Filter`]) with central-difference or analytic gradients
+//!   ([`volga_core::GradientMethod`]); the renderer does not know which.
+//! * Anti-aliasing: [`ImageSettings::supersampling`] `k` casts `k × k` rays per pixel
+//!   through a regular grid of sub-pixel centres and averages their premultiplied
+//!   colours (the box-filtered image of `k` times the resolution).
 //! * Tiles are rendered in parallel with rayon; each pixel is a pure function of its
 //!   coordinates, so images are bit-identical for any thread count.
 //!
@@ -117,7 +132,9 @@ pub use error::RenderError;
 pub use integrators::*;
 pub use march::{first_hit, CellClass, Hit};
 pub use render::{render, render_with, Image, RenderStats, Renderer};
-pub use settings::{ImageSettings, Lighting, RenderSettings, Sampling, MAX_PIXELS, MAX_SAMPLES_PER_RAY};
+pub use settings::{
+    ImageSettings, Lighting, RenderSettings, Sampling, MAX_PIXELS, MAX_SAMPLES_PER_RAY, MAX_SUPERSAMPLING,
+};
 pub(crate) use shading::Shader;
 pub use shading::{Light, Material};
 pub use transfer::TransferFunction;

@@ -9,12 +9,11 @@
 //! render of the edited field; every other pixel is recomputed exactly as
 //! [`Renderer::render`] computes it.
 
-use glam::Vec3;
 use volga_core::{Aabb, Field};
 
-use super::{Image, RenderStats, Renderer};
-use crate::integrators::{clip, over_background};
-use crate::{Camera, Integrator, Ray};
+use super::{sub_pixel, Image, RenderStats, Renderer};
+use crate::integrators::March;
+use crate::{Camera, Integrator};
 
 impl<F: Field + ?Sized, I: Integrator> Renderer<'_, F, I> {
     /// Re-renders in `image` (a full render of this view before the edit, same size as the
@@ -25,7 +24,6 @@ impl<F: Field + ?Sized, I: Integrator> Renderer<'_, F, I> {
     ///
     /// Panics if `image` is not the settings' size.
     pub fn rerender_box(&self, camera: &Camera, changed: &Aabb, image: &mut Image) -> (u64, RenderStats) {
-        use rayon::prelude::*;
         let (w, h) = (self.settings.image.width, self.settings.image.height);
         assert!(
             image.width == w && image.height == h,
@@ -34,7 +32,27 @@ impl<F: Field + ?Sized, I: Integrator> Renderer<'_, F, I> {
         if changed.is_empty() {
             return (0, RenderStats::default());
         }
-        let grown = changed.expanded(self.march.field.gradient_step());
+        // Gradients and cubic filters read up to two voxels (gradient steps) around a sample.
+        let grown = changed.expanded(self.field.gradient_step() * 2.0);
+        match &self.prepared {
+            Some(p) => self.rerender_march(&self.march(&**p), camera, &grown, image),
+            None => self.rerender_march(&self.march(self.field), camera, &grown, image),
+        }
+    }
+
+    fn rerender_march<G: Field + ?Sized>(&self, march: &March<'_, G>, camera: &Camera, grown: &Aabb, image: &mut Image) -> (u64, RenderStats) {
+        use rayon::prelude::*;
+        let (w, h) = (self.settings.image.width, self.settings.image.height);
+        let k = self.settings.image.supersampling.max(1);
+        let touches = |x: u32, y: u32| {
+            (0..k).any(|j| {
+                (0..k).any(|i| {
+                    let (sx, sy) = if k == 1 { (x as f64, y as f64) } else { sub_pixel(x, y, i, j, k) };
+                    let ray = camera.ray(sx, sy, w, h);
+                    grown.ray_interval(ray.origin, ray.dir).is_some()
+                })
+            })
+        };
         let results: Vec<(u64, RenderStats)> = image
             .pixels
             .par_chunks_mut(w as usize)
@@ -43,9 +61,8 @@ impl<F: Field + ?Sized, I: Integrator> Renderer<'_, F, I> {
                 let mut stats = RenderStats::default();
                 let mut count = 0;
                 for (x, px) in row.iter_mut().enumerate() {
-                    let ray = camera.ray(x as f64, y as f64, w, h);
-                    if grown.ray_interval(ray.origin, ray.dir).is_some() {
-                        *px = self.trace_ray(&ray, &mut stats);
+                    if touches(x as u32, y as u32) {
+                        *px = self.trace_pixel(march, camera, x as u32, y as u32, &mut stats);
                         count += 1;
                     }
                 }
@@ -58,15 +75,5 @@ impl<F: Field + ?Sized, I: Integrator> Renderer<'_, F, I> {
             total.1 += s;
         }
         total
-    }
-
-    /// One pixel, as [`Renderer::render`] computes it.
-    fn trace_ray(&self, ray: &Ray, stats: &mut RenderStats) -> glam::Vec4 {
-        stats.rays += 1;
-        let (c, a) = match clip(&self.bounds, ray) {
-            None => (Vec3::ZERO, 0.0),
-            Some(interval) => self.integrator.integrate(&self.march, ray, interval, stats),
-        };
-        over_background(self.settings.image.background, c, a)
     }
 }

@@ -1,6 +1,6 @@
 use glam::Vec4;
 use rayon::prelude::*;
-use volga_core::{Aabb, Field, Progress};
+use volga_core::{Aabb, Field, FieldKind, Progress};
 
 use crate::integrators::{clip, over_background, March, ModeJob};
 use crate::march::MacroGrid;
@@ -37,10 +37,27 @@ impl Image {
     }
 }
 
+impl Image {
+    /// 16-bit RGBA, 4 channels per pixel in the same order: the same gamma 1/2.2 on RGB
+    /// and linear alpha as [`Image::to_rgba8`], scaled to 0–65535 (256 times finer
+    /// steps for smooth gradients and post-processing).
+    pub fn to_rgba16(&self) -> Vec<u16> {
+        let q = |v: f32| (v.clamp(0.0, 1.0) * 65535.0).round() as u16; // NaN casts to 0
+        let mut out = Vec::with_capacity(self.pixels.len() * 4);
+        for p in &self.pixels {
+            for c in [p.x, p.y, p.z] {
+                out.push(q(c.max(0.0).powf(1.0 / 2.2)));
+            }
+            out.push(q(p.w));
+        }
+        out
+    }
+}
+
 /// Work counters of one [`render`] call (integer sums: independent of scheduling).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RenderStats {
-    /// Rays cast (one per pixel).
+    /// Rays cast (`supersampling²` per pixel).
     pub rays: u64,
     /// Field values evaluated along rays ([`Field::values_along`] samples, including a
     /// run's samples read past an iso hit or an early termination, and the iso
@@ -107,20 +124,38 @@ pub fn render_with<F: Field + ?Sized, I: Integrator>(
     Ok(Renderer::new(field, integrator, settings)?.render(camera, progress))
 }
 
-/// A field, an integrator and settings prepared for rendering: validated, with the
-/// empty-space skipping grid built (one pass over the field's value ranges, the costly
-/// part of preparing). Each [`Renderer::render`] then renders one view, so a
+/// A field, an integrator and settings prepared for rendering: validated, the field
+/// prepared for sampling ([`Field::prepare`]: a sampled volume's brick atlas, the same
+/// values bit for bit) and the empty-space skipping grid built (one pass over the
+/// field's value ranges). Each [`Renderer::render`] then renders one view, so a
 /// turntable or an interactive viewer prepares once per field and mode.
 pub struct Renderer<'a, F: ?Sized, I> {
     integrator: &'a I,
     settings: &'a RenderSettings,
     bounds: Aabb,
-    march: March<'a, F>,
+    field: &'a F,
+    /// What [`Field::prepare`] returned: sampled instead of `field` when present.
+    prepared: Option<Box<dyn Field + 'a>>,
+    constants: MarchConstants,
+    shader: Shader,
+    grid: Option<MacroGrid>,
+}
+
+/// The scalar per-image constants of a [`March`].
+#[derive(Clone, Copy)]
+struct MarchConstants {
+    inward: f64,
+    kind: FieldKind,
+    step: f64,
+    tol: f64,
+    alpha_exponent: f64,
+    early_termination_alpha: f32,
 }
 
 impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
     /// Validates and prepares. The field's [`kind`](Field::kind) is read once; the
-    /// integrator is monomorphized with the field, so nothing is dispatched per sample.
+    /// integrator is monomorphized with the field, so nothing is dispatched per sample
+    /// (a prepared field is called through its vtable once per run of samples).
     ///
     /// Errors: invalid settings ([`RenderSettings::validate`]) or mode parameters
     /// ([`Integrator::validate`]), a field whose bounds are not finite/non-empty or
@@ -134,51 +169,127 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         let step = settings.sampling.world_step(&bounds, spacing)?;
         let kind = field.kind();
 
-        let grid = (settings.sampling.empty_space_skipping && integrator.skips_cells())
-            .then(|| MacroGrid::build(field, bounds, spacing, |lo, hi| integrator.classify_cell(lo, hi, kind)));
+        let prepared = if settings.sampling.prepare_field {
+            field.prepare()
+        } else {
+            None
+        };
+        let grid = (settings.sampling.empty_space_skipping && integrator.skips_cells()).then(|| {
+            let classify = |lo, hi| integrator.classify_cell(lo, hi, kind);
+            match &prepared {
+                Some(p) => MacroGrid::build(&**p, bounds, spacing, classify),
+                None => MacroGrid::build(field, bounds, spacing, classify),
+            }
+        });
         debug_assert!(grid.as_ref().is_none_or(|g| g.len() <= 64 * 64 * 64));
 
         let sampling = &settings.sampling;
         let lighting = &settings.lighting;
-        let march = March {
-            field,
-            inward: kind.inward_sign(),
-            kind,
-            step,
-            tol: 1e-9 * spacing,
-            alpha_exponent: sampling.step_voxels / sampling.reference_step_voxels,
-            early_termination_alpha: sampling.early_termination_alpha,
-            shader: Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing),
-            grid,
-        };
         Ok(Renderer {
             integrator,
             settings,
             bounds,
-            march,
+            field,
+            prepared,
+            constants: MarchConstants {
+                inward: kind.inward_sign(),
+                kind,
+                step,
+                tol: 1e-9 * spacing,
+                alpha_exponent: sampling.step_voxels / sampling.reference_step_voxels,
+                early_termination_alpha: sampling.early_termination_alpha,
+            },
+            shader: Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing),
+            grid,
         })
+    }
+
+    /// Whether [`Field::prepare`] gave a faster field that this renderer samples.
+    pub fn is_prepared(&self) -> bool {
+        self.prepared.is_some()
+    }
+
+    fn march<'r, G: Field + ?Sized>(&'r self, field: &'r G) -> March<'r, G> {
+        let c = self.constants;
+        March {
+            field,
+            inward: c.inward,
+            kind: c.kind,
+            step: c.step,
+            tol: c.tol,
+            alpha_exponent: c.alpha_exponent,
+            early_termination_alpha: c.early_termination_alpha,
+            shader: &self.shader,
+            grid: self.grid.as_ref(),
+        }
     }
 
     /// Renders the view of `camera`.
     ///
-    /// One ray per pixel centre, clipped to the field's bounds; tiles of
+    /// One ray per pixel centre (or `k × k` per pixel with
+    /// [`ImageSettings::supersampling`](crate::ImageSettings::supersampling)), clipped
+    /// to the field's bounds; tiles of
     /// `tile_size × tile_size` pixels are rendered in parallel with rayon, and each
     /// pixel is a pure function of its coordinates, so the image is bit-identical for
     /// any thread count. Progress: `start("render", tiles)`, `inc(1)` per tile,
     /// `finish()`.
     pub fn render(&self, camera: &Camera, progress: &dyn Progress) -> (Image, RenderStats) {
-        let (bounds, integrator, march) = (&self.bounds, self.integrator, &self.march);
-        let background = self.settings.image.background;
-        let trace = |ray: &crate::Ray, stats: &mut RenderStats| {
-            stats.rays += 1;
-            let (c, a) = match clip(bounds, ray) {
-                None => (glam::Vec3::ZERO, 0.0),
-                Some(interval) => integrator.integrate(march, ray, interval, stats),
-            };
-            over_background(background, c, a)
-        };
+        match &self.prepared {
+            Some(p) => self.render_march(&self.march(&**p), camera, progress),
+            None => self.render_march(&self.march(self.field), camera, progress),
+        }
+    }
 
+    /// Pixel `(x, y)`: one ray through its centre, or the mean premultiplied colour of
+    /// `k × k` rays through its sub-pixel centres (summed in a fixed order), over the
+    /// background. The one definition [`Renderer::render`] and
+    /// [`Renderer::rerender_box`] share.
+    pub(crate) fn trace_pixel<G: Field + ?Sized>(
+        &self,
+        march: &March<'_, G>,
+        camera: &Camera,
+        x: u32,
+        y: u32,
+        stats: &mut RenderStats,
+    ) -> Vec4 {
+        let background = self.settings.image.background;
+        let k = self.settings.image.supersampling.max(1);
         let (w, h) = (self.settings.image.width, self.settings.image.height);
+        let mut integrate = |ray: &crate::Ray| {
+            stats.rays += 1;
+            match clip(&self.bounds, ray) {
+                None => (glam::Vec3::ZERO, 0.0),
+                Some(interval) => self.integrator.integrate(march, ray, interval, stats),
+            }
+        };
+        if k == 1 {
+            let (c, a) = integrate(&camera.ray(x as f64, y as f64, w, h));
+            return over_background(background, c, a);
+        }
+        let (mut c_sum, mut a_sum) = (glam::Vec3::ZERO, 0.0f32);
+        for j in 0..k {
+            for i in 0..k {
+                let (sx, sy) = sub_pixel(x, y, i, j, k);
+                let (c, a) = integrate(&camera.ray(sx, sy, w, h));
+                if c.is_finite() && a.is_finite() {
+                    c_sum += c;
+                    a_sum += a.clamp(0.0, 1.0);
+                }
+            }
+        }
+        let n = (k * k) as f32;
+        over_background(background, c_sum / n, a_sum / n)
+    }
+
+    fn render_march<G: Field + ?Sized>(
+        &self,
+        march: &March<'_, G>,
+        camera: &Camera,
+        progress: &dyn Progress,
+    ) -> (Image, RenderStats) {
+        let (w, h) = (self.settings.image.width, self.settings.image.height);
+        let trace = |x: u32, y: u32, stats: &mut RenderStats| self.trace_pixel(march, camera, x, y, stats);
+
         let ts = self.settings.image.tile_size.min(w.max(h));
         let (tiles_x, tiles_y) = (w.div_ceil(ts), h.div_ceil(ts));
         let n_tiles = tiles_x as usize * tiles_y as usize;
@@ -195,8 +306,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        let ray = camera.ray(x as f64, y as f64, w, h);
-                        px.push(trace(&ray, &mut stats));
+                        px.push(trace(x, y, &mut stats));
                     }
                 }
                 progress.inc(1);
@@ -225,6 +335,12 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         }
         (image, stats)
     }
+}
+
+/// Image coordinates of sub-pixel `(i, j)` of pixel `(x, y)` with `k × k` samples.
+#[inline]
+pub(crate) fn sub_pixel(x: u32, y: u32, i: u32, j: u32, k: u32) -> (f64, f64) {
+    (x as f64 - 0.5 + (i as f64 + 0.5) / k as f64, y as f64 - 0.5 + (j as f64 + 0.5) / k as f64)
 }
 
 // Localized re-render (`Renderer::rerender_box`), in its own file.

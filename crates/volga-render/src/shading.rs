@@ -83,24 +83,84 @@ impl Shader {
     /// `ray_dir` must be unit length.
     #[inline]
     pub(crate) fn shade(&self, colour: Vec3, outward: DVec3, ray_dir: DVec3) -> Vec3 {
+        self.for_ray(ray_dir).shade(colour, outward)
+    }
+
+    /// The shader for the samples of one ray: the half vectors `H = (L + V)/|L + V|`
+    /// depend on the ray's direction only, so they are normalized once per ray (the
+    /// first [`CACHED_HALVES`] lights; more are normalized per sample). Same bits as
+    /// [`Shader::shade`].
+    #[inline]
+    pub(crate) fn for_ray(&self, ray_dir: DVec3) -> RayShader<'_> {
         let view = -ray_dir;
+        let mut halves = [DVec3::ZERO; CACHED_HALVES];
+        for (h, (l, _)) in halves.iter_mut().zip(&self.lights) {
+            *h = safe_normalize(*l + view);
+        }
+        RayShader {
+            shader: self,
+            view,
+            halves,
+        }
+    }
+}
+
+/// `x^n` for `n ≥ 0` by repeated squaring, the algorithm of compiler-rt's
+/// `__powisf2` (what `f32::powi` calls for a run-time exponent), inlined: the same bits
+/// without a call per sample and light.
+#[inline(always)]
+fn powi(mut x: f32, mut n: i32) -> f32 {
+    debug_assert!(n >= 0);
+    let mut r = 1.0f32;
+    loop {
+        if n & 1 != 0 {
+            r *= x;
+        }
+        n /= 2;
+        if n == 0 {
+            return r;
+        }
+        x *= x;
+    }
+}
+
+/// Lights whose half vectors [`Shader::for_ray`] normalizes once per ray.
+const CACHED_HALVES: usize = 8;
+
+/// [`Shader`] with the view and half vectors of one ray.
+pub(crate) struct RayShader<'s> {
+    shader: &'s Shader,
+    view: DVec3,
+    halves: [DVec3; CACHED_HALVES],
+}
+
+impl RayShader<'_> {
+    /// [`Shader::shade`] for this ray's direction.
+    #[inline]
+    pub(crate) fn shade(&self, colour: Vec3, outward: DVec3) -> Vec3 {
+        let s = self.shader;
+        let view = self.view;
         let len = outward.length();
-        let mut n = if len.is_finite() && len > self.min_gradient {
-            outward / len
+        let mut n = if len.is_finite() && len > s.min_gradient {
+            outward * len.recip()
         } else {
             view
         };
         if n.dot(view) < 0.0 {
             n = -n;
         }
-        let m = &self.material;
-        let mut r = self.ambient * colour;
-        for &(l, cl) in &self.lights {
+        let m = &s.material;
+        let mut r = s.ambient * colour;
+        for (i, &(l, cl)) in s.lights.iter().enumerate() {
             let n_dot_l = n.dot(l).max(0.0) as f32;
-            let h = safe_normalize(l + view);
+            let h = if i < CACHED_HALVES {
+                self.halves[i]
+            } else {
+                safe_normalize(l + view)
+            };
             let n_dot_h = n.dot(h).max(0.0) as f32;
-            let highlight = match self.integer_shininess {
-                Some(ns) => n_dot_h.powi(ns),
+            let highlight = match s.integer_shininess {
+                Some(ns) => powi(n_dot_h, ns),
                 None => n_dot_h.powf(m.shininess),
             };
             r += cl * colour * (m.diffuse * n_dot_l) + cl * (m.specular * highlight);

@@ -7,7 +7,7 @@ use crate::RenderError;
 /// interpolation (post-classification).
 ///
 /// Opacities are defined for a ray step of
-/// [`RenderSettings::reference_step_voxels`](crate::RenderSettings::reference_step_voxels);
+/// [`Sampling::reference_step_voxels`](crate::Sampling::reference_step_voxels);
 /// the renderer corrects them for the actual step.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransferFunction {

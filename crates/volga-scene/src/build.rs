@@ -133,7 +133,7 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
         let (image, stats) = stages
             .run(format!("render:{}", job.name), || match (job.source, &volume) {
                 (RenderSource::Baked, Some(volume)) => {
-                    let field = Sampled::new(volume, job.filter);
+                    let field = Sampled::new(volume, job.filter).with_gradient(job.gradient);
                     render(&field, &job.camera, &job.mode, &job.settings, progress)
                 }
                 _ => {
@@ -153,8 +153,13 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
             })?;
         let file = options.out_dir.join(format!("{}.png", job.name));
         stages.run(format!("encode:{}", job.name), || {
-            let rgba = image.to_rgba8();
-            staged.stage(&file, |w| volga_io::encode_png(w, image.width, image.height, &rgba))
+            if job.bit_depth == 16 {
+                let rgba = image.to_rgba16();
+                staged.stage(&file, |w| volga_io::encode_png16(w, image.width, image.height, &rgba))
+            } else {
+                let rgba = image.to_rgba8();
+                staged.stage(&file, |w| volga_io::encode_png(w, image.width, image.height, &rgba))
+            }
         })?;
         images.push(image_report(&job.name, file, &image, stats));
     }

@@ -277,6 +277,16 @@ pub struct ImageSpec {
     pub step_voxels: Option<f64>,
     #[serde(default)]
     pub filter: Option<FilterSpec>,
+    /// How shading normals are taken from the baked volume: `CentralDifference`
+    /// (default) or `Analytic` (the filter's own derivative).
+    #[serde(default)]
+    pub gradient: Option<GradientSpec>,
+    /// PNG bits per channel: 8 (default) or 16.
+    #[serde(default)]
+    pub bit_depth: Option<u8>,
+    /// Rays per pixel along each axis (`k × k` per pixel, averaged; default 1).
+    #[serde(default)]
+    pub supersampling: Option<u32>,
     /// Phong shading from the scene's lights (default true; needs lights).
     #[serde(default)]
     pub shading: Option<bool>,
@@ -302,6 +312,14 @@ pub enum SourceSpec {
 pub enum FilterSpec {
     Nearest,
     Trilinear,
+    CatmullRom,
+    BSpline,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum GradientSpec {
+    CentralDifference,
+    Analytic,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

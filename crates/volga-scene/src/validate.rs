@@ -5,7 +5,7 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use glam::{DVec3, UVec3, Vec3, Vec4};
-use volga_core::{Aabb, Filter, Grid, Transform};
+use volga_core::{Aabb, Filter, GradientMethod, Grid, Transform};
 use volga_render::{
     Camera, ImageSettings, Iso, Light, Lighting, Material, Mip, Mode, Projection, RenderError, RenderSettings,
     Sampling, SurfaceColour, TransferFunction, Volume, XRay,
@@ -74,6 +74,10 @@ pub struct ImageJob {
     pub mode: Mode,
     pub settings: RenderSettings,
     pub filter: Filter,
+    /// How the baked volume's gradients are taken.
+    pub gradient: GradientMethod,
+    /// PNG bits per channel: 8 or 16.
+    pub bit_depth: u8,
     pub source: RenderSource,
     /// The image reads the volume's colour channel.
     pub reads_colour: bool,
@@ -366,6 +370,7 @@ fn validate_image(
             width: im.width,
             height: im.height,
             background,
+            supersampling: im.supersampling.unwrap_or(1),
             ..defaults.image
         },
         sampling: Sampling {
@@ -405,6 +410,16 @@ fn validate_image(
     let filter = match im.filter.unwrap_or(FilterSpec::Trilinear) {
         FilterSpec::Nearest => Filter::Nearest,
         FilterSpec::Trilinear => Filter::Trilinear,
+        FilterSpec::CatmullRom => Filter::CatmullRom,
+        FilterSpec::BSpline => Filter::BSpline,
+    };
+    let bit_depth = im.bit_depth.unwrap_or(8);
+    if bit_depth != 8 && bit_depth != 16 {
+        return Err(cx.err(format!("{f}.bit_depth"), format!("must be 8 or 16, got {bit_depth}")));
+    }
+    let gradient = match im.gradient.unwrap_or(GradientSpec::CentralDifference) {
+        GradientSpec::CentralDifference => GradientMethod::CentralDifference,
+        GradientSpec::Analytic => GradientMethod::Analytic,
     };
     let source = match im.source.unwrap_or(SourceSpec::Baked) {
         SourceSpec::Baked => RenderSource::Baked,
@@ -412,6 +427,12 @@ fn validate_image(
             return Err(cx.err(
                 format!("{f}.filter"),
                 "`filter` reconstructs the baked volume; a `Lazy` image samples the nodes directly (remove one)",
+            ))
+        }
+        SourceSpec::Lazy if im.gradient.is_some() => {
+            return Err(cx.err(
+                format!("{f}.gradient"),
+                "`gradient` differentiates the baked volume's reconstruction; a `Lazy` image samples the nodes directly (remove one)",
             ))
         }
         SourceSpec::Lazy => RenderSource::Lazy,
@@ -423,6 +444,8 @@ fn validate_image(
         mode,
         settings,
         filter,
+        gradient,
+        bit_depth,
         source,
         reads_colour,
     })
@@ -474,6 +497,40 @@ mod tests {
         }
         // A step that fits the budget still loads.
         assert!(load(&with("step_voxels: 0.01")).is_ok());
+    }
+
+    #[test]
+    fn filters_and_gradient_methods_are_chosen_per_image() {
+        // The first image only.
+        let with = |extra: &str| {
+            HELLO.replacen(
+                "width: 512, height: 512),",
+                &format!("width: 512, height: 512, {extra}),"),
+                1,
+            )
+        };
+        let scene = load(&with("filter: Some(CatmullRom), gradient: Some(Analytic)")).unwrap();
+        assert_eq!(scene.images[0].filter, Filter::CatmullRom);
+        assert_eq!(scene.images[0].gradient, GradientMethod::Analytic);
+        assert_eq!(scene.images[1].filter, Filter::Trilinear);
+        assert_eq!(scene.images[1].gradient, GradientMethod::CentralDifference);
+        let scene = load(&with("filter: Some(BSpline)")).unwrap();
+        assert_eq!(scene.images[0].filter, Filter::BSpline);
+        // Supersampling: per image, checked by the renderer's rule, named by field path.
+        let scene = load(&with("supersampling: Some(3)")).unwrap();
+        assert_eq!(scene.images[0].settings.image.supersampling, 3);
+        assert_eq!(scene.images[1].settings.image.supersampling, 1);
+        assert_eq!(scene.images[0].bit_depth, 8);
+        assert_eq!(load(&with("bit_depth: Some(16)")).unwrap().images[0].bit_depth, 16);
+        let (field, _) = invalid_field(&with("bit_depth: Some(12)"));
+        assert_eq!(field, "outputs.images[0].bit_depth");
+        let (field, message) = invalid_field(&with("supersampling: Some(0)"));
+        assert_eq!(field, "outputs.images[0].supersampling");
+        assert!(message.contains("1 to 16"), "{message}");
+        // A lazy image has no reconstruction to differentiate.
+        let (field, message) = invalid_field(&with("source: Some(Lazy), gradient: Some(Analytic)"));
+        assert_eq!(field, "outputs.images[0].gradient");
+        assert!(message.contains("Lazy"), "{message}");
     }
 
     #[test]

@@ -17,6 +17,7 @@ use crate::KnobResult;
 mod binary_vs_antialiased;
 mod filter_width;
 mod narrow_band;
+mod render_filters;
 mod render_step;
 mod resolution;
 mod supersample;
@@ -54,11 +55,31 @@ impl Size {
 pub struct Context<'a> {
     pub size: Size,
     progress: &'a dyn Progress,
+    /// Extra output files (images) the experiments attach, in attachment order.
+    attachments: std::sync::Mutex<Vec<(String, Vec<u8>)>>,
 }
 
 impl<'a> Context<'a> {
     pub fn new(size: Size, progress: &'a dyn Progress) -> Self {
-        Context { size, progress }
+        Context {
+            size,
+            progress,
+            attachments: std::sync::Mutex::new(Vec::new()),
+        }
+    }
+
+    /// Adds an output file `name` (e.g. an image an experiment rendered) beside the
+    /// tables and plots.
+    pub fn attach(&self, name: &str, bytes: Vec<u8>) {
+        self.attachments
+            .lock()
+            .expect("attachments lock")
+            .push((name.to_string(), bytes));
+    }
+
+    /// The attached files, in attachment order.
+    pub fn take_attachments(&self) -> Vec<(String, Vec<u8>)> {
+        std::mem::take(&mut *self.attachments.lock().expect("attachments lock"))
     }
 
     /// Announces `settings` settings for the experiment `id`.
@@ -91,7 +112,13 @@ pub const EXPERIMENTS: &[Experiment] = &[
     filter_width::EXPERIMENT,
     narrow_band::EXPERIMENT,
     render_step::EXPERIMENT,
+    render_filters::EXPERIMENT,
 ];
+
+/// The names of the files experiments attach ([`Context::attach`]), in order.
+pub(crate) fn attachment_names() -> Vec<String> {
+    render_filters::attachment_names()
+}
 
 /// The grid of `n³` voxels whose cells tile the scene box `[−1, 1]³`.
 pub fn scene_grid(n: u32) -> volga_core::Grid {

@@ -88,7 +88,7 @@ fn settings(size: u32, step_voxels: f64) -> RenderSettings {
 
 /// The reference image: the analytic signal at the reference step, `s × s` rays per
 /// pixel averaged.
-fn reference_image(size: u32) -> Image {
+pub(crate) fn reference_image(size: u32) -> Image {
     let s = REFERENCE_SUPERSAMPLING;
     let (fine, _) = render(
         &MarschnerLobb,
@@ -141,7 +141,7 @@ fn render_and_hits<F: Field>(field: &F, size: u32, step_voxels: f64) -> (Image, 
 }
 
 /// RMS over pixels and RGB channels of the difference of two images (linear [0, 1]).
-fn image_rms(a: &Image, b: &Image) -> f64 {
+pub(crate) fn image_rms(a: &Image, b: &Image) -> f64 {
     let sum: f64 = a
         .pixels
         .iter()

@@ -90,7 +90,7 @@ impl Integrator for Iso {
             interval,
             m.step,
             m.tol,
-            m.grid.as_ref(),
+            m.grid,
             stats,
         );
         match hit {

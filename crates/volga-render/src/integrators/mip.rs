@@ -43,7 +43,7 @@ impl Integrator for Mip {
         };
         let mut values = [0.0f64; BATCH];
         let mut max = f64::NEG_INFINITY;
-        let mut walk = m.grid.as_ref().map(|g| g.walk(ray, t0 + 0.5 * m.step));
+        let mut walk = m.grid.map(|g| g.walk(ray, t0 + 0.5 * m.step));
         let mut i = 0u64;
         while i < n {
             let mut end = n;

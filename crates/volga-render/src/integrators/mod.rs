@@ -139,8 +139,8 @@ pub struct March<'a, F: ?Sized> {
     /// `step / reference_step` for opacity correction.
     pub(crate) alpha_exponent: f64,
     pub(crate) early_termination_alpha: f32,
-    pub(crate) shader: Shader,
-    pub(crate) grid: Option<MacroGrid>,
+    pub(crate) shader: &'a Shader,
+    pub(crate) grid: Option<&'a MacroGrid>,
 }
 
 impl<F: Field + ?Sized> March<'_, F> {
@@ -178,6 +178,9 @@ impl<F: Field + ?Sized> March<'_, F> {
     pub fn correct_alpha(&self, alpha: f32) -> f32 {
         if self.alpha_exponent == 1.0 || alpha >= 1.0 {
             alpha
+        } else if self.alpha_exponent == 0.5 {
+            // The default step (half the reference): a square root instead of `powf`.
+            (1.0 - (1.0 - alpha as f64).sqrt()) as f32
         } else {
             (1.0 - (1.0 - alpha as f64).powf(self.alpha_exponent)) as f32
         }

@@ -107,6 +107,7 @@ fn composite<F: Field + ?Sized, C: Classify>(
         step: ray.dir * m.step,
     };
     let lit = m.shader.is_lit();
+    let shader = m.shader.for_ray(ray.dir);
     let mut values = [0.0f64; BATCH];
     // The run's visible samples: world position, corrected alpha, colour.
     let mut visible_pos = [DVec3::ZERO; BATCH];
@@ -118,7 +119,7 @@ fn composite<F: Field + ?Sized, C: Classify>(
     // The last opacity corrected and its correction (uniform regions repeat it): one
     // `powf` per change instead of per sample, the same bits.
     let mut corrected = (f32::NAN, f32::NAN);
-    let mut walk = m.grid.as_ref().map(|g| g.walk(ray, t0 + 0.5 * m.step));
+    let mut walk = m.grid.map(|g| g.walk(ray, t0 + 0.5 * m.step));
     let mut i = 0u64;
     while i < n {
         let mut end = n;
@@ -177,7 +178,7 @@ fn composite<F: Field + ?Sized, C: Classify>(
         for k in 0..count {
             let (alpha, co) = visible[k];
             let rgb = if lit {
-                m.shader.shade(co, m.kind.outward(gradients[k]), ray.dir)
+                shader.shade(co, m.kind.outward(gradients[k]))
             } else {
                 co
             };
