@@ -45,6 +45,7 @@
 //! ```
 
 mod bvh;
+mod capped;
 mod closest;
 mod error;
 mod intersect;
@@ -57,6 +58,7 @@ pub mod unclean;
 mod winding;
 
 pub use bvh::{Bvh, Closest, WindingBound, FAR_FIELD_BETA};
+pub use capped::{cap_triangles, CappedWinding, InsideCost};
 pub use closest::{closest_point_on_segment, closest_point_on_triangle, point_triangle_distance_squared, Feature};
 pub use error::{InvalidMesh, MeshError};
 pub use intersect::triangles_may_intersect;
