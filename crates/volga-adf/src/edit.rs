@@ -140,6 +140,7 @@ impl Adf {
                 tolerance: self.options.tolerance,
                 max_depth: self.options.max_depth,
                 max_cells: self.options.max_cells,
+                band: self.options.band,
                 cells: AtomicUsize::new(0),
                 evaluations: AtomicU64::new(0),
             },

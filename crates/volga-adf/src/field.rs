@@ -1,7 +1,7 @@
 //! An ADF is a [`Field`] of signed-distance kind: the raycaster renders it directly.
 
 use glam::DVec3;
-use volga_core::{Aabb, Field, FieldKind};
+use volga_core::{Aabb, Field, FieldKind, Line};
 
 use crate::Adf;
 
@@ -22,6 +22,29 @@ impl Field for Adf {
 
     fn value(&self, world_pos: DVec3) -> f64 {
         self.distance(world_pos)
+    }
+
+    /// Walks the run leaf by leaf: a point inside the leaf of the previous one reuses it
+    /// instead of descending from the root (the value is the same function of the point).
+    fn values_along(&self, line: &Line, first: u64, out: &mut [f64]) {
+        let root = self.root_box();
+        let mut leaf: Option<(usize, DVec3, f64)> = None;
+        for (k, v) in out.iter_mut().enumerate() {
+            let p = line.at(first + k as u64);
+            if !root.contains(p) {
+                *v = self.distance(p);
+                continue;
+            }
+            let (i, min, size) = match leaf {
+                Some((i, min, size)) if p.cmpge(min).all() && p.cmplt(min + DVec3::splat(size)).all() => (i, min, size),
+                _ => {
+                    let (i, min, size, _) = self.locate(p);
+                    leaf = Some((i, min, size));
+                    (i, min, size)
+                }
+            };
+            *v = self.leaf_value(i, ((p - min) / size).clamp(DVec3::ZERO, DVec3::ONE));
+        }
     }
 
     /// The trilinear cell's analytic derivative.

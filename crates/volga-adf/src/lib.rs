@@ -42,11 +42,13 @@
 
 mod edit;
 mod field;
+mod measure;
 mod ray;
 mod source;
 mod tree;
 
 pub use edit::EditStats;
+pub use measure::{measure_errors, ErrorStats};
 pub use ray::RayHit;
 pub use source::{Csg, CsgOp, DistanceSource, FieldSource, MeshSource, ShapeSource};
 pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};
@@ -60,6 +62,8 @@ pub enum AdfError {
     Tolerance(f64),
     #[error("max_depth {0} exceeds the supported {MAX_SUPPORTED_DEPTH}")]
     Depth(u8),
+    #[error("band must be finite and ≥ 0, got {0}")]
+    Band(f64),
     #[error("margin must be finite and ≥ 0, got {0}")]
     Margin(f64),
     #[error("nothing to build from: {0}")]

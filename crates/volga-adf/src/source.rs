@@ -122,6 +122,7 @@ pub struct MeshSource {
     bounds: Aabb,
     queries: AtomicU64,
     winding_terms: AtomicU64,
+    integer_queries: AtomicU64,
 }
 
 impl MeshSource {
@@ -140,6 +141,7 @@ impl MeshSource {
             bounds,
             queries: AtomicU64::new(0),
             winding_terms: AtomicU64::new(0),
+            integer_queries: AtomicU64::new(0),
         })
     }
 
@@ -151,6 +153,12 @@ impl MeshSource {
     /// Distance queries answered so far.
     pub fn queries(&self) -> u64 {
         self.queries.load(Ordering::Relaxed)
+    }
+
+    /// Queries that computed the integer winding number `I` themselves (the others took it
+    /// from a neighbour's sheet-free ball).
+    pub fn integer_queries(&self) -> u64 {
+        self.integer_queries.load(Ordering::Relaxed)
     }
 
     /// Winding-number terms summed so far (the cost of proving signs).
@@ -193,6 +201,9 @@ impl DistanceSource for MeshSource {
             Some(i) if (p - q).length() < s.clearance => Some(i),
             _ => None,
         });
+        if known.is_none() {
+            self.integer_queries.fetch_add(1, Ordering::Relaxed);
+        }
         let (inside, integer, cost) = self.winding.inside_with(p, known);
         self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
         Sample {

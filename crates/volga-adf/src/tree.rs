@@ -85,6 +85,11 @@ pub struct AdfOptions {
     /// reconstruction is defined around the whole surface. `None`: 5 % of the bounds'
     /// diagonal.
     pub margin: Option<f64>,
+    /// Distance from the surface (world units) within which the tolerance must hold: a
+    /// cell is pruned only if all its corners are of one sign and farther than its
+    /// diagonal **plus** `band`, so every point within `band` of the surface lies in a
+    /// tested leaf. 0 is Frisken's rule (accuracy at the surface only).
+    pub band: f64,
 }
 
 impl AdfOptions {
@@ -105,6 +110,9 @@ impl AdfOptions {
         if self.max_depth > MAX_SUPPORTED_DEPTH {
             return Err(AdfError::Depth(self.max_depth));
         }
+        if !(self.band.is_finite() && self.band >= 0.0) {
+            return Err(AdfError::Band(self.band));
+        }
         if let Some(m) = self.margin {
             if !(m.is_finite() && m >= 0.0) {
                 return Err(AdfError::Margin(m));
@@ -121,6 +129,7 @@ impl Default for AdfOptions {
             max_depth: 12,
             max_cells: default_max_cells(),
             margin: None,
+            band: 0.0,
         }
     }
 }
@@ -195,6 +204,7 @@ pub(crate) struct Builder<'a, S: ?Sized> {
     pub tolerance: f64,
     pub max_depth: u8,
     pub max_cells: usize,
+    pub band: f64,
     pub cells: AtomicUsize,
     pub evaluations: AtomicU64,
 }
@@ -266,7 +276,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         let far = corners.iter().all(|&c| (c as f64).abs() > diagonal);
         let positive = corners.iter().filter(|&&c| c > 0.0).count();
         let one_sign = positive == 0 || positive == 8;
-        if far && one_sign {
+        if far && one_sign && corners.iter().all(|&c| (c as f64).abs() > diagonal + self.band) {
             stats.leaf(depth >= self.max_depth, true, false);
             return Ok(Decision::Leaf(corners, None));
         }
@@ -524,6 +534,7 @@ impl Adf {
             tolerance: options.tolerance,
             max_depth: options.max_depth,
             max_cells: options.max_cells,
+            band: options.band,
             cells: AtomicUsize::new(1),
             evaluations: AtomicU64::new(0),
         };
@@ -636,7 +647,7 @@ impl Adf {
         let (i, min, size, depth) = self.locate(self.clamp(world_pos));
         let c = &self.cells[i];
         let diagonal = size * 3f64.sqrt();
-        let far = c.corners.iter().all(|&v| (v as f64).abs() > diagonal);
+        let far = c.corners.iter().all(|&v| (v as f64).abs() > diagonal + self.options.band);
         let positive = c.corners.iter().filter(|&&v| v > 0.0).count();
         LeafInfo {
             world_min: min,

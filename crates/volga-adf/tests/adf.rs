@@ -21,7 +21,7 @@ impl Rng {
 }
 
 fn options(tolerance: f64, max_depth: u8) -> AdfOptions {
-    AdfOptions { tolerance, max_depth, max_cells: 50_000_000, margin: None }
+    AdfOptions { tolerance, max_depth, max_cells: 50_000_000, margin: None, band: 0.0 }
 }
 
 /// Max error of the reconstruction against the exact distance at random points within

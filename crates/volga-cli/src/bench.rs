@@ -28,6 +28,8 @@ pub enum BenchCommand {
     Voxelize(BenchArgs),
     /// Frames per second of the raycaster (iso, DVR) against a plain raycaster, as JSON.
     Render(crate::bench_render::RenderBenchArgs),
+    /// Build an ADF of a mesh: build time, cells, bytes, errors, render speed, as JSON.
+    Adf(crate::adf::AdfBenchArgs),
 }
 
 #[derive(Args)]
@@ -52,6 +54,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
     let args = match command {
         BenchCommand::Voxelize(args) => args,
         BenchCommand::Render(args) => return crate::bench_render::run(args),
+        BenchCommand::Adf(args) => return crate::adf::bench(args),
     };
     let job_args = &args.job;
     let binary = job_args.spec()?.is_binary();

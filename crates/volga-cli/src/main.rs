@@ -4,6 +4,7 @@
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
 
 mod accuracy;
+mod adf;
 mod bench;
 mod bench_render;
 mod failure;
@@ -48,6 +49,9 @@ enum Command {
     /// Validate a voxel model (.binvox, .nrrd) as a discrete surface: components, N-separability,
     /// simple voxels, Euler characteristic; with --mesh, tunnels through it and cover.
     Validate(validate::ValidateArgs),
+    /// Build an adaptively sampled distance field of a mesh: its statistics, accuracy and a
+    /// shaded render (adf.json, adf.png in --out).
+    Adf(adf::AdfBuildArgs),
     /// Time a job warm, in one process (for benchmarks; see docs/BENCHMARKS.md).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -157,6 +161,13 @@ fn main() -> ExitCode {
         Command::Validate(args) => match validate::run(args) {
             Ok(true) => ExitCode::SUCCESS,
             Ok(false) => ExitCode::from(1),
+            Err(f) => {
+                eprintln!("error: {}", f.message);
+                ExitCode::from(f.code)
+            }
+        },
+        Command::Adf(args) => match adf::run(args) {
+            Ok(()) => ExitCode::SUCCESS,
             Err(f) => {
                 eprintln!("error: {}", f.message);
                 ExitCode::from(f.code)
