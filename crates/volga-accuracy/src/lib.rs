@@ -50,10 +50,18 @@ pub use report::{format_figure, markdown_table, output_names, Report, RAW_JSON};
 /// Runs every experiment of [`EXPERIMENTS`] at `size`, reporting one progress unit
 /// per setting; `command` is recorded in the report as the command line that ran it.
 pub fn run(size: Size, command: &str, progress: &dyn Progress) -> Report {
+    run_only(size, command, progress, &[])
+}
+
+/// [`run`] restricted to the experiments whose ids are in `only` (all when empty).
+pub fn run_only(size: Size, command: &str, progress: &dyn Progress, only: &[String]) -> Report {
     let start = Instant::now();
     let mut report = Report::new(command.to_string(), size, Machine::current());
     let ctx = Context::new(size, progress);
-    for experiment in EXPERIMENTS {
+    for experiment in EXPERIMENTS
+        .iter()
+        .filter(|e| only.is_empty() || only.iter().any(|o| o == e.id))
+    {
         report.experiments.push((experiment.run)(&ctx));
     }
     report.finish(start.elapsed().as_secs_f64());

@@ -133,7 +133,12 @@ impl Adf {
         Adf::build_in(source, self.options, self.root_min, self.root_size)
     }
 
-    fn apply<B: DistanceSource + ?Sized, R: Ranged + Sync>(&self, b: &B, ranges: R, op: CsgOp) -> Result<(Adf, EditStats), AdfError> {
+    fn apply<B: DistanceSource + ?Sized, R: Ranged + Sync>(
+        &self,
+        b: &B,
+        ranges: R,
+        op: CsgOp,
+    ) -> Result<(Adf, EditStats), AdfError> {
         let editor = Editor {
             builder: Builder {
                 source: &Combined { a: self, b, op },
@@ -187,7 +192,11 @@ impl Adf {
         }
         let cell = self.cells[index];
         let samples: [Sample; 8] = {
-            let mut s = [Sample { value: 0.0, region: None, clearance: 0.0 }; 8];
+            let mut s = [Sample {
+                value: 0.0,
+                region: None,
+                clearance: 0.0,
+            }; 8];
             for (b, s) in s.iter_mut().enumerate() {
                 *s = editor.builder.eval(corner_position(min, size, b), None)?;
             }
@@ -205,9 +214,19 @@ impl Adf {
         let half = size * 0.5;
         let mut children = Vec::with_capacity(8);
         for o in 0..8 {
-            children.push(self.edit_cell(editor, cell.children as usize + o, min + octant(o) * half, half, depth + 1, local)?);
+            children.push(self.edit_cell(
+                editor,
+                cell.children as usize + o,
+                min + octant(o) * half,
+                half,
+                depth + 1,
+                local,
+            )?);
         }
-        let parent = Cell { corners: samples.map(|s| s.value as f32), children: LEAF };
+        let parent = Cell {
+            corners: samples.map(|s| s.value as f32),
+            children: LEAF,
+        };
         Ok(join(parent, children))
     }
 
@@ -216,8 +235,17 @@ impl Adf {
         let c = self.cells[index];
         if c.is_leaf() {
             return match c.jump() {
-                None => Subtree { cells: vec![c], jumps: Vec::new() },
-                Some(k) => Subtree { cells: vec![Cell { corners: c.corners, children: JUMP_FLAG }], jumps: vec![self.jumps[k]] },
+                None => Subtree {
+                    cells: vec![c],
+                    jumps: Vec::new(),
+                },
+                Some(k) => Subtree {
+                    cells: vec![Cell {
+                        corners: c.corners,
+                        children: JUMP_FLAG,
+                    }],
+                    jumps: vec![self.jumps[k]],
+                },
             };
         }
         let children = (0..8).map(|o| self.copy_subtree(c.children as usize + o)).collect();

@@ -40,6 +40,7 @@
 //! carry the right sign everywhere (1-Lipschitz argument) but not the tolerance. The
 //! accuracy figures in `docs/ADF.md` are measured at random points against exact distance.
 
+mod convert;
 mod edit;
 mod field;
 mod measure;
@@ -72,7 +73,9 @@ pub enum AdfError {
     NonFinite([f64; 3]),
     #[error("a {0:?} field is not a signed distance")]
     NotADistance(FieldKind),
-    #[error("the ADF would exceed {limit} cells ({bytes} bytes needed so far); raise the tolerance or lower max_depth")]
+    #[error(
+        "the ADF would exceed {limit} cells ({bytes} bytes needed so far); raise the tolerance or lower max_depth"
+    )]
     TooManyCells { limit: usize, bytes: u64 },
     #[error("CSG operands must share their root cube and depth limit (build the second with Adf::build_like)")]
     Mismatched,

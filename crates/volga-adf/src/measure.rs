@@ -37,7 +37,13 @@ fn r3(i: u64) -> DVec3 {
 /// Measures `adf` against `source` at `count` points of `region` whose exact distance is
 /// within `band` of the surface and whose leaf is not pruned (low-discrepancy points, rejected outside the band; at
 /// most 200 candidates per kept point), in parallel and deterministically.
-pub fn measure_errors<S: DistanceSource + ?Sized>(adf: &Adf, source: &S, region: &Aabb, band: f64, count: usize) -> ErrorStats {
+pub fn measure_errors<S: DistanceSource + ?Sized>(
+    adf: &Adf,
+    source: &S,
+    region: &Aabb,
+    band: f64,
+    count: usize,
+) -> ErrorStats {
     let mut stats = ErrorStats::default();
     let mut sum = 0.0;
     let mut next = 0u64;
@@ -55,7 +61,12 @@ pub fn measure_errors<S: DistanceSource + ?Sized>(adf: &Adf, source: &S, region:
                 }
                 let got = adf.distance(p);
                 let leaf = adf.leaf_at(p);
-                Some(((got - exact).abs(), leaf.depth >= adf.options.max_depth, (got <= 0.0) != (exact <= 0.0), leaf.pruned))
+                Some((
+                    (got - exact).abs(),
+                    leaf.depth >= adf.options.max_depth,
+                    (got <= 0.0) != (exact <= 0.0),
+                    leaf.pruned,
+                ))
             })
             .collect();
         for (err, at_max, sign, pruned) in measured.into_iter().flatten() {

@@ -72,7 +72,12 @@ impl Adf {
                 let world_pos = origin + dir * hit_t;
                 let g = self.gradient(world_pos);
                 let normal = if g.length() > 0.0 { g.normalize() } else { -dir / scale };
-                return Some(RayHit { t: hit_t, world_pos, normal, steps });
+                return Some(RayHit {
+                    t: hit_t,
+                    world_pos,
+                    normal,
+                    steps,
+                });
             }
             t = next_t(t, exit, size / scale);
         }

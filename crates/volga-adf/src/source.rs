@@ -25,7 +25,11 @@ pub trait DistanceSource: Sync {
     /// integer part of the winding number when no surface lies between the two points).
     /// The value must equal [`DistanceSource::distance`] exactly.
     fn sample(&self, world_pos: DVec3, _near: Option<(DVec3, &Sample)>) -> Sample {
-        Sample { value: self.distance(world_pos), region: None, clearance: 0.0 }
+        Sample {
+            value: self.distance(world_pos),
+            region: None,
+            clearance: 0.0,
+        }
     }
 
     /// A smooth function with the sign of the distance, for sources whose signed distance
@@ -187,14 +191,20 @@ impl DistanceSource for MeshSource {
     fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
         self.queries.fetch_add(1, Ordering::Relaxed);
         // The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
-        let bound = near.map_or(f64::INFINITY, |(q, s)| (s.value.abs() + (p - q).length()) * (1.0 + 1e-9));
+        let bound = near.map_or(f64::INFINITY, |(q, s)| {
+            (s.value.abs() + (p - q).length()) * (1.0 + 1e-9)
+        });
         let unsigned = self
             .bvh
             .closest_within(p, bound)
             .or_else(|| self.bvh.closest(p))
             .map_or(f64::INFINITY, |c| c.distance);
         if unsigned == 0.0 {
-            return Sample { value: 0.0, region: None, clearance: 0.0 };
+            return Sample {
+                value: 0.0,
+                region: None,
+                clearance: 0.0,
+            };
         }
         let clearance = unsigned.min(self.winding.cap_distance(p));
         let known = near.and_then(|(q, s)| match s.region {

@@ -239,9 +239,21 @@ pub(crate) fn trilinear_gradient(c: &[f32; 8], t: DVec3) -> DVec3 {
     let c = c.map(|v| v as f64);
     let lerp = |a: f64, b: f64, s: f64| a + (b - a) * s;
     // d/dx: differences along x, interpolated in y and z
-    let dx = lerp(lerp(c[1] - c[0], c[3] - c[2], t.y), lerp(c[5] - c[4], c[7] - c[6], t.y), t.z);
-    let dy = lerp(lerp(c[2] - c[0], c[3] - c[1], t.x), lerp(c[6] - c[4], c[7] - c[5], t.x), t.z);
-    let dz = lerp(lerp(c[4] - c[0], c[5] - c[1], t.x), lerp(c[6] - c[2], c[7] - c[3], t.x), t.y);
+    let dx = lerp(
+        lerp(c[1] - c[0], c[3] - c[2], t.y),
+        lerp(c[5] - c[4], c[7] - c[6], t.y),
+        t.z,
+    );
+    let dy = lerp(
+        lerp(c[2] - c[0], c[3] - c[1], t.x),
+        lerp(c[6] - c[4], c[7] - c[5], t.x),
+        t.z,
+    );
+    let dz = lerp(
+        lerp(c[4] - c[0], c[5] - c[1], t.x),
+        lerp(c[6] - c[2], c[7] - c[3], t.x),
+        t.y,
+    );
     DVec3::new(dx, dy, dz)
 }
 
@@ -269,7 +281,14 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
 
     /// Decides one cell: a leaf (with its sign-field corners if it is a jump leaf), or
     /// the 3×3×3 lattice of samples its children take their corners from.
-    fn decide(&self, min: DVec3, size: f64, depth: u8, samples: &[Sample; 8], stats: &mut LocalStats) -> Result<Decision, AdfError> {
+    fn decide(
+        &self,
+        min: DVec3,
+        size: f64,
+        depth: u8,
+        samples: &[Sample; 8],
+        stats: &mut LocalStats,
+    ) -> Result<Decision, AdfError> {
         let corners = samples.map(|s| s.value as f32);
         stats.depth = stats.depth.max(depth);
         let diagonal = size * 3f64.sqrt();
@@ -347,20 +366,41 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             return Ok(Decision::Leaf(corners, jump));
         }
         self.count(8)?;
-        Ok(Decision::Split(Box::new(lattice.map(|s| s.expect("every lattice point is sampled")))))
+        Ok(Decision::Split(Box::new(
+            lattice.map(|s| s.expect("every lattice point is sampled")),
+        )))
     }
 
     /// Builds the subtree of one cell into `out[index]` and onwards (sequential).
     #[allow(clippy::too_many_arguments)]
-    fn build_into(&self, out: &mut Vec<Cell>, jumps: &mut Vec<[f32; 8]>, index: usize, min: DVec3, size: f64, depth: u8, samples: [Sample; 8], stats: &mut LocalStats) -> Result<(), AdfError> {
+    fn build_into(
+        &self,
+        out: &mut Vec<Cell>,
+        jumps: &mut Vec<[f32; 8]>,
+        index: usize,
+        min: DVec3,
+        size: f64,
+        depth: u8,
+        samples: [Sample; 8],
+        stats: &mut LocalStats,
+    ) -> Result<(), AdfError> {
         match self.decide(min, size, depth, &samples, stats)? {
             Decision::Leaf(corners, jump) => {
                 out[index] = leaf_cell(corners, jump, jumps);
             }
             Decision::Split(lattice) => {
                 let first = out.len();
-                out[index] = Cell { corners: samples.map(|s| s.value as f32), children: first as u32 };
-                out.resize(first + 8, Cell { corners: [0.0; 8], children: LEAF });
+                out[index] = Cell {
+                    corners: samples.map(|s| s.value as f32),
+                    children: first as u32,
+                };
+                out.resize(
+                    first + 8,
+                    Cell {
+                        corners: [0.0; 8],
+                        children: LEAF,
+                    },
+                );
                 let half = size * 0.5;
                 for o in 0..8 {
                     let (child_min, child_samples) = child_of(min, half, o, &lattice);
@@ -372,18 +412,33 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
     }
 
     /// Builds the subtree of one cell, in parallel down to [`PARALLEL_DEPTH`].
-    pub fn build(&self, min: DVec3, size: f64, depth: u8, samples: [Sample; 8]) -> Result<(Subtree, LocalStats), AdfError> {
+    pub fn build(
+        &self,
+        min: DVec3,
+        size: f64,
+        depth: u8,
+        samples: [Sample; 8],
+    ) -> Result<(Subtree, LocalStats), AdfError> {
         let mut stats = LocalStats::default();
         let mut jumps = Vec::new();
         if depth >= PARALLEL_DEPTH {
-            let mut out = vec![Cell { corners: [0.0; 8], children: LEAF }];
+            let mut out = vec![Cell {
+                corners: [0.0; 8],
+                children: LEAF,
+            }];
             self.build_into(&mut out, &mut jumps, 0, min, size, depth, samples, &mut stats)?;
             return Ok((Subtree { cells: out, jumps }, stats));
         }
         match self.decide(min, size, depth, &samples, &mut stats)? {
             Decision::Leaf(corners, jump) => {
                 let cell = leaf_cell(corners, jump, &mut jumps);
-                Ok((Subtree { cells: vec![cell], jumps }, stats))
+                Ok((
+                    Subtree {
+                        cells: vec![cell],
+                        jumps,
+                    },
+                    stats,
+                ))
             }
             Decision::Split(lattice) => {
                 let half = size * 0.5;
@@ -398,7 +453,10 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                 for s in child_stats {
                     stats.merge(&s);
                 }
-                let parent = Cell { corners: samples.map(|s| s.value as f32), children: LEAF };
+                let parent = Cell {
+                    corners: samples.map(|s| s.value as f32),
+                    children: LEAF,
+                };
                 Ok((join(parent, subtrees), stats))
             }
         }
@@ -412,10 +470,16 @@ pub(crate) enum Decision {
 
 fn leaf_cell(corners: [f32; 8], jump: Option<[f32; 8]>, jumps: &mut Vec<[f32; 8]>) -> Cell {
     match jump {
-        None => Cell { corners, children: LEAF },
+        None => Cell {
+            corners,
+            children: LEAF,
+        },
         Some(w) => {
             jumps.push(w);
-            Cell { corners, children: JUMP_FLAG | (jumps.len() - 1) as u32 }
+            Cell {
+                corners,
+                children: JUMP_FLAG | (jumps.len() - 1) as u32,
+            }
         }
     }
 }
@@ -426,7 +490,8 @@ fn leaf_cell(corners: [f32; 8], jump: Option<[f32; 8]>, jumps: &mut Vec<[f32; 8]
 pub(crate) fn child_of<T: Copy>(min: DVec3, half: f64, o: usize, lattice: &[T; 27]) -> (DVec3, [T; 8]) {
     let (ox, oy, oz) = (o & 1, (o >> 1) & 1, (o >> 2) & 1);
     let child_min = min + DVec3::new(ox as f64, oy as f64, oz as f64) * half;
-    let values = std::array::from_fn(|b| lattice[lattice_index(ox + (b & 1), oy + ((b >> 1) & 1), oz + ((b >> 2) & 1))]);
+    let values =
+        std::array::from_fn(|b| lattice[lattice_index(ox + (b & 1), oy + ((b >> 1) & 1), oz + ((b >> 2) & 1))]);
     (child_min, values)
 }
 
@@ -462,7 +527,10 @@ pub(crate) fn join(mut parent: Cell, subtrees: Vec<Subtree>) -> Subtree {
         out.push(root);
     }
     for (k, s) in subtrees.iter().enumerate() {
-        out.extend(s.cells[1..].iter().map(|c| Cell { corners: c.corners, children: relocate(k, c.children) }));
+        out.extend(s.cells[1..].iter().map(|c| Cell {
+            corners: c.corners,
+            children: relocate(k, c.children),
+        }));
     }
     Subtree { cells: out, jumps }
 }
@@ -496,13 +564,18 @@ impl LocalStats {
 /// margins (at least the margin, so a point or a flat source gets a cube).
 pub(crate) fn root_cube(bounds: &Aabb, margin: Option<f64>) -> Result<(DVec3, f64), AdfError> {
     if bounds.is_empty() || !(bounds.min.is_finite() && bounds.max.is_finite()) {
-        return Err(AdfError::EmptySource(format!("bounds {:?}..{:?} are empty or infinite", bounds.min, bounds.max)));
+        return Err(AdfError::EmptySource(format!(
+            "bounds {:?}..{:?} are empty or infinite",
+            bounds.min, bounds.max
+        )));
     }
     let diagonal = bounds.size().length();
     let margin = margin.unwrap_or(0.05 * diagonal);
     let side = (bounds.size().max_element() + 2.0 * margin) * (1.0 + 1e-9);
     if !(side > 0.0) {
-        return Err(AdfError::EmptySource("the source is a single point and no margin was given".into()));
+        return Err(AdfError::EmptySource(
+            "the source is a single point and no margin was given".into(),
+        ));
     }
     // A power-of-two side, and a minimum on the lattice of the finest supported cells
     // (side / 2^24): every cell corner `min + size·k` is then exact in f64, also far from
@@ -527,7 +600,12 @@ impl Adf {
     }
 
     /// [`Adf::build`] on a given root cube.
-    pub(crate) fn build_in<S: DistanceSource + ?Sized>(source: &S, options: AdfOptions, root_min: DVec3, root_size: f64) -> Result<Adf, AdfError> {
+    pub(crate) fn build_in<S: DistanceSource + ?Sized>(
+        source: &S,
+        options: AdfOptions,
+        root_min: DVec3,
+        root_size: f64,
+    ) -> Result<Adf, AdfError> {
         options.check()?;
         let builder = Builder {
             source,
@@ -541,7 +619,9 @@ impl Adf {
         let mut samples = Vec::with_capacity(8);
         for b in 0..8 {
             let p = corner_position(root_min, root_size, b);
-            let near = samples.last().map(|s: &Sample| (corner_position(root_min, root_size, b - 1), s));
+            let near = samples
+                .last()
+                .map(|s: &Sample| (corner_position(root_min, root_size, b - 1), s));
             let s = builder.eval(p, near)?;
             samples.push(s);
         }
@@ -556,7 +636,14 @@ impl Adf {
             depth_reached: local.depth,
             evaluations: builder.evaluations.load(Ordering::Relaxed),
         };
-        Ok(Adf { root_min, root_size, cells: tree.cells, jumps: tree.jumps, options, stats })
+        Ok(Adf {
+            root_min,
+            root_size,
+            cells: tree.cells,
+            jumps: tree.jumps,
+            options,
+            stats,
+        })
     }
 
     /// The root cube (world space).
@@ -647,7 +734,10 @@ impl Adf {
         let (i, min, size, depth) = self.locate(self.clamp(world_pos));
         let c = &self.cells[i];
         let diagonal = size * 3f64.sqrt();
-        let far = c.corners.iter().all(|&v| (v as f64).abs() > diagonal + self.options.band);
+        let far = c
+            .corners
+            .iter()
+            .all(|&v| (v as f64).abs() > diagonal + self.options.band);
         let positive = c.corners.iter().filter(|&&v| v > 0.0).count();
         LeafInfo {
             world_min: min,
@@ -749,7 +839,10 @@ impl Adf {
         let clipped = world_box.intersection(&root);
         if clipped.is_empty() {
             // Entirely outside: at least the distance from the box to the cube's values.
-            let gap = (world_box.min - root.max).max(root.min - world_box.max).max(DVec3::ZERO).length();
+            let gap = (world_box.min - root.max)
+                .max(root.min - world_box.max)
+                .max(DVec3::ZERO)
+                .length();
             let (lo, _) = self.range(&Aabb::new(self.clamp(world_box.min), self.clamp(world_box.max)));
             return (lo + gap, f64::INFINITY);
         }
@@ -764,7 +857,11 @@ impl Adf {
             let c = &self.cells[i as usize];
             if c.is_leaf() {
                 let (a, b) = c.corner_range();
-                let (a, b) = if c.jump().is_some() { (-a.abs().max(b.abs()), a.abs().max(b.abs())) } else { (a, b) };
+                let (a, b) = if c.jump().is_some() {
+                    (-a.abs().max(b.abs()), a.abs().max(b.abs()))
+                } else {
+                    (a, b)
+                };
                 lo = lo.min(a);
                 hi = hi.max(b);
             } else {

@@ -21,7 +21,13 @@ impl Rng {
 }
 
 fn options(tolerance: f64, max_depth: u8) -> AdfOptions {
-    AdfOptions { tolerance, max_depth, max_cells: 50_000_000, margin: None, band: 0.0 }
+    AdfOptions {
+        tolerance,
+        max_depth,
+        max_cells: 50_000_000,
+        margin: None,
+        band: 0.0,
+    }
 }
 
 /// Max error of the reconstruction against the exact distance at random points within
@@ -68,11 +74,18 @@ fn check_shape<S: SignedDistance + Sync + Copy>(name: &str, shape: S) {
         let exact = |p: DVec3| shape.signed_distance(p);
         let (worst, n, at_max_depth) = band_error(&adf, &exact, 0.1, 7);
         assert!(n >= 1000, "{name}: {n} points");
-        assert!(worst <= tolerance, "{name} at {tolerance}: max error {worst:e} over {n} points, {:?}", adf.stats());
+        assert!(
+            worst <= tolerance,
+            "{name} at {tolerance}: max error {worst:e} over {n} points, {:?}",
+            adf.stats()
+        );
         // Smooth surfaces never reach the maximum depth; the box's distance has creases
         // (its interior medial axis), whose cells stop there with errors of a cell's size.
         if name == "box" {
-            assert!(at_max_depth <= adf.cell_size(10), "{name}: {at_max_depth:e} at the maximum depth");
+            assert!(
+                at_max_depth <= adf.cell_size(10),
+                "{name}: {at_max_depth:e} at the maximum depth"
+            );
         } else {
             assert_eq!(adf.stats().max_depth_leaves, 0, "{name}: {:?}", adf.stats());
         }
@@ -135,7 +148,11 @@ fn ray_hits_match_the_analytic_sphere() {
 }
 
 fn bunny() -> TriMesh {
-    volga_mesh::load_mesh(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/stanford-bunny.obj")).expect("the shared bunny")
+    volga_mesh::load_mesh(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/stanford-bunny.obj"
+    ))
+    .expect("the shared bunny")
 }
 
 #[test]
@@ -143,8 +160,19 @@ fn bunny_signs_match_the_winding_number() {
     let mesh = bunny();
     let source = MeshSource::new(&mesh).unwrap();
     let bounds = mesh.bounds();
-    let adf = Adf::build(&source, AdfOptions { max_depth: 11, ..AdfOptions::relative(3e-3, &bounds) }).unwrap();
-    assert!(adf.stats().jump_leaves > 0, "the bunny's holes give jump leaves: {:?}", adf.stats());
+    let adf = Adf::build(
+        &source,
+        AdfOptions {
+            max_depth: 11,
+            ..AdfOptions::relative(3e-3, &bounds)
+        },
+    )
+    .unwrap();
+    assert!(
+        adf.stats().jump_leaves > 0,
+        "the bunny's holes give jump leaves: {:?}",
+        adf.stats()
+    );
     let bvh = source.bvh();
     let mut rng = Rng(2024);
     let tolerance = adf.options().tolerance;
@@ -183,7 +211,10 @@ fn bunny_signs_match_the_winding_number() {
     }
     assert_eq!(wrong, 0, "{wrong} wrong signs ({within_tolerance} within the tolerance of the surface, {at_max_depth} at the maximum depth)");
     eprintln!("bunny signs: {n} points, {within_tolerance} differ within the tolerance of the surface, {at_max_depth} in maximum-depth leaves, 0 elsewhere");
-    assert!(worst_error <= tolerance, "max error {worst_error:e} > {tolerance:e} outside max-depth leaves");
+    assert!(
+        worst_error <= tolerance,
+        "max error {worst_error:e} > {tolerance:e} outside max-depth leaves"
+    );
     assert_eq!(checked_exact, n / 500);
 }
 
@@ -191,7 +222,11 @@ fn bunny_signs_match_the_winding_number() {
 fn csg_equals_min_and_max_of_exact_distances() {
     let a = Sphere::new(DVec3::new(-0.3, 0.0, 0.0), 0.6).unwrap();
     let b = Sphere::new(DVec3::new(0.35, 0.1, 0.0), 0.5).unwrap();
-    let both = volga_adf::Csg { op: CsgOp::Union, a: ShapeSource(a), b: ShapeSource(b) };
+    let both = volga_adf::Csg {
+        op: CsgOp::Union,
+        a: ShapeSource(a),
+        b: ShapeSource(b),
+    };
     let tolerance = 1e-3;
     let adf_a = Adf::build(&both, options(tolerance, 11)).unwrap();
     let adf_a = adf_a.build_like(&ShapeSource(a)).unwrap();
@@ -214,7 +249,9 @@ fn csg_equals_min_and_max_of_exact_distances() {
             // Each operand is within the tolerance, and min/max are 1-Lipschitz in each;
             // on the crease where the operands are equal (a kink of the result) cells stop
             // at the maximum depth.
-            let crease = (a.signed_distance(p) - (if op == CsgOp::Difference { -1.0 } else { 1.0 }) * b.signed_distance(p)).abs();
+            let crease = (a.signed_distance(p)
+                - (if op == CsgOp::Difference { -1.0 } else { 1.0 }) * b.signed_distance(p))
+            .abs();
             if crease > 2.0 * result.cell_size(11) * 3f64.sqrt() && !result.leaf_at(p).pruned {
                 assert!(err <= tolerance, "{op:?} at {p}: {} vs {e}", result.distance(p));
             }
@@ -231,9 +268,17 @@ fn an_edit_regenerates_only_cells_it_can_change() {
     let stats = adf.edit(&ShapeSource(tool), CsgOp::Difference).unwrap();
     assert!(stats.cells_regenerated > 0);
     // Far fewer cells than building the result from scratch.
-    let exact = volga_adf::Csg { op: CsgOp::Difference, a: ShapeSource(body), b: ShapeSource(tool) };
+    let exact = volga_adf::Csg {
+        op: CsgOp::Difference,
+        a: ShapeSource(body),
+        b: ShapeSource(tool),
+    };
     let full = before.build_like(&exact).unwrap();
-    assert!(stats.cells_regenerated * 3 < full.cell_count(), "{stats:?} vs {} cells", full.cell_count());
+    assert!(
+        stats.cells_regenerated * 3 < full.cell_count(),
+        "{stats:?} vs {} cells",
+        full.cell_count()
+    );
     // Where the tool cannot reach, values are unchanged bit for bit; at the carve they
     // follow the exact difference.
     let mut rng = Rng(9);
@@ -246,7 +291,11 @@ fn an_edit_regenerates_only_cells_it_can_change() {
             assert_eq!(adf.distance(p).to_bits(), before.distance(p).to_bits(), "{p}");
         }
         if exact.abs() < 0.05 {
-            assert!((adf.distance(p) - exact).abs() < 2e-3, "{p}: {} vs {exact}", adf.distance(p));
+            assert!(
+                (adf.distance(p) - exact).abs() < 2e-3,
+                "{p}: {} vs {exact}",
+                adf.distance(p)
+            );
         }
     }
     // Adding the tool back outside the body changes nothing near the far side.
@@ -266,10 +315,17 @@ fn an_edit_regenerates_only_cells_it_can_change() {
 
 #[test]
 fn builds_are_identical_for_one_and_two_threads() {
-    let mesh = unclean::concat(&unclean::uv_sphere(DVec3::ZERO, 1.0, 24, 48), &unclean::uv_sphere(DVec3::new(0.6, 0.2, 0.0), 0.7, 20, 40));
+    let mesh = unclean::concat(
+        &unclean::uv_sphere(DVec3::ZERO, 1.0, 24, 48),
+        &unclean::uv_sphere(DVec3::new(0.6, 0.2, 0.0), 0.7, 20, 40),
+    );
     let source = MeshSource::new(&mesh).unwrap();
     let build = |threads| {
-        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| Adf::build(&source, options(2e-3, 7)).unwrap())
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| Adf::build(&source, options(2e-3, 7)).unwrap())
     };
     let one = build(1);
     let two = build(2);
@@ -286,7 +342,10 @@ fn hard_cases() {
         assert!(matches!(err, AdfError::Tolerance(_)), "{err}");
         assert!(err.to_string().contains("tolerance"));
     }
-    assert!(matches!(Adf::build(&ShapeSource(sphere), options(1e-3, 40)), Err(AdfError::Depth(40))));
+    assert!(matches!(
+        Adf::build(&ShapeSource(sphere), options(1e-3, 40)),
+        Err(AdfError::Depth(40))
+    ));
     // Maximum depth reached: a tolerance no depth-4 tree meets stops at depth 4, finite.
     let shallow = Adf::build(&ShapeSource(sphere), options(1e-9, 4)).unwrap();
     assert_eq!(shallow.stats().depth_reached, 4);
@@ -297,12 +356,26 @@ fn hard_cases() {
         assert!(shallow.distance(p).is_finite() && shallow.gradient(p).is_finite());
     }
     // Too many cells: refused with the size needed, nothing allocated beyond the limit.
-    let err = Adf::build(&ShapeSource(sphere), AdfOptions { max_cells: 500, ..options(1e-6, 12) }).unwrap_err();
+    let err = Adf::build(
+        &ShapeSource(sphere),
+        AdfOptions {
+            max_cells: 500,
+            ..options(1e-6, 12)
+        },
+    )
+    .unwrap_err();
     assert!(matches!(err, AdfError::TooManyCells { limit: 500, .. }), "{err}");
     // A degenerate mesh (every triangle collinear): zero area, builds a finite field.
     let flat = TriMesh::new(vec![DVec3::ZERO, DVec3::X, DVec3::X * 2.0], vec![[0, 1, 2], [2, 1, 0]]).unwrap();
     let source = MeshSource::new(&flat).unwrap();
-    let adf = Adf::build(&source, AdfOptions { margin: Some(0.5), ..options(1e-2, 8) }).unwrap();
+    let adf = Adf::build(
+        &source,
+        AdfOptions {
+            margin: Some(0.5),
+            ..options(1e-2, 8)
+        },
+    )
+    .unwrap();
     for _ in 0..200 {
         let p = rng.in_box(&adf.root_box());
         let d = adf.distance(p);
@@ -338,11 +411,21 @@ fn far_from_the_origin() {
 #[test]
 fn open_and_self_intersecting_meshes_get_the_winding_inside() {
     for (name, mesh) in unclean::corpus() {
-        if mesh.triangle_count() < 4 || mesh.bounds().size().min_element() < 1e-9 || mesh.bounds().center().length() > 1e3 {
+        if mesh.triangle_count() < 4
+            || mesh.bounds().size().min_element() < 1e-9
+            || mesh.bounds().center().length() > 1e3
+        {
             continue; // single triangles, flat sheets and far copies are covered above
         }
         let source = MeshSource::new(&mesh).unwrap();
-        let adf = Adf::build(&source, AdfOptions { max_depth: 7, ..AdfOptions::relative(5e-3, &mesh.bounds()) }).unwrap();
+        let adf = Adf::build(
+            &source,
+            AdfOptions {
+                max_depth: 7,
+                ..AdfOptions::relative(5e-3, &mesh.bounds())
+            },
+        )
+        .unwrap();
         let bvh = source.bvh();
         let mut rng = Rng(77);
         let (mut wrong, mut jump_wrong) = (0, 0);
@@ -358,7 +441,12 @@ fn open_and_self_intersecting_meshes_get_the_winding_inside() {
                 }
             }
         }
-        assert_eq!(wrong, 0, "{name}: {wrong} wrong signs away from the surface, {:?}", adf.stats());
+        assert_eq!(
+            wrong,
+            0,
+            "{name}: {wrong} wrong signs away from the surface, {:?}",
+            adf.stats()
+        );
         assert!(jump_wrong <= 2, "{name}: {jump_wrong} wrong signs in jump leaves");
     }
 }
@@ -368,4 +456,34 @@ fn sources_report_what_they_are() {
     let s = ShapeSource(Sphere::new(DVec3::ZERO, 1.0).unwrap());
     assert!(s.is_exact());
     assert_eq!(s.distance(DVec3::new(2.0, 0.0, 0.0)), 1.0);
+}
+
+#[test]
+fn narrow_band_volume_holds_the_clamped_reconstruction() {
+    let sphere = Sphere::new(DVec3::new(0.05, 0.0, -0.02), 0.7).unwrap();
+    let adf = Adf::build(&ShapeSource(sphere), options(1e-3, 9)).unwrap();
+    let grid = volga_core::Grid::covering(
+        &Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)),
+        glam::UVec3::splat(40),
+    )
+    .unwrap();
+    let w = 3.0 * grid.max_spacing();
+    let volume = adf.to_narrow_band(grid.clone(), w);
+    assert_eq!(volume.density_kind, volga_core::ChannelKind::SignedDistance);
+    let mut checked = 0;
+    for z in 0..40 {
+        for y in 0..40 {
+            for x in 0..40 {
+                let ijk = glam::IVec3::new(x, y, z);
+                let p = grid.transform.index_to_world(ijk.as_dvec3());
+                let expected = adf.distance(p).clamp(-w, w) as f32;
+                assert_eq!(volume.density.get(ijk), expected, "{ijk}");
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 64_000);
+    // Bricks beyond the band are not stored densely.
+    assert!(volume.density.dense_brick_count() < volume.density.brick_count() + 1);
+    assert!(volume.density.dense_brick_count() < 125);
 }

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use volga_accuracy::{run as run_experiments, Size};
+use volga_accuracy::{run_only, Size, EXPERIMENTS, RAW_JSON};
 use volga_io::StagedOutputs;
 
 use crate::failure::{bad_input, failed, Failure};
@@ -16,6 +16,11 @@ pub struct AccuracyArgs {
     /// same files are written.
     #[arg(long)]
     quick: bool,
+    /// Run only this experiment (repeatable; by id, e.g. `adf_tolerance`). Its table and
+    /// plot are written, and its raw figures go to `<id>.json` instead of the shared
+    /// accuracy.json, which keeps the full run's.
+    #[arg(long)]
+    only: Vec<String>,
     /// Output directory (created if missing).
     #[arg(long, default_value = "docs/accuracy")]
     out: PathBuf,
@@ -40,12 +45,28 @@ pub fn run(args: AccuracyArgs) -> Result<(), Failure> {
     }
     std::fs::create_dir_all(out)
         .map_err(|e| bad_input(format!("--out {}: cannot create the directory: {e}", out.display())))?;
+    for id in &args.only {
+        if !EXPERIMENTS.iter().any(|e| e.id == id) {
+            let known: Vec<&str> = EXPERIMENTS.iter().map(|e| e.id).collect();
+            return Err(bad_input(format!(
+                "--only {id}: no such experiment (known: {})",
+                known.join(", ")
+            )));
+        }
+    }
     let size = if args.quick { Size::Quick } else { Size::Full };
     let progress = BarProgress::new();
-    let report = run_experiments(size, &command_line(), &progress);
-    let files = report
+    let report = run_only(size, &command_line(), &progress, &args.only);
+    let mut files = report
         .files()
         .map_err(|e| failed(format!("cannot draw the plots: {e}")))?;
+    if !args.only.is_empty() {
+        for (name, _) in files.iter_mut() {
+            if name == RAW_JSON {
+                *name = format!("{}.json", args.only.join("+"));
+            }
+        }
+    }
     let mut staged = StagedOutputs::new();
     for (name, bytes) in &files {
         staged

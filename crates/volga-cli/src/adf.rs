@@ -110,8 +110,13 @@ fn camera(bounds: &Aabb) -> Result<Camera, Failure> {
     let radius = 0.5 * bounds.size().length();
     let dir = DVec3::new(0.35, 0.45, 1.0).normalize();
     let fov = 30.0f64;
-    Camera::look_at(centre + dir * radius / (fov.to_radians() * 0.5).sin(), centre, DVec3::Y, Projection::Perspective { fov_y_deg: fov })
-        .map_err(|e| failed(e.to_string()))
+    Camera::look_at(
+        centre + dir * radius / (fov.to_radians() * 0.5).sin(),
+        centre,
+        DVec3::Y,
+        Projection::Perspective { fov_y_deg: fov },
+    )
+    .map_err(|e| failed(e.to_string()))
 }
 
 /// Statistics and accuracy as JSON (errors relative to the bounding-box diagonal).
@@ -149,7 +154,10 @@ fn report(b: &Built, args: &AdfArgs) -> Value {
 /// The shaded iso-surface `d = 0` at `size`².
 fn render_setup(size: u32) -> (RenderSettings, Iso) {
     let settings = RenderSettings::new(size, size);
-    let iso = Iso { value: 0.0, colour: SurfaceColour::Constant(Vec3::new(0.85, 0.8, 0.7)) };
+    let iso = Iso {
+        value: 0.0,
+        colour: SurfaceColour::Constant(Vec3::new(0.85, 0.8, 0.7)),
+    };
     (settings, iso)
 }
 
@@ -166,10 +174,14 @@ pub fn run(args: AdfBuildArgs) -> Result<(), Failure> {
     let mut staged = volga_io::StagedOutputs::new();
     let text = serde_json::to_string_pretty(&value).expect("json");
     let io = |e: volga_io::IoError| failed(e.to_string());
-    staged.stage(&args.out.join("adf.json"), |w| w.write_all(text.as_bytes())).map_err(io)?;
+    staged
+        .stage(&args.out.join("adf.json"), |w| w.write_all(text.as_bytes()))
+        .map_err(io)?;
     let rgba = image.to_rgba8();
     staged
-        .stage(&args.out.join("adf.png"), |w| volga_io::encode_png(w, image.width, image.height, &rgba))
+        .stage(&args.out.join("adf.png"), |w| {
+            volga_io::encode_png(w, image.width, image.height, &rgba)
+        })
         .map_err(io)?;
     staged.commit().map_err(io)?;
     println!("{text}");

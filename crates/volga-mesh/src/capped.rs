@@ -63,7 +63,10 @@ impl CappedWinding {
             cap_tris.push([cb, cb + 1, cb + 2]);
         }
         let closed = TriMesh { positions, triangles };
-        let cap_mesh = TriMesh { positions: cap_positions, triangles: cap_tris };
+        let cap_mesh = TriMesh {
+            positions: cap_positions,
+            triangles: cap_tris,
+        };
         CappedWinding {
             closed: Bvh::build(&closed),
             caps: (cap_count > 0).then(|| Bvh::build(&cap_mesh)),
@@ -119,7 +122,9 @@ impl CappedWinding {
 
     /// The integer winding number `I` of `M + C` at `p`, certified; `None` on a sheet.
     fn integer_part(&self, p: DVec3, cost: &mut InsideCost) -> Option<i64> {
-        let closed = self.closed.winding_number_bounded(p, None, |v, e| e < 0.5 - (v - v.round()).abs());
+        let closed = self
+            .closed
+            .winding_number_bounded(p, None, |v, e| e < 0.5 - (v - v.round()).abs());
         cost.terms += closed.terms as u64;
         (closed.error < 0.5 - (closed.value - closed.value.round()).abs()).then(|| closed.value.round() as i64)
     }
@@ -128,7 +133,10 @@ impl CappedWinding {
     /// `p` of radius `min(distance to the mesh, cap distance)` meets no sheet of `M + C`, so
     /// `I` is constant in it.
     pub fn cap_distance(&self, p: DVec3) -> f64 {
-        self.caps.as_ref().and_then(|c| c.closest(p)).map_or(f64::INFINITY, |c| c.distance)
+        self.caps
+            .as_ref()
+            .and_then(|c| c.closest(p))
+            .map_or(f64::INFINITY, |c| c.distance)
     }
 
     /// The winding number `w(p) = I − w_C(p)` with `w_C` summed to within `tolerance`
@@ -137,7 +145,10 @@ impl CappedWinding {
         let mut cost = InsideCost::default();
         match self.integer_part(p, &mut cost) {
             Some(i) => {
-                let cap = self.caps.as_ref().map_or(0.0, |c| c.winding_number_bounded(p, None, |_, e| e <= tolerance).value);
+                let cap = self
+                    .caps
+                    .as_ref()
+                    .map_or(0.0, |c| c.winding_number_bounded(p, None, |_, e| e <= tolerance).value);
                 i as f64 - cap
             }
             None => self.mesh.winding_number_bounded(p, None, |_, e| e <= tolerance).value,
@@ -178,7 +189,11 @@ pub fn cap_triangles(mesh: &TriMesh) -> Vec<[DVec3; 3]> {
             }
         }
     }
-    let mut edges: Vec<(u32, u32, i64)> = net.into_iter().filter(|&(_, m)| m != 0).map(|((a, b), m)| (a, b, m)).collect();
+    let mut edges: Vec<(u32, u32, i64)> = net
+        .into_iter()
+        .filter(|&(_, m)| m != 0)
+        .map(|((a, b), m)| (a, b, m))
+        .collect();
     edges.sort_unstable();
     if edges.is_empty() {
         return Vec::new();

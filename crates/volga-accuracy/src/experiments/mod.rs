@@ -14,6 +14,7 @@ use volga_core::Progress;
 
 use crate::KnobResult;
 
+mod adf_tolerance;
 mod binary_vs_antialiased;
 mod filter_width;
 mod narrow_band;
@@ -91,6 +92,7 @@ pub const EXPERIMENTS: &[Experiment] = &[
     filter_width::EXPERIMENT,
     narrow_band::EXPERIMENT,
     render_step::EXPERIMENT,
+    adf_tolerance::EXPERIMENT,
 ];
 
 /// The grid of `n³` voxels whose cells tile the scene box `[−1, 1]³`.
