@@ -146,6 +146,7 @@ impl Adf {
                 max_depth: self.options.max_depth,
                 max_cells: self.options.max_cells,
                 band: self.options.band,
+                may_jump: false,
                 cells: AtomicUsize::new(0),
                 evaluations: AtomicU64::new(0),
             },
@@ -192,11 +193,7 @@ impl Adf {
         }
         let cell = self.cells[index];
         let samples: [Sample; 8] = {
-            let mut s = [Sample {
-                value: 0.0,
-                region: None,
-                clearance: 0.0,
-            }; 8];
+            let mut s = [Sample { value: 0.0, region: None }; 8];
             for (b, s) in s.iter_mut().enumerate() {
                 *s = editor.builder.eval(corner_position(min, size, b), None)?;
             }

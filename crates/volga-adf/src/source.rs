@@ -21,14 +21,13 @@ pub trait DistanceSource: Sync {
     fn distance(&self, world_pos: DVec3) -> f64;
 
     /// The distance with what the source learnt on the way ([`Sample`]), given a nearby
-    /// point it sampled before (`near`), which it may use to skip work (a mesh reuses the
-    /// integer part of the winding number when no surface lies between the two points).
+    /// point it sampled before (`near`), which it may use to skip work (a mesh carries
+    /// the integer part of its winding number over by counting the sheets in between).
     /// The value must equal [`DistanceSource::distance`] exactly.
     fn sample(&self, world_pos: DVec3, _near: Option<(DVec3, &Sample)>) -> Sample {
         Sample {
             value: self.distance(world_pos),
             region: None,
-            clearance: 0.0,
         }
     }
 
@@ -38,6 +37,13 @@ pub trait DistanceSource: Sync {
     /// function at its cell corners to place the jump. `None`: the distance has no jumps.
     fn sign_field(&self, _world_pos: DVec3) -> Option<f64> {
         None
+    }
+
+    /// Whether the sign may change away from any surface (an open mesh's inside across a
+    /// hole). Then a cell far from the surface is pruned only if its test points confirm
+    /// its corners' sign.
+    fn may_jump(&self) -> bool {
+        false
     }
     /// World box containing the surface (the zero set); the ADF's root cube encloses it.
     fn bounds(&self) -> Aabb;
@@ -52,11 +58,9 @@ pub trait DistanceSource: Sync {
 pub struct Sample {
     /// The signed distance.
     pub value: f64,
-    /// An integer constant in every ball of radius `clearance` around the point, that the
-    /// source can reuse for points in that ball (a mesh: the closed winding number `I`).
+    /// An integer the source can carry to nearby points itself (a mesh: the winding
+    /// number `I` of the mesh closed by caps, carried by counting sheets crossed).
     pub region: Option<i64>,
-    /// Radius of a ball around the point free of the sheets where `region` changes.
-    pub clearance: f64,
 }
 
 impl<S: DistanceSource + ?Sized> DistanceSource for &S {
@@ -68,6 +72,9 @@ impl<S: DistanceSource + ?Sized> DistanceSource for &S {
     }
     fn sign_field(&self, p: DVec3) -> Option<f64> {
         (**self).sign_field(p)
+    }
+    fn may_jump(&self) -> bool {
+        (**self).may_jump()
     }
     fn bounds(&self) -> Aabb {
         (**self).bounds()
@@ -86,6 +93,9 @@ impl<S: DistanceSource + ?Sized> DistanceSource for Box<S> {
     }
     fn sign_field(&self, p: DVec3) -> Option<f64> {
         (**self).sign_field(p)
+    }
+    fn may_jump(&self) -> bool {
+        (**self).may_jump()
     }
     fn bounds(&self) -> Aabb {
         (**self).bounds()
@@ -184,10 +194,10 @@ impl DistanceSource for MeshSource {
     }
 
     /// The unsigned distance to the nearest triangle, and the sign from the winding number
-    /// `w = I − w_C` (`volga_mesh::CappedWinding`): the integer `I` is taken from `near`
-    /// when `p` lies in the ball around it that no sheet of the mesh or its caps enters
-    /// (`I` is constant there), otherwise computed; `w_C` (the caps alone) is always
-    /// computed, certified against `I − ½`.
+    /// `w = I − w_C` (`volga_mesh::CappedWinding`): the integer `I` is carried over from
+    /// `near` by counting the sheets of the mesh and its caps the segment between them
+    /// crosses (`CappedWinding::integer_along`), or computed when that count is not
+    /// certain; `w_C` (the caps alone) is always computed, certified against `I − ½`.
     fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
         self.queries.fetch_add(1, Ordering::Relaxed);
         // The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
@@ -203,14 +213,10 @@ impl DistanceSource for MeshSource {
             return Sample {
                 value: 0.0,
                 region: None,
-                clearance: 0.0,
             };
         }
-        let clearance = unsigned.min(self.winding.cap_distance(p));
-        let known = near.and_then(|(q, s)| match s.region {
-            Some(i) if (p - q).length() < s.clearance => Some(i),
-            _ => None,
-        });
+        // `I` carried over from the neighbour by counting the sheets between them.
+        let known = near.and_then(|(q, s)| s.region.and_then(|i| self.winding.integer_along(q, i, p)));
         if known.is_none() {
             self.integer_queries.fetch_add(1, Ordering::Relaxed);
         }
@@ -219,8 +225,12 @@ impl DistanceSource for MeshSource {
         Sample {
             value: if inside { -unsigned } else { unsigned },
             region: integer,
-            clearance: if integer.is_some() { clearance } else { 0.0 },
         }
+    }
+
+    /// Only with holes (caps closing a boundary).
+    fn may_jump(&self) -> bool {
+        self.winding.cap_triangle_count() > 0
     }
 
     /// `½ − w(p)`, with `w_C` summed to 1e-6.

@@ -205,6 +205,8 @@ pub(crate) struct Builder<'a, S: ?Sized> {
     pub max_depth: u8,
     pub max_cells: usize,
     pub band: f64,
+    /// The source's sign may jump away from any surface ([`DistanceSource::may_jump`]).
+    pub may_jump: bool,
     pub cells: AtomicUsize,
     pub evaluations: AtomicU64,
 }
@@ -279,6 +281,34 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         Ok(())
     }
 
+    /// The 27 samples of a cell's 3×3×3 lattice: its corners and its 19 test points (each
+    /// given the nearest corner that knows its region).
+    fn lattice(&self, min: DVec3, size: f64, samples: &[Sample; 8]) -> Result<[Sample; 27], AdfError> {
+        let mut lattice = [None; 27];
+        for b in 0..8 {
+            lattice[corner_lattice(b)] = Some(samples[b]);
+        }
+        let half = size * 0.5;
+        for k in 0..3 {
+            for j in 0..3 {
+                for i in 0..3 {
+                    let l = lattice_index(i, j, k);
+                    if lattice[l].is_some() {
+                        continue;
+                    }
+                    let p = min + DVec3::new(i as f64, j as f64, k as f64) * half;
+                    // The nearest corner that knows its region (the shortest carry).
+                    let near = (0..8)
+                        .filter(|&b| samples[b].region.is_some())
+                        .map(|b| (corner_position(min, size, b), &samples[b]))
+                        .min_by(|a, b| (p - a.0).length_squared().total_cmp(&(p - b.0).length_squared()));
+                    lattice[l] = Some(self.eval(p, near)?);
+                }
+            }
+        }
+        Ok(lattice.map(|s| s.expect("every lattice point is sampled")))
+    }
+
     /// Decides one cell: a leaf (with its sign-field corners if it is a jump leaf), or
     /// the 3×3×3 lattice of samples its children take their corners from.
     fn decide(
@@ -295,12 +325,15 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         let far = corners.iter().all(|&c| (c as f64).abs() > diagonal);
         let positive = corners.iter().filter(|&&c| c > 0.0).count();
         let one_sign = positive == 0 || positive == 8;
-        if far && one_sign && corners.iter().all(|&c| (c as f64).abs() > diagonal + self.band) {
+        // No surface passes through (1-Lipschitz); for a source whose sign can jump away
+        // from any surface the test points must confirm the corners' sign too.
+        let prunable = far && one_sign && corners.iter().all(|&c| (c as f64).abs() > diagonal + self.band);
+        if prunable && (!self.may_jump || depth >= self.max_depth) {
             stats.leaf(depth >= self.max_depth, true, false);
             return Ok(Decision::Leaf(corners, None));
         }
         // Far from any surface yet of both signs: the distance jumps inside this cell.
-        let jump = if far {
+        let jump = if far && !one_sign {
             let mut w = [0f32; 8];
             let mut known = true;
             for (b, w) in w.iter_mut().enumerate() {
@@ -317,33 +350,17 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             stats.leaf(true, false, jump.is_some());
             return Ok(Decision::Leaf(corners, jump));
         }
-        let magnitudes = corners.map(f32::abs);
-        let mut lattice = [None; 27];
-        for b in 0..8 {
-            lattice[corner_lattice(b)] = Some(samples[b]);
+        let lattice = self.lattice(min, size, samples)?;
+        if prunable && lattice.iter().all(|s| (s.value > 0.0) == (positive == 8)) {
+            stats.leaf(false, true, false);
+            return Ok(Decision::Leaf(corners, None));
         }
-        let half = size * 0.5;
+        let magnitudes = corners.map(f32::abs);
         let mut split = false;
         for k in 0..3 {
             for j in 0..3 {
                 for i in 0..3 {
-                    let l = lattice_index(i, j, k);
-                    if lattice[l].is_some() {
-                        continue;
-                    }
-                    let offset = DVec3::new(i as f64, j as f64, k as f64);
-                    let p = min + offset * half;
-                    // The corner whose sheet-free ball reaches deepest past `p`.
-                    let near = (0..8)
-                        .map(|b| (corner_position(min, size, b), &samples[b]))
-                        .max_by(|a, b| {
-                            let ma = a.1.clearance - (p - a.0).length();
-                            let mb = b.1.clearance - (p - b.0).length();
-                            ma.total_cmp(&mb)
-                        });
-                    let sample = self.eval(p, near)?;
-                    lattice[l] = Some(sample);
-                    let t = offset * 0.5;
+                    let t = DVec3::new(i as f64, j as f64, k as f64) * 0.5;
                     let reconstructed = match &jump {
                         None => trilinear(&corners, t),
                         Some(w) => {
@@ -355,7 +372,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                             }
                         }
                     };
-                    if (reconstructed - sample.value).abs() > self.tolerance * TEST_MARGIN {
+                    if (reconstructed - lattice[lattice_index(i, j, k)].value).abs() > self.tolerance * TEST_MARGIN {
                         split = true;
                     }
                 }
@@ -366,9 +383,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             return Ok(Decision::Leaf(corners, jump));
         }
         self.count(8)?;
-        Ok(Decision::Split(Box::new(
-            lattice.map(|s| s.expect("every lattice point is sampled")),
-        )))
+        Ok(Decision::Split(Box::new(lattice)))
     }
 
     /// Builds the subtree of one cell into `out[index]` and onwards (sequential).
@@ -613,6 +628,7 @@ impl Adf {
             max_depth: options.max_depth,
             max_cells: options.max_cells,
             band: options.band,
+            may_jump: source.may_jump(),
             cells: AtomicUsize::new(1),
             evaluations: AtomicU64::new(0),
         };

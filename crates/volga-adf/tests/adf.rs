@@ -410,6 +410,9 @@ fn far_from_the_origin() {
 
 #[test]
 fn open_and_self_intersecting_meshes_get_the_winding_inside() {
+    // Signs are right wherever the surface is farther than the tolerance (nearer, the
+    // reconstruction may move the zero set by its error) and outside maximum-depth leaves
+    // (a hole's rim, where the sign jumps without a surface).
     for (name, mesh) in unclean::corpus() {
         if mesh.triangle_count() < 4
             || mesh.bounds().size().min_element() < 1e-9

@@ -4,7 +4,7 @@
 //! Take the mesh `M` as a 2-chain. Its boundary `∂M` (each welded edge with the net
 //! number of times triangles run along it, forwards minus backwards) is a 1-cycle for any
 //! mesh: closed, open, non-manifold, self-intersecting or inconsistently oriented. Close
-//! it with cones `C` (one apex per connected component of the cycle, at the component's
+//! it with cones `C` (one apex per connected component of the cycle, near the component's
 //! vertex centroid): `M + C` is a closed chain, so `I = w_M + w_C` is an **integer** off
 //! `M ∪ C`. Hence `w_M(p) ≥ ½ ⇔ w_C(p) ≤ I(p) − ½`:
 //!
@@ -29,11 +29,16 @@ use crate::{Bvh, TriMesh};
 pub struct CappedWinding {
     /// `M + C`.
     closed: Bvh,
+    /// `M + C` as triangles (mesh ids of `closed`), for segment crossings.
+    closed_triangles: Vec<[DVec3; 3]>,
     /// `C` alone (`None` for a closed mesh).
     caps: Option<Bvh>,
     /// `M` alone, for the rare fallback on cap triangles.
     mesh: Bvh,
     cap_triangles: usize,
+    /// Size of the mesh (its box's diagonal plus its distance from the origin): the scale
+    /// of "on a cap" tests.
+    scale: f64,
 }
 
 /// What one inside query cost.
@@ -69,9 +74,14 @@ impl CappedWinding {
         };
         CappedWinding {
             closed: Bvh::build(&closed),
+            closed_triangles: (0..closed.triangle_count()).map(|i| closed.triangle(i)).collect(),
             caps: (cap_count > 0).then(|| Bvh::build(&cap_mesh)),
             mesh: Bvh::build(mesh),
             cap_triangles: cap_count,
+            scale: {
+                let b = mesh.bounds();
+                b.size().length() + b.min.abs().max(b.max.abs()).max_element()
+            },
         }
     }
 
@@ -120,8 +130,69 @@ impl CappedWinding {
         (inside, Some(integer), cost)
     }
 
+    /// `I(to)` from `I(from)`: `I` changes by ±1 across each sheet of `M + C` the segment
+    /// crosses (+1 entering a triangle's back, the side its normal points away from).
+    /// Each crossing is decided by the signs of floating-point triple products that are
+    /// accepted only when they exceed a bound on their rounding error (1e-12 of the
+    /// product of the magnitudes, far above the `f64` error of a triple product), so the
+    /// count is exact; a segment through an edge, a corner or within a sheet's rounding
+    /// band gets `None` (the caller asks the winding number instead). Zero-area
+    /// triangles are skipped: `I` does not jump across them.
+    pub fn integer_along(&self, from: DVec3, from_integer: i64, to: DVec3) -> Option<i64> {
+        if from == to {
+            return Some(from_integer);
+        }
+        let query = volga_core::Aabb::new(from.min(to), from.max(to));
+        let mut ids = Vec::new();
+        self.closed.boxes_overlapping(&query, &mut ids);
+        let mut integer = from_integer;
+        let segment = to - from;
+        for id in ids {
+            let [a, b, c] = self.closed_triangles[id as usize];
+            let normal = (b - a).cross(c - a);
+            if normal == DVec3::ZERO {
+                continue;
+            }
+            // Plane sides of the endpoints: positive in front (along the normal).
+            let side = |d: DVec3| -> Option<f64> {
+                let v = -(a - d).dot((b - d).cross(c - d));
+                let bound = 1e-12 * (a - d).length() * (b - d).length() * (c - d).length();
+                (v.abs() > bound).then_some(v)
+            };
+            let (s_from, s_to) = (side(from)?, side(to)?);
+            if (s_from > 0.0) == (s_to > 0.0) {
+                continue;
+            }
+            // Which side of each edge the line from → to passes.
+            let edge = |u: DVec3, v: DVec3| -> Option<f64> {
+                let w = (u - from).cross(v - from).dot(segment);
+                let bound = 1e-12 * (u - from).length() * (v - from).length() * segment.length();
+                (w.abs() > bound).then_some(w)
+            };
+            let known = [edge(a, b), edge(b, c), edge(c, a)];
+            let positive = known.iter().filter(|e| matches!(e, Some(v) if *v > 0.0)).count();
+            let negative = known.iter().filter(|e| matches!(e, Some(v) if *v < 0.0)).count();
+            if positive > 0 && negative > 0 {
+                continue; // the line passes outside the triangle
+            }
+            if positive + negative < 3 {
+                return None; // through an edge or a corner, within rounding
+            }
+            integer += if s_from > 0.0 { 1 } else { -1 };
+        }
+        Some(integer)
+    }
+
     /// The integer winding number `I` of `M + C` at `p`, certified; `None` on a sheet.
+    ///
+    /// Off the sheets the true sum is an integer, so an estimate within `½ − |v − round v|`
+    /// of it proves `round v`. On a sheet the sum is not an integer (a principal value),
+    /// so points on (or within rounding of) a cap triangle are refused here; points on the
+    /// mesh itself have distance 0 and never need a sign.
     fn integer_part(&self, p: DVec3, cost: &mut InsideCost) -> Option<i64> {
+        if self.cap_distance(p) <= 1e-12 * self.scale {
+            return None;
+        }
         let closed = self
             .closed
             .winding_number_bounded(p, None, |v, e| e < 0.5 - (v - v.round()).abs());
@@ -158,8 +229,9 @@ impl CappedWinding {
 
 /// The cones closing the mesh's boundary cycle: for each boundary edge `a → b` of net
 /// multiplicity `m ≠ 0`, `|m|` copies of `(b, a, apex)` (or `(a, b, apex)` for `m < 0`),
-/// with one apex per connected component of the cycle at its vertices' centroid. Vertices
-/// are welded by exact position, so split seams are not boundaries.
+/// with one apex per connected component of the cycle near its vertices' centroid (lifted
+/// by 7 % of the component's radius). Vertices are welded by exact position, so split
+/// seams are not boundaries.
 pub fn cap_triangles(mesh: &TriMesh) -> Vec<[DVec3; 3]> {
     let mut ids: FxHashMap<[u64; 3], u32> = FxHashMap::default();
     let mut welded = Vec::with_capacity(mesh.positions.len());
@@ -229,11 +301,24 @@ pub fn cap_triangles(mesh: &TriMesh) -> Vec<[DVec3; 3]> {
         e.0 += points[v as usize];
         e.1 += 1.0;
     }
+    // Each component's apex: its vertex centroid, lifted off by a small odd offset (7 % of
+    // the component's radius along a fixed direction with no simple ratios), so cap planes
+    // rarely pass through lattice points a caller samples (points on a cap need the slow
+    // path, see `integer_part`).
+    let mut radius: FxHashMap<u32, f64> = FxHashMap::default();
+    for &(a, b, _) in &edges {
+        let r = find(&mut parent, a);
+        let (sum, n) = sums[&r];
+        let c = sum / n;
+        let e = radius.entry(r).or_insert(0.0);
+        *e = e.max((points[a as usize] - c).length()).max((points[b as usize] - c).length());
+    }
+    let lift = DVec3::new(0.318_309_886, 0.271_828_183, 0.414_213_562).normalize();
     let mut caps = Vec::new();
     for &(a, b, m) in &edges {
         let r = find(&mut parent, a);
         let (sum, n) = sums[&r];
-        let apex = sum / n;
+        let apex = sum / n + lift * (0.07 * radius[&r]);
         let (pa, pb) = (points[a as usize], points[b as usize]);
         let tri = if m > 0 { [pb, pa, apex] } else { [pa, pb, apex] };
         for _ in 0..m.unsigned_abs() {
