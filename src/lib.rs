@@ -31,6 +31,7 @@
 //! assert!((field.value(DVec3::new(26.0, 16.0, 16.0)) - 0.5).abs() < 1e-6);
 //! ```
 
+pub use volga_adf as adf;
 pub use volga_core as core;
 pub use volga_cvg as cvg;
 pub use volga_io as io;

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use volga_accuracy::{run as run_experiments, run_only, Size, RAW_JSON};
+use volga_accuracy::{run as run_experiments, run_only, Size, EXPERIMENTS, RAW_JSON};
 use volga_io::StagedOutputs;
 
 use crate::failure::{bad_input, failed, Failure};
@@ -44,6 +44,15 @@ pub fn run(args: AccuracyArgs) -> Result<(), Failure> {
     }
     std::fs::create_dir_all(out)
         .map_err(|e| bad_input(format!("--out {}: cannot create the directory: {e}", out.display())))?;
+    for id in &args.only {
+        if !EXPERIMENTS.iter().any(|e| e.id == id) {
+            let known: Vec<&str> = EXPERIMENTS.iter().map(|e| e.id).collect();
+            return Err(bad_input(format!(
+                "--only {id}: no such experiment (known: {})",
+                known.join(", ")
+            )));
+        }
+    }
     let size = if args.quick { Size::Quick } else { Size::Full };
     let progress = BarProgress::new();
     let report = if args.only.is_empty() {

@@ -32,6 +32,8 @@ pub enum BenchCommand {
     Noise(crate::bench_noise::NoiseBenchArgs),
     /// Sculpt edit latency, memory, re-render and mesh extraction against OpenVDB and scikit-image, as JSON.
     Sculpt(crate::bench_sculpt::SculptBenchArgs),
+    /// Build an ADF of a mesh: build time, cells, bytes, errors, render speed, as JSON.
+    Adf(crate::adf::AdfBenchArgs),
 }
 
 #[derive(Args)]
@@ -58,6 +60,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
         BenchCommand::Render(args) => return crate::bench_render::run(args),
         BenchCommand::Noise(args) => return crate::bench_noise::run(args),
         BenchCommand::Sculpt(args) => return crate::bench_sculpt::run(args),
+        BenchCommand::Adf(args) => return crate::adf::bench(args),
     };
     let job_args = &args.job;
     let binary = job_args.spec()?.is_binary();

@@ -4,6 +4,7 @@
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
 
 mod accuracy;
+mod adf;
 mod bench;
 mod bench_noise;
 mod bench_render;
@@ -53,6 +54,9 @@ enum Command {
     Validate(validate::ValidateArgs),
     /// Apply a stroke file to a saved sculpt (or its start object); write the sculpt, a mesh, voxels, an image.
     Sculpt(sculpt::SculptArgs),
+    /// Build an adaptively sampled distance field of a mesh: its statistics, accuracy and a
+    /// shaded render (adf.json, adf.png in --out).
+    Adf(adf::AdfBuildArgs),
     /// Time a job warm, in one process (for benchmarks; see docs/BENCHMARKS.md).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -168,6 +172,13 @@ fn main() -> ExitCode {
             }
         },
         Command::Sculpt(args) => match sculpt::run(args) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(f) => {
+                eprintln!("error: {}", f.message);
+                ExitCode::from(f.code)
+            }
+        },
+        Command::Adf(args) => match adf::run(args) {
             Ok(()) => ExitCode::SUCCESS,
             Err(f) => {
                 eprintln!("error: {}", f.message);

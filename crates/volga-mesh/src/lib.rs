@@ -48,6 +48,7 @@
 //! ```
 
 mod bvh;
+mod capped;
 mod closest;
 mod error;
 pub mod extract;
@@ -62,6 +63,7 @@ mod winding;
 mod write;
 
 pub use bvh::{Bvh, Closest, WindingBound, FAR_FIELD_BETA};
+pub use capped::{cap_triangles, CappedWinding, InsideCost};
 pub use closest::{closest_point_on_segment, closest_point_on_triangle, point_triangle_distance_squared, Feature};
 pub use error::{InvalidMesh, MeshError};
 pub use extract::{extract_surface, extract_surface_with, ExtractError, Extraction, Surface, VertexPlacement};

@@ -4,7 +4,7 @@
 //! virtual call per sample.
 
 use glam::DVec3;
-use volga_core::{Aabb, Field};
+use volga_core::{Aabb, Field, FieldKind};
 
 use crate::{OrientedBoxFilter, SignedDistance};
 
@@ -104,6 +104,12 @@ impl<S: SignedDistance> DistanceField<S> {
 impl<S: SignedDistance + Sync> Field for DistanceField<S> {
     fn bounds(&self) -> Aabb {
         self.bounds
+    }
+
+    /// A signed distance (negative inside), so the renderer finds the inside where the
+    /// value is ≤ the iso value and orients normals along `+∇`.
+    fn kind(&self) -> FieldKind {
+        FieldKind::SignedDistance
     }
 
     fn background(&self) -> f64 {

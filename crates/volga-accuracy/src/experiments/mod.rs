@@ -14,6 +14,7 @@ use volga_core::Progress;
 
 use crate::KnobResult;
 
+mod adf_tolerance;
 mod binary_vs_antialiased;
 mod filter_width;
 mod narrow_band;
@@ -113,6 +114,7 @@ pub const EXPERIMENTS: &[Experiment] = &[
     narrow_band::EXPERIMENT,
     render_step::EXPERIMENT,
     render_filters::EXPERIMENT,
+    adf_tolerance::EXPERIMENT,
 ];
 
 /// The names of the files experiments attach ([`Context::attach`]), in order.

@@ -1,0 +1,82 @@
+//! # volga-adf — adaptively sampled distance fields
+//!
+//! An ADF (Frisken, Perry, Rockwood & Jones 2000; survey §17.9) is an octree whose cells
+//! store the signed distance at their 8 corners; the distance anywhere is the trilinear
+//! reconstruction inside the leaf containing the point. A cell is split while that
+//! reconstruction misses the true distance by more than a tolerance at its 19 test points
+//! (centre, face centres, edge midpoints), down to a maximum depth, so cells are large
+//! where the surface is flat and small where it curves or has sharp features. Cells
+//! whose corners are all of one sign and farther from the surface than the cell's
+//! diagonal are leaves without tests (Frisken's pruning: no surface passes through them).
+//!
+//! * **Build** ([`Adf::build`]) from any [`DistanceSource`]: a triangle mesh
+//!   ([`MeshSource`]: exact distance, sign by the generalized winding number, proven per
+//!   point, so the open Stanford bunny gets the same inside as the voxelizer's), a shape
+//!   of the geometry layer ([`ShapeSource`]), CSG trees of sources ([`Csg`]), a sampled
+//!   signed-distance volume ([`FieldSource`]), or another ADF. The top levels are built in
+//!   parallel; the tree is identical for any thread count.
+//! * **Queries**: [`Adf::distance`], [`Adf::gradient`] (the trilinear cell's analytic
+//!   derivative), [`Adf::closest_point`], [`Adf::inside`], [`Adf::range`] (conservative
+//!   bounds over a box), [`Adf::ray_hit`] (the cell structure walked with sphere-tracing
+//!   steps, the first crossing found exactly in the leaf where it lies).
+//! * **Rendering**: an `Adf` is a [`volga_core::Field`] of signed-distance kind, so the
+//!   raycaster renders it directly, skipping empty space with per-cell ranges.
+//! * **CSG and edits** ([`Adf::combine`], [`Adf::edit`]): union, intersection and
+//!   difference with another ADF or any source, regenerating only the cells the operation
+//!   can change (the Kizamu approach of Perry & Frisken 2001); counted in [`EditStats`].
+//!
+//! ## Precision
+//! Geometry is `f64` world space (`world_*`): the root cube, cell corners and queries, so
+//! an ADF at 1e6 resolves cells down to 1e-9 of a unit. Stored corner distances are `f32`
+//! payloads (half the memory of `f64`; their rounding, ≤ 6e-8 relative to the value, is
+//! included in the build's tolerance checks because the build tests the reconstruction
+//! from the rounded corners).
+//!
+//! ## Guarantees and their limits
+//! The tolerance is checked at each leaf's 19 test points (Frisken's criterion, with the
+//! safety factor [`TEST_MARGIN`]), not everywhere in the cell; leaves at the maximum depth are not checked (they are the
+//! resolution limit: sharp edges, where the signed distance has a crease, and, for open
+//! meshes, the surface across a hole where the winding-number sign jumps). Pruned leaves
+//! carry the right sign everywhere (1-Lipschitz argument) but not the tolerance. The
+//! accuracy figures in `docs/ADF.md` are measured at random points against exact distance.
+
+mod convert;
+mod edit;
+mod field;
+mod measure;
+mod ray;
+mod source;
+mod tree;
+
+pub use edit::EditStats;
+pub use measure::{measure_errors, ErrorStats};
+pub use ray::RayHit;
+pub use source::{Csg, CsgOp, DistanceSource, FieldSource, MeshSource, Sample, ShapeSource};
+pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};
+
+use volga_core::FieldKind;
+
+/// Why an ADF could not be built or edited.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum AdfError {
+    #[error("tolerance must be a finite number > 0, got {0} (a tolerance of 0 would split every curved cell down to the maximum depth)")]
+    Tolerance(f64),
+    #[error("max_depth {0} exceeds the supported {MAX_SUPPORTED_DEPTH}")]
+    Depth(u8),
+    #[error("band must be finite and ≥ 0, got {0}")]
+    Band(f64),
+    #[error("margin must be finite and ≥ 0, got {0}")]
+    Margin(f64),
+    #[error("nothing to build from: {0}")]
+    EmptySource(String),
+    #[error("the source's value is not finite at {0:?}")]
+    NonFinite([f64; 3]),
+    #[error("a {0:?} field is not a signed distance")]
+    NotADistance(FieldKind),
+    #[error(
+        "the ADF would exceed {limit} cells ({bytes} bytes needed so far); raise the tolerance or lower max_depth"
+    )]
+    TooManyCells { limit: usize, bytes: u64 },
+    #[error("CSG operands must share their root cube and depth limit (build the second with Adf::build_like)")]
+    Mismatched,
+}

@@ -1,0 +1,214 @@
+//! `volga adf` (build an ADF from a mesh, write its statistics and a render) and
+//! `volga bench adf` (time the build, measure its accuracy, render speed; one JSON).
+//!
+//! Tolerances are fractions of the mesh's bounding-box diagonal, and so are the reported
+//! errors (`max_error`, `rms_error`): measured at points within 2 % of the diagonal of
+//! the surface against the exact signed distance (nearest triangle, certified winding
+//! sign).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+use glam::{DVec3, Vec3};
+use serde_json::{json, Value};
+use volga_adf::{measure_errors, Adf, AdfOptions, MeshSource};
+use volga_core::{Aabb, NoProgress};
+use volga_render::{Camera, Iso, Projection, RenderSettings, Renderer, SurfaceColour};
+
+use crate::failure::{bad_input, failed, Failure};
+
+#[derive(Args, Clone)]
+pub struct AdfArgs {
+    /// Triangle mesh (.obj, .gltf, .glb).
+    pub mesh: PathBuf,
+    /// Tolerance as a fraction of the bounding-box diagonal.
+    #[arg(long, default_value_t = 1e-4)]
+    pub tolerance: f64,
+    /// Maximum octree depth (the root cube is level 0).
+    #[arg(long, default_value_t = 12)]
+    pub max_depth: u8,
+    /// Band around the surface (fraction of the diagonal) kept free of pruned leaves, so
+    /// the tolerance holds in all of it (0: Frisken's pruning, accuracy at the surface).
+    #[arg(long, default_value_t = 0.0)]
+    pub band: f64,
+    /// Points (within 2 % of the diagonal of the surface) the errors are measured at.
+    #[arg(long, default_value_t = 20_000)]
+    pub points: usize,
+    /// Image size of the render (square).
+    #[arg(long, default_value_t = 512)]
+    pub size: u32,
+}
+
+#[derive(Args)]
+pub struct AdfBuildArgs {
+    #[command(flatten)]
+    pub adf: AdfArgs,
+    /// Output directory: adf.json (statistics) and adf.png (shaded render).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(Args)]
+pub struct AdfBenchArgs {
+    #[command(flatten)]
+    pub adf: AdfArgs,
+    /// Timed builds; the median is reported.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..))]
+    pub repeat: u64,
+    /// Timed frames of the render; the median is reported.
+    #[arg(long, default_value_t = 10)]
+    pub frames: usize,
+    /// Print one JSON object (the only output format; accepted for symmetry with the
+    /// other benchmarks).
+    #[arg(long)]
+    pub json: bool,
+}
+
+struct Built {
+    mesh_bounds: Aabb,
+    source: MeshSource,
+    adf: Adf,
+    build_times: Vec<f64>,
+}
+
+fn build(args: &AdfArgs, repeat: u64) -> Result<Built, Failure> {
+    let mesh = volga_mesh::load_mesh(&args.mesh).map_err(|e| bad_input(e.to_string()))?;
+    let source = MeshSource::new(&mesh).map_err(|e| bad_input(format!("{}: {e}", args.mesh.display())))?;
+    let bounds = mesh.bounds();
+    let options = AdfOptions {
+        max_depth: args.max_depth,
+        band: args.band * bounds.size().length(),
+        ..AdfOptions::relative(args.tolerance, &bounds)
+    };
+    let mut times = Vec::new();
+    let mut adf = None;
+    for _ in 0..repeat {
+        drop(adf.take());
+        let start = Instant::now();
+        let built = Adf::build(&source, options).map_err(|e| bad_input(format!("--tolerance/--max-depth: {e}")))?;
+        times.push(start.elapsed().as_secs_f64());
+        adf = Some(built);
+    }
+    Ok(Built {
+        mesh_bounds: bounds,
+        source,
+        adf: adf.expect("at least one build"),
+        build_times: times,
+    })
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[s.len() / 2]
+}
+
+/// A camera in front of and above `bounds`, framing it.
+fn camera(bounds: &Aabb) -> Result<Camera, Failure> {
+    let centre = bounds.center();
+    let radius = 0.5 * bounds.size().length();
+    let dir = DVec3::new(0.35, 0.45, 1.0).normalize();
+    let fov = 30.0f64;
+    Camera::look_at(
+        centre + dir * radius / (fov.to_radians() * 0.5).sin(),
+        centre,
+        DVec3::Y,
+        Projection::Perspective { fov_y_deg: fov },
+    )
+    .map_err(|e| failed(e.to_string()))
+}
+
+/// Statistics and accuracy as JSON (errors relative to the bounding-box diagonal).
+fn report(b: &Built, args: &AdfArgs) -> Value {
+    let diagonal = b.mesh_bounds.size().length();
+    let errors = measure_errors(&b.adf, &b.source, &b.mesh_bounds, 0.02 * diagonal, args.points);
+    let s = b.adf.stats();
+    json!({
+        "mesh": args.mesh.display().to_string(),
+        "tolerance": args.tolerance,
+        "max_depth": args.max_depth,
+        "threads": rayon::current_num_threads(),
+        "build_s": median(&b.build_times),
+        "build_times_s": b.build_times,
+        "cells": s.cells,
+        "leaves": s.leaves,
+        "pruned_leaves": s.pruned_leaves,
+        "jump_leaves": s.jump_leaves,
+        "max_depth_leaves": s.max_depth_leaves,
+        "depth_reached": s.depth_reached,
+        "evaluations": s.evaluations,
+        "bytes": b.adf.memory_bytes(),
+        "max_error": errors.max / diagonal,
+        "rms_error": errors.rms / diagonal,
+        "max_error_below_max_depth": errors.max_below_max_depth / diagonal,
+        "error_points": errors.points,
+        "error_points_at_max_depth": errors.points_at_max_depth,
+        "error_points_pruned": errors.points_pruned,
+        "source_queries": b.source.queries(),
+        "integer_winding_queries": b.source.integer_queries(),
+        "sign_differences": errors.sign_differences,
+    })
+}
+
+/// The shaded iso-surface `d = 0` at `size`².
+fn render_setup(size: u32) -> (RenderSettings, Iso) {
+    let settings = RenderSettings::new(size, size);
+    let iso = Iso {
+        value: 0.0,
+        colour: SurfaceColour::Constant(Vec3::new(0.85, 0.8, 0.7)),
+    };
+    (settings, iso)
+}
+
+/// `volga adf MESH --out DIR`.
+pub fn run(args: AdfBuildArgs) -> Result<(), Failure> {
+    let built = build(&args.adf, 1)?;
+    let mut value = report(&built, &args.adf);
+    let (settings, iso) = render_setup(args.adf.size);
+    let renderer = Renderer::new(&built.adf, &iso, &settings).map_err(|e| failed(e.to_string()))?;
+    let start = Instant::now();
+    let (image, _) = renderer.render(&camera(&built.mesh_bounds)?, &NoProgress);
+    value["render_s"] = json!(start.elapsed().as_secs_f64());
+    std::fs::create_dir_all(&args.out).map_err(|e| failed(format!("{}: {e}", args.out.display())))?;
+    let mut staged = volga_io::StagedOutputs::new();
+    let text = serde_json::to_string_pretty(&value).expect("json");
+    let io = |e: volga_io::IoError| failed(e.to_string());
+    staged
+        .stage(&args.out.join("adf.json"), |w| w.write_all(text.as_bytes()))
+        .map_err(io)?;
+    let rgba = image.to_rgba8();
+    staged
+        .stage(&args.out.join("adf.png"), |w| {
+            volga_io::encode_png(w, image.width, image.height, &rgba)
+        })
+        .map_err(io)?;
+    staged.commit().map_err(io)?;
+    println!("{text}");
+    Ok(())
+}
+
+/// `volga bench adf MESH --tolerance T --json`.
+pub fn bench(args: AdfBenchArgs) -> Result<(), Failure> {
+    let built = build(&args.adf, args.repeat)?;
+    let mut value = report(&built, &args.adf);
+    let (settings, iso) = render_setup(args.adf.size);
+    let renderer = Renderer::new(&built.adf, &iso, &settings).map_err(|e| failed(e.to_string()))?;
+    let cam = camera(&built.mesh_bounds)?;
+    let (_, warm) = renderer.render(&cam, &NoProgress); // warm-up
+    let mut frames = Vec::new();
+    for _ in 0..args.frames.max(1) {
+        let start = Instant::now();
+        let _ = renderer.render(&cam, &NoProgress);
+        frames.push(start.elapsed().as_secs_f64());
+    }
+    value["render_size"] = json!(args.adf.size);
+    value["render_fps"] = json!(1.0 / median(&frames));
+    value["render_times_s"] = json!(frames);
+    value["render_samples"] = json!(warm.samples);
+    value["render_rays"] = json!(warm.rays);
+    value["render_cells_skipped"] = json!(warm.cells_skipped);
+    value["render_gradient_evaluations"] = json!(warm.gradient_evaluations);
+    println!("{value}");
+    Ok(())
+}

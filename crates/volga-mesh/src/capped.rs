@@ -1,0 +1,329 @@
+//! A fast certified inside test for any mesh: the winding number split into an integer
+//! part and a small cap part.
+//!
+//! Take the mesh `M` as a 2-chain. Its boundary `∂M` (each welded edge with the net
+//! number of times triangles run along it, forwards minus backwards) is a 1-cycle for any
+//! mesh: closed, open, non-manifold, self-intersecting or inconsistently oriented. Close
+//! it with cones `C` (one apex per connected component of the cycle, near the component's
+//! vertex centroid): `M + C` is a closed chain, so `I = w_M + w_C` is an **integer** off
+//! `M ∪ C`. Hence `w_M(p) ≥ ½ ⇔ w_C(p) ≤ I(p) − ½`:
+//!
+//! * `I(p)` needs the closed chain's winding number only to within ½ (a first-pass fast
+//!   winding number almost always suffices; certified by `Bvh::winding_number_bounded`);
+//! * `w_C(p)` sums the cap triangles only — a few per hole — refined until its certified
+//!   interval clears `I − ½`.
+//!
+//! The expensive case of a direct query, a point near the surface spanning a hole where
+//! `w_M ≈ ½` (every triangle of the mesh summed exactly), costs only the caps here. A
+//! closed mesh has no caps and `w_M = I`. A point on a cap triangle (where `I` jumps)
+//! falls back to the direct certified query of `M`.
+
+use rustc_hash::FxHashMap;
+
+use glam::DVec3;
+
+use crate::{Bvh, TriMesh};
+
+/// The inside test `w(p) ≥ ½` of a mesh, proven per query (see the module doc).
+#[derive(Debug, Clone)]
+pub struct CappedWinding {
+    /// `M + C`.
+    closed: Bvh,
+    /// `M + C` as triangles (mesh ids of `closed`), for segment crossings.
+    closed_triangles: Vec<[DVec3; 3]>,
+    /// `C` alone (`None` for a closed mesh).
+    caps: Option<Bvh>,
+    /// `M` alone, for the rare fallback on cap triangles.
+    mesh: Bvh,
+    cap_triangles: usize,
+    /// Size of the mesh (its box's diagonal plus its distance from the origin): the scale
+    /// of "on a cap" tests.
+    scale: f64,
+}
+
+/// What one inside query cost.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct InsideCost {
+    /// Winding-number terms summed (expansions and exact solid angles).
+    pub terms: u64,
+    /// Whether the direct query of the whole mesh was needed.
+    pub fallback: bool,
+}
+
+impl CappedWinding {
+    /// Builds the boundary cycle, its cones and the two BVHs.
+    pub fn new(mesh: &TriMesh) -> CappedWinding {
+        let caps = cap_triangles(mesh);
+        let cap_count = caps.len();
+        let mut positions = mesh.positions.clone();
+        let mut triangles = mesh.triangles.clone();
+        let mut cap_positions = Vec::with_capacity(cap_count * 3);
+        let mut cap_tris = Vec::with_capacity(cap_count);
+        for t in &caps {
+            let base = positions.len() as u32;
+            positions.extend_from_slice(t);
+            triangles.push([base, base + 1, base + 2]);
+            let cb = cap_positions.len() as u32;
+            cap_positions.extend_from_slice(t);
+            cap_tris.push([cb, cb + 1, cb + 2]);
+        }
+        let closed = TriMesh { positions, triangles };
+        let cap_mesh = TriMesh {
+            positions: cap_positions,
+            triangles: cap_tris,
+        };
+        CappedWinding {
+            closed: Bvh::build(&closed),
+            closed_triangles: (0..closed.triangle_count()).map(|i| closed.triangle(i)).collect(),
+            caps: (cap_count > 0).then(|| Bvh::build(&cap_mesh)),
+            mesh: Bvh::build(mesh),
+            cap_triangles: cap_count,
+            scale: {
+                let b = mesh.bounds();
+                b.size().length() + b.min.abs().max(b.max.abs()).max_element()
+            },
+        }
+    }
+
+    /// Cap triangles closing the boundary cycle (0 for a closed mesh).
+    pub fn cap_triangle_count(&self) -> usize {
+        self.cap_triangles
+    }
+
+    /// Whether `w(p) ≥ ½`, proven, and what it cost. (On the mesh itself the answer is the
+    /// principal value's; callers that need a sign there usually have distance 0.)
+    pub fn inside(&self, p: DVec3) -> (bool, InsideCost) {
+        let (inside, _, cost) = self.inside_with(p, None);
+        (inside, cost)
+    }
+
+    /// [`CappedWinding::inside`] given the integer part `I` when the caller knows it (from
+    /// a point whose ball free of mesh and caps contains `p`, see
+    /// [`CappedWinding::cap_distance`]); also returns `I` (`None` on a sheet of `M + C`,
+    /// where `I` is undefined and the mesh was asked directly).
+    pub fn inside_with(&self, p: DVec3, known: Option<i64>) -> (bool, Option<i64>, InsideCost) {
+        let mut cost = InsideCost::default();
+        let integer = match known {
+            Some(i) => i,
+            None => match self.integer_part(p, &mut cost) {
+                Some(i) => i,
+                None => {
+                    let direct = self.mesh.winding_number_bounded(p, None, |v, e| (v - 0.5).abs() > e);
+                    cost.terms += direct.terms as u64;
+                    cost.fallback = true;
+                    return (direct.side(0.5).unwrap_or(direct.value >= 0.5), None, cost);
+                }
+            },
+        };
+        let Some(caps) = &self.caps else {
+            return (integer >= 1, Some(integer), cost);
+        };
+        let threshold = integer as f64 - 0.5;
+        let cap = caps.winding_number_bounded(p, None, |v, e| (v - threshold).abs() > e);
+        cost.terms += cap.terms as u64;
+        // w_M = I − w_C ≥ ½  ⇔  w_C ≤ I − ½ (undecided only at the rounding allowance:
+        // then the summed value decides).
+        let inside = match cap.side(threshold) {
+            Some(above) => !above,
+            None => cap.value <= threshold,
+        };
+        (inside, Some(integer), cost)
+    }
+
+    /// `I(to)` from `I(from)`: `I` changes by ±1 across each sheet of `M + C` the segment
+    /// crosses (+1 entering a triangle's back, the side its normal points away from).
+    /// Each crossing is decided by the signs of floating-point triple products that are
+    /// accepted only when they exceed a bound on their rounding error (1e-12 of the
+    /// product of the magnitudes, far above the `f64` error of a triple product), so the
+    /// count is exact; a segment through an edge, a corner or within a sheet's rounding
+    /// band gets `None` (the caller asks the winding number instead). Zero-area
+    /// triangles are skipped: `I` does not jump across them.
+    pub fn integer_along(&self, from: DVec3, from_integer: i64, to: DVec3) -> Option<i64> {
+        if from == to {
+            return Some(from_integer);
+        }
+        let query = volga_core::Aabb::new(from.min(to), from.max(to));
+        let mut ids = Vec::new();
+        self.closed.boxes_overlapping(&query, &mut ids);
+        let mut integer = from_integer;
+        let segment = to - from;
+        for id in ids {
+            let [a, b, c] = self.closed_triangles[id as usize];
+            let normal = (b - a).cross(c - a);
+            if normal == DVec3::ZERO {
+                continue;
+            }
+            // Plane sides of the endpoints: positive in front (along the normal).
+            let side = |d: DVec3| -> Option<f64> {
+                let v = -(a - d).dot((b - d).cross(c - d));
+                let bound = 1e-12 * (a - d).length() * (b - d).length() * (c - d).length();
+                (v.abs() > bound).then_some(v)
+            };
+            let (s_from, s_to) = (side(from)?, side(to)?);
+            if (s_from > 0.0) == (s_to > 0.0) {
+                continue;
+            }
+            // Which side of each edge the line from → to passes.
+            let edge = |u: DVec3, v: DVec3| -> Option<f64> {
+                let w = (u - from).cross(v - from).dot(segment);
+                let bound = 1e-12 * (u - from).length() * (v - from).length() * segment.length();
+                (w.abs() > bound).then_some(w)
+            };
+            let known = [edge(a, b), edge(b, c), edge(c, a)];
+            let positive = known.iter().filter(|e| matches!(e, Some(v) if *v > 0.0)).count();
+            let negative = known.iter().filter(|e| matches!(e, Some(v) if *v < 0.0)).count();
+            if positive > 0 && negative > 0 {
+                continue; // the line passes outside the triangle
+            }
+            if positive + negative < 3 {
+                return None; // through an edge or a corner, within rounding
+            }
+            integer += if s_from > 0.0 { 1 } else { -1 };
+        }
+        Some(integer)
+    }
+
+    /// The integer winding number `I` of `M + C` at `p`, certified; `None` on a sheet.
+    ///
+    /// Off the sheets the true sum is an integer, so an estimate within `½ − |v − round v|`
+    /// of it proves `round v`. On a sheet the sum is not an integer (a principal value),
+    /// so points on (or within rounding of) a cap triangle are refused here; points on the
+    /// mesh itself have distance 0 and never need a sign.
+    fn integer_part(&self, p: DVec3, cost: &mut InsideCost) -> Option<i64> {
+        if self.cap_distance(p) <= 1e-12 * self.scale {
+            return None;
+        }
+        let closed = self
+            .closed
+            .winding_number_bounded(p, None, |v, e| e < 0.5 - (v - v.round()).abs());
+        cost.terms += closed.terms as u64;
+        (closed.error < 0.5 - (closed.value - closed.value.round()).abs()).then(|| closed.value.round() as i64)
+    }
+
+    /// Distance from `p` to the nearest cap triangle (`∞` for a closed mesh). A ball around
+    /// `p` of radius `min(distance to the mesh, cap distance)` meets no sheet of `M + C`, so
+    /// `I` is constant in it.
+    pub fn cap_distance(&self, p: DVec3) -> f64 {
+        self.caps
+            .as_ref()
+            .and_then(|c| c.closest(p))
+            .map_or(f64::INFINITY, |c| c.distance)
+    }
+
+    /// The winding number `w(p) = I − w_C(p)` with `w_C` summed to within `tolerance`
+    /// (the mesh's own certified sum on a sheet of `M + C`).
+    pub fn winding_value(&self, p: DVec3, tolerance: f64) -> f64 {
+        let mut cost = InsideCost::default();
+        match self.integer_part(p, &mut cost) {
+            Some(i) => {
+                let cap = self
+                    .caps
+                    .as_ref()
+                    .map_or(0.0, |c| c.winding_number_bounded(p, None, |_, e| e <= tolerance).value);
+                i as f64 - cap
+            }
+            None => self.mesh.winding_number_bounded(p, None, |_, e| e <= tolerance).value,
+        }
+    }
+}
+
+/// The cones closing the mesh's boundary cycle: for each boundary edge `a → b` of net
+/// multiplicity `m ≠ 0`, `|m|` copies of `(b, a, apex)` (or `(a, b, apex)` for `m < 0`),
+/// with one apex per connected component of the cycle near its vertices' centroid (lifted
+/// by 7 % of the component's radius). Vertices are welded by exact position, so split
+/// seams are not boundaries.
+pub fn cap_triangles(mesh: &TriMesh) -> Vec<[DVec3; 3]> {
+    let mut ids: FxHashMap<[u64; 3], u32> = FxHashMap::default();
+    let mut welded = Vec::with_capacity(mesh.positions.len());
+    let mut points: Vec<DVec3> = Vec::new();
+    for p in &mesh.positions {
+        let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+        let next = points.len() as u32;
+        let id = *ids.entry(key).or_insert(next);
+        if id == next {
+            points.push(*p);
+        }
+        welded.push(id);
+    }
+    // Net multiplicity of each undirected edge, positive along (min → max).
+    let mut net: FxHashMap<(u32, u32), i64> = FxHashMap::default();
+    for t in &mesh.triangles {
+        let v = [welded[t[0] as usize], welded[t[1] as usize], welded[t[2] as usize]];
+        for k in 0..3 {
+            let (a, b) = (v[k], v[(k + 1) % 3]);
+            if a == b {
+                continue;
+            }
+            if a < b {
+                *net.entry((a, b)).or_insert(0) += 1;
+            } else {
+                *net.entry((b, a)).or_insert(0) -= 1;
+            }
+        }
+    }
+    let mut edges: Vec<(u32, u32, i64)> = net
+        .into_iter()
+        .filter(|&(_, m)| m != 0)
+        .map(|((a, b), m)| (a, b, m))
+        .collect();
+    edges.sort_unstable();
+    if edges.is_empty() {
+        return Vec::new();
+    }
+    // Components of the cycle (union-find over its vertices).
+    let mut parent: FxHashMap<u32, u32> = FxHashMap::default();
+    fn find(parent: &mut FxHashMap<u32, u32>, mut x: u32) -> u32 {
+        while let Some(&p) = parent.get(&x) {
+            if p == x {
+                break;
+            }
+            let gp = *parent.get(&p).unwrap_or(&p);
+            parent.insert(x, gp);
+            x = gp;
+        }
+        x
+    }
+    for &(a, b, _) in &edges {
+        parent.entry(a).or_insert(a);
+        parent.entry(b).or_insert(b);
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        if ra != rb {
+            let (lo, hi) = (ra.min(rb), ra.max(rb));
+            parent.insert(hi, lo);
+        }
+    }
+    let mut sums: FxHashMap<u32, (DVec3, f64)> = FxHashMap::default();
+    let mut vertices: Vec<u32> = parent.keys().copied().collect();
+    vertices.sort_unstable();
+    for v in vertices {
+        let r = find(&mut parent, v);
+        let e = sums.entry(r).or_insert((DVec3::ZERO, 0.0));
+        e.0 += points[v as usize];
+        e.1 += 1.0;
+    }
+    // Each component's apex: its vertex centroid, lifted off by a small odd offset (7 % of
+    // the component's radius along a fixed direction with no simple ratios), so cap planes
+    // rarely pass through lattice points a caller samples (points on a cap need the slow
+    // path, see `integer_part`).
+    let mut radius: FxHashMap<u32, f64> = FxHashMap::default();
+    for &(a, b, _) in &edges {
+        let r = find(&mut parent, a);
+        let (sum, n) = sums[&r];
+        let c = sum / n;
+        let e = radius.entry(r).or_insert(0.0);
+        *e = e.max((points[a as usize] - c).length()).max((points[b as usize] - c).length());
+    }
+    let lift = DVec3::new(0.318_309_886, 0.271_828_183, 0.414_213_562).normalize();
+    let mut caps = Vec::new();
+    for &(a, b, m) in &edges {
+        let r = find(&mut parent, a);
+        let (sum, n) = sums[&r];
+        let apex = sum / n + lift * (0.07 * radius[&r]);
+        let (pa, pb) = (points[a as usize], points[b as usize]);
+        let tri = if m > 0 { [pb, pa, apex] } else { [pa, pb, apex] };
+        for _ in 0..m.unsigned_abs() {
+            caps.push(tri);
+        }
+    }
+    caps
+}
