@@ -92,7 +92,6 @@ impl Ranged for Adf {
 
 /// Whether `op(a, b) = a` for every `a ∈ ra`, `b ∈ rb`.
 fn keeps_a(op: CsgOp, (a0, a1): (f64, f64), (b0, b1): (f64, f64)) -> bool {
-    let _ = b1;
     match op {
         CsgOp::Union => a1 <= b0,
         CsgOp::Intersection => a0 >= b1,
@@ -193,7 +192,10 @@ impl Adf {
         }
         let cell = self.cells[index];
         let samples: [Sample; 8] = {
-            let mut s = [Sample { value: 0.0, region: None }; 8];
+            let mut s = [Sample {
+                value: 0.0,
+                region: None,
+            }; 8];
             for (b, s) in s.iter_mut().enumerate() {
                 *s = editor.builder.eval(corner_position(min, size, b), None)?;
             }

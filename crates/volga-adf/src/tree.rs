@@ -587,7 +587,7 @@ pub(crate) fn root_cube(bounds: &Aabb, margin: Option<f64>) -> Result<(DVec3, f6
     let diagonal = bounds.size().length();
     let margin = margin.unwrap_or(0.05 * diagonal);
     let side = (bounds.size().max_element() + 2.0 * margin) * (1.0 + 1e-9);
-    if !(side > 0.0) {
+    if side.is_nan() || side <= 0.0 {
         return Err(AdfError::EmptySource(
             "the source is a single point and no margin was given".into(),
         ));

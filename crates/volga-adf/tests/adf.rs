@@ -471,7 +471,7 @@ fn narrow_band_volume_holds_the_clamped_reconstruction() {
     )
     .unwrap();
     let w = 3.0 * grid.max_spacing();
-    let volume = adf.to_narrow_band(grid.clone(), w);
+    let volume = adf.to_narrow_band(grid, w);
     assert_eq!(volume.density_kind, volga_core::ChannelKind::SignedDistance);
     let mut checked = 0;
     for z in 0..40 {

@@ -311,9 +311,11 @@ pub fn cap_triangles(mesh: &TriMesh) -> Vec<[DVec3; 3]> {
         let (sum, n) = sums[&r];
         let c = sum / n;
         let e = radius.entry(r).or_insert(0.0);
-        *e = e.max((points[a as usize] - c).length()).max((points[b as usize] - c).length());
+        *e = e
+            .max((points[a as usize] - c).length())
+            .max((points[b as usize] - c).length());
     }
-    let lift = DVec3::new(0.318_309_886, 0.271_828_183, 0.414_213_562).normalize();
+    let lift = DVec3::new(0.321_7, 0.268_3, 0.412_9).normalize();
     let mut caps = Vec::new();
     for &(a, b, m) in &edges {
         let r = find(&mut parent, a);

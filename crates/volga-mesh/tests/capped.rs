@@ -28,7 +28,11 @@ fn capped_inside_equals_the_winding_number_and_carries_agree() {
         for k in 0..1500 {
             let raw = b.min - size * 0.1 + DVec3::new(rng.next(), rng.next(), rng.next()) * size * 1.2;
             // Every other point on a dyadic lattice of the mesh's scale.
-            let p = if k % 2 == 0 { raw } else { (raw / size.max_element() * 32.0).round() / 32.0 * size.max_element() };
+            let p = if k % 2 == 0 {
+                raw
+            } else {
+                (raw / size.max_element() * 32.0).round() / 32.0 * size.max_element()
+            };
             if bvh.closest(p).unwrap().distance == 0.0 {
                 continue; // on the mesh: no side
             }

@@ -40,14 +40,24 @@ impl<F: Field + ?Sized, I: Integrator> Renderer<'_, F, I> {
         }
     }
 
-    fn rerender_march<G: Field + ?Sized>(&self, march: &March<'_, G>, camera: &Camera, grown: &Aabb, image: &mut Image) -> (u64, RenderStats) {
+    fn rerender_march<G: Field + ?Sized>(
+        &self,
+        march: &March<'_, G>,
+        camera: &Camera,
+        grown: &Aabb,
+        image: &mut Image,
+    ) -> (u64, RenderStats) {
         use rayon::prelude::*;
         let (w, h) = (self.settings.image.width, self.settings.image.height);
         let k = self.settings.image.supersampling.max(1);
         let touches = |x: u32, y: u32| {
             (0..k).any(|j| {
                 (0..k).any(|i| {
-                    let (sx, sy) = if k == 1 { (x as f64, y as f64) } else { sub_pixel(x, y, i, j, k) };
+                    let (sx, sy) = if k == 1 {
+                        (x as f64, y as f64)
+                    } else {
+                        sub_pixel(x, y, i, j, k)
+                    };
                     let ray = camera.ray(sx, sy, w, h);
                     grown.ray_interval(ray.origin, ray.dir).is_some()
                 })

@@ -340,7 +340,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
 /// Image coordinates of sub-pixel `(i, j)` of pixel `(x, y)` with `k × k` samples.
 #[inline]
 pub(crate) fn sub_pixel(x: u32, y: u32, i: u32, j: u32, k: u32) -> (f64, f64) {
-    (x as f64 - 0.5 + (i as f64 + 0.5) / k as f64, y as f64 - 0.5 + (j as f64 + 0.5) / k as f64)
+    (
+        x as f64 - 0.5 + (i as f64 + 0.5) / k as f64,
+        y as f64 - 0.5 + (j as f64 + 0.5) / k as f64,
+    )
 }
 
 // Localized re-render (`Renderer::rerender_box`), in its own file.
