@@ -96,3 +96,47 @@ fn localized_rerender_equals_full_render_bit_for_bit() {
     let _ = Vec3::ZERO;
     assert!(sculpt().has_colour());
 }
+
+/// A renderer carried across edits (`Renderer::after_edit`: the skipping grid updated only
+/// where each edit reached) renders every version exactly as a fresh renderer does.
+#[test]
+fn a_renderer_updated_after_edits_equals_a_fresh_one() {
+    let camera = Camera::look_at(
+        DVec3::new(30.0, 40.0, 35.0),
+        DVec3::ZERO,
+        DVec3::Z,
+        Projection::Perspective { fov_y_deg: 40.0 },
+    )
+    .unwrap();
+    let iso = Iso {
+        value: 0.5,
+        colour: SurfaceColour::FromField,
+    };
+    let settings = RenderSettings::new(64, 48);
+    let mut s = sculpt();
+    let mut versions = vec![s.clone()];
+    let mut changes = Vec::new();
+    for (centre, radius) in [
+        (DVec3::new(3.0, 9.0, 2.0), 3.5),
+        (DVec3::new(-9.0, -9.0, 9.0), 4.0),
+        (DVec3::new(0.0, 0.0, 9.0), 2.0),
+    ] {
+        let stroke = Stroke::new(Tool::sphere(centre, radius).unwrap(), Operation::Carve).unwrap();
+        changes.push(s.apply(&stroke).changed_world.expect("a carve into the block"));
+        versions.push(s.clone());
+    }
+    let mut renderer = Renderer::new(&versions[0], &iso, &settings).unwrap();
+    for (k, changed) in changes.iter().enumerate() {
+        renderer = renderer.after_edit(&versions[k + 1], changed).unwrap();
+        let updated = renderer.render(&camera, &NoProgress).0;
+        let fresh = full(&versions[k + 1], &iso, &settings, &camera);
+        assert!(
+            updated
+                .pixels
+                .iter()
+                .zip(&fresh.pixels)
+                .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)),
+            "edit {k}: the updated renderer's image differs"
+        );
+    }
+}

@@ -261,7 +261,6 @@ fn rerender(sculpt: &Sculpt, mesh: &TriMesh, size: u32, radius: f64) -> Result<V
     let t = Instant::now();
     let (mut image, _) = renderer.render(&camera, &NoProgress);
     let full_s = t.elapsed().as_secs_f64();
-    drop(renderer);
     let mut edited = sculpt.clone();
     // A carve on the visible side: the first triangle centroid facing the camera.
     let c = (0..mesh.triangle_count())
@@ -274,8 +273,14 @@ fn rerender(sculpt: &Sculpt, mesh: &TriMesh, size: u32, radius: f64) -> Result<V
     )
     .map_err(|e| failed(e.to_string()))?;
     let changed = edited.apply(&stroke).changed_world;
+    // What a viewer does after an edit: update the renderer where the edit reached
+    // (`Renderer::after_edit`), then re-render the pixels whose rays pass through it.
     let t = Instant::now();
-    let renderer = Renderer::new(&edited, &iso, &settings).map_err(|e| failed(e.to_string()))?;
+    let renderer = match changed {
+        Some(b) => renderer.after_edit(&edited, &b),
+        None => Renderer::new(&edited, &iso, &settings),
+    }
+    .map_err(|e| failed(e.to_string()))?;
     let re_prepare_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let (pixels, _) = match changed {
@@ -283,11 +288,16 @@ fn rerender(sculpt: &Sculpt, mesh: &TriMesh, size: u32, radius: f64) -> Result<V
         None => (0, Default::default()),
     };
     let rerender_s = t.elapsed().as_secs_f64();
+    // The same edit with a renderer prepared from scratch, for comparison.
+    let t = Instant::now();
+    drop(Renderer::new(&edited, &iso, &settings).map_err(|e| failed(e.to_string()))?);
+    let fresh_prepare_s = t.elapsed().as_secs_f64();
     Ok(json!({
         "size": size,
         "prepare_s": prepare_s,
         "full_frame_s": full_s,
         "rerender_prepare_s": re_prepare_s,
+        "fresh_prepare_s": fresh_prepare_s,
         "rerender_s": rerender_s,
         "rerender_pixels": pixels,
         "pixels": size as u64 * size as u64,

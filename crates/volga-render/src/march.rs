@@ -107,6 +107,45 @@ impl MacroGrid {
         grid
     }
 
+    /// Recomputes the cells whose sampled region meets `changed` (the only place where
+    /// `field` differs from the field the grid was built for); the others keep their
+    /// conservative ranges, which still hold there. Then the reach is recomputed.
+    pub(crate) fn update<F: Field + ?Sized>(
+        &mut self,
+        field: &F,
+        spacing: f64,
+        changed: &Aabb,
+        classify: impl Fn(f64, f64) -> CellClass + Sync,
+    ) {
+        let margin = DVec3::splat(spacing);
+        let touched = changed.expanded(margin);
+        let lins: Vec<usize> = (0..self.len())
+            .filter(|&lin| {
+                let (lo, hi) = self.cell_box(self.delinearize(lin));
+                let cell = Aabb::new(lo, hi).expanded(margin);
+                cell.min.cmple(touched.max).all() && touched.min.cmple(cell.max).all()
+            })
+            .collect();
+        let cells: Vec<(CellClass, f64)> = lins
+            .par_iter()
+            .map(|&lin| {
+                let (lo, hi) = self.cell_box(self.delinearize(lin));
+                let (lo, hi) = field.value_range(&Aabb::new(lo, hi).expanded(margin));
+                let (lo, hi) = if lo.is_nan() || hi.is_nan() {
+                    (f64::NEG_INFINITY, f64::INFINITY)
+                } else {
+                    (lo, hi)
+                };
+                (classify(lo, hi), hi)
+            })
+            .collect();
+        for (&lin, (class, hi)) in lins.iter().zip(cells) {
+            self.class[lin] = class;
+            self.hi[lin] = hi;
+        }
+        self.reach = self.outside_reach();
+    }
+
     /// [`MacroGrid::reach`] by repeated erosion of the Outside cells with a 3×3×3
     /// block (separable: a window of 3 along each axis in turn); cells beyond the grid
     /// hold no samples and count as Outside.

@@ -15,7 +15,51 @@ use super::{sub_pixel, Image, RenderStats, Renderer};
 use crate::integrators::March;
 use crate::{Camera, Integrator};
 
-impl<F: Field + ?Sized, I: Integrator> Renderer<'_, F, I> {
+impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
+    /// This renderer for `field`, an edited version of the field it was prepared for
+    /// that differs from it only inside the world box `changed` (what a sculpting edit
+    /// reports): the skipping grid is updated only where `changed` reaches instead of
+    /// rebuilt. When the bounds, sample spacing or kind differ, or the field prepares a
+    /// faster equivalent of itself, it is prepared afresh ([`Renderer::new`]). Renders
+    /// equal those of a fresh renderer bit for bit (skipping never changes an image).
+    pub fn after_edit<'b>(self, field: &'b F, changed: &Aabb) -> Result<Renderer<'b, F, I>, crate::RenderError>
+    where
+        'a: 'b,
+    {
+        let same = field.bounds() == self.bounds
+            && field.sample_spacing() == self.field.sample_spacing()
+            && field.kind() == self.constants.kind
+            && self.prepared.is_none();
+        if !same {
+            return Renderer::new(field, self.integrator, self.settings);
+        }
+        let prepared = if self.settings.sampling.prepare_field {
+            field.prepare()
+        } else {
+            None
+        };
+        if prepared.is_some() {
+            return Renderer::new(field, self.integrator, self.settings);
+        }
+        let mut grid = self.grid;
+        if let Some(g) = grid.as_mut() {
+            let (integrator, kind) = (self.integrator, self.constants.kind);
+            g.update(field, field.sample_spacing(), changed, |lo, hi| {
+                integrator.classify_cell(lo, hi, kind)
+            });
+        }
+        Ok(Renderer {
+            integrator: self.integrator,
+            settings: self.settings,
+            bounds: self.bounds,
+            field,
+            prepared: None,
+            constants: self.constants,
+            shader: self.shader,
+            grid,
+        })
+    }
+
     /// Re-renders in `image` (a full render of this view before the edit, same size as the
     /// settings) the pixels whose rays pass through `changed` grown by the field's gradient
     /// step; returns how many pixels were re-rendered and their statistics. This renderer
