@@ -23,7 +23,7 @@ pub struct AdfArgs {
     /// Triangle mesh (.obj, .gltf, .glb).
     pub mesh: PathBuf,
     /// Tolerance as a fraction of the bounding-box diagonal.
-    #[arg(long, default_value_t = 1e-4)]
+    #[arg(long, default_value_t = 1e-4, allow_hyphen_values = true)]
     pub tolerance: f64,
     /// Maximum octree depth (the root cube is level 0).
     #[arg(long, default_value_t = 12)]
