@@ -202,10 +202,8 @@ impl Adf {
             s
         };
         if cell.is_leaf() {
-            let before = editor.builder.cells.load(Ordering::Relaxed);
             let (tree, stats) = editor.builder.build(min, size, depth, samples)?;
             local.merge(&stats);
-            let _ = before;
             editor.regenerated.fetch_add(tree.cells.len(), Ordering::Relaxed);
             return Ok(tree);
         }
