@@ -17,6 +17,11 @@
 //!   until it proves what is asked. [`unclean`] generates the meshes users bring
 //!   (self-intersecting, overlapping, open, flat, single triangles) for tests.
 //!   [`signed_distance`] combines the exact distance with the winding-number sign.
+//! * [`CappedWinding`] proves `w ≥ ½` fast for many nearby points: the winding number
+//!   of the mesh closed by cones over its boundary cycle ([`cap_triangles`]) is an
+//!   integer off its sheets, carried from point to point by certified sheet crossings
+//!   ([`CappedWinding::integer_along`]); only the few cone triangles are summed per
+//!   point. The ADF builder (`volga-adf`) uses it.
 //! * [`extract_surface`] meshes the iso-surface of any [`volga_core::Field`] (marching
 //!   tetrahedra, watertight and manifold for closed surfaces, normals from the gradient);
 //!   [`obj_bytes`] and [`ply_bytes`] write meshes as bytes for atomic output.
