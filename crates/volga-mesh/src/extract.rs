@@ -14,7 +14,7 @@
 //! tetrahedral split follows Doi & Koide (1991).
 //!
 //! **Sides.** A lattice point is *inside* when `inward·(value − iso) ≥ 0`
-//! ([`FieldKind::inward_sign`]): a half-open rule, so a value exactly at `iso` counts as
+//! ([`FieldKind::inward_sign`](volga_core::FieldKind::inward_sign)): a half-open rule, so a value exactly at `iso` counts as
 //! inside and a vertex never needs a tie-break. Triangles are counter-clockwise seen from
 //! outside (volga-mesh's convention); the orientation is decided from the lattice corners'
 //! integer positions, never from interpolated vertices, so it is exact.
@@ -23,7 +23,7 @@
 //! (what marching-cubes tools do: error `O(cell²·curvature)`); [`VertexPlacement::Refined`]
 //! then runs regula falsi (Illinois) on the field along the edge until the value is within
 //! `tolerance` of `iso` or the bracket is shorter than `1e-9·cell`. Normals are the field's
-//! gradient turned outward by its kind ([`FieldKind::outward`]), unit length (zero where the
+//! gradient turned outward by its kind ([`FieldKind::outward`](volga_core::FieldKind::outward)), unit length (zero where the
 //! gradient vanishes).
 //!
 //! **Speed.** The lattice is cut into blocks of 16³ cubes; a block whose conservative
