@@ -53,3 +53,13 @@ impl Adf {
         volume
     }
 }
+
+impl Adf {
+    /// The zero iso-surface as a triangle mesh, through the shared extractor
+    /// (`volga_mesh::extract_surface`: marching tetrahedra on a lattice of spacing `cell`
+    /// over the root cube, vertices refined onto the reconstruction, normals from its
+    /// gradient; blocks whose range excludes 0 are skipped by the tree's ranges).
+    pub fn to_mesh(&self, cell: f64) -> Result<volga_mesh::Surface, volga_mesh::ExtractError> {
+        volga_mesh::extract_surface(self, self.root_box(), cell, 0.0)
+    }
+}

@@ -492,3 +492,23 @@ fn narrow_band_volume_holds_the_clamped_reconstruction() {
     assert!(volume.density.dense_brick_count() < volume.density.brick_count() + 1);
     assert!(volume.density.dense_brick_count() < 125);
 }
+
+#[test]
+fn mesh_export_is_closed_and_on_the_surface() {
+    let sphere = Sphere::new(DVec3::new(0.05, -0.02, 0.01), 0.6).unwrap();
+    let adf = Adf::build(&ShapeSource(sphere), options(1e-4, 9)).unwrap();
+    let surface = adf.to_mesh(0.05).unwrap();
+    let mesh = &surface.mesh;
+    assert!(mesh.triangle_count() > 500, "{}", mesh.triangle_count());
+    assert!(mesh.is_closed(), "every edge in two faces");
+    assert_eq!(mesh.non_manifold_edge_count(), 0);
+    // Vertices lie on the reconstruction's zero set, hence within the tolerance of the sphere.
+    for p in &mesh.positions {
+        assert!(adf.distance(*p).abs() <= 1e-8, "{}", adf.distance(*p));
+        assert!(
+            sphere.signed_distance(*p).abs() <= 1e-4,
+            "{}",
+            sphere.signed_distance(*p)
+        );
+    }
+}
