@@ -24,6 +24,8 @@
 //! * **CSG and edits** ([`Adf::combine`], [`Adf::edit`]): union, intersection and
 //!   difference with another ADF or any source, regenerating only the cells the operation
 //!   can change (the Kizamu approach of Perry & Frisken 2001); counted in [`EditStats`].
+//! * **Conversions**: [`Adf::to_narrow_band`] (a sparse signed-distance volume) and
+//!   [`Adf::to_mesh`] (the zero iso-surface through `volga_mesh::extract_surface`).
 //!
 //! ## Precision
 //! Geometry is `f64` world space (`world_*`): the root cube, cell corners and queries, so
