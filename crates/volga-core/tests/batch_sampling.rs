@@ -3,37 +3,16 @@
 //! values up to the rounding of positions, and the same bits however a line is cut
 //! into batches (what makes the renderer's empty-space skipping exact).
 
+mod common;
+
 use glam::{DVec3, IVec3, UVec3};
 use proptest::prelude::*;
-use volga_core::{
-    Aabb, DenseVolume, Field, Filter, Grid, Line, Sampled, SparseVolume, Transform, VoxelReader, VoxelSource,
-};
+use volga_core::{Aabb, DenseVolume, Field, Filter, Line, Sampled, SparseVolume, VoxelReader, VoxelSource};
 
 /// A 19×17×11 volume (bricks cut by the grid's end on every axis): a uniform region
 /// (x < 8), empty voxels and noise, so uniform, dense and absent bricks all occur.
 fn volumes(seed: u64) -> (DenseVolume, SparseVolume) {
-    let transform = Transform::new(DVec3::new(-3.0, 1.0, 0.5), DVec3::new(0.5, 0.25, 1.0)).unwrap();
-    let g = Grid::new(transform, UVec3::new(19, 17, 11)).unwrap();
-    let mut dense = DenseVolume::new(g, 0.0, false).unwrap();
-    let mut state = seed;
-    let mut next = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
-    for ijk in g.index_box().iter() {
-        let v = if ijk.x < 8 {
-            0.75
-        } else if next() < 0.4 {
-            0.0
-        } else {
-            next()
-        };
-        dense.density.set(ijk, v);
-    }
-    let sparse = SparseVolume::from_dense(&dense);
-    (dense, sparse)
+    common::random_volumes(seed, UVec3::new(19, 17, 11), 0.4)
 }
 
 /// The field of `inner` with the trait's default batch methods and gradient: one

@@ -5,6 +5,8 @@
 //! every filter but nearest, analytic derivatives match finite differences of the
 //! reconstruction, and value ranges bound every sample.
 
+mod common;
+
 use glam::{DVec3, UVec3};
 use proptest::prelude::*;
 use volga_core::{Aabb, DenseVolume, Field, Filter, GradientMethod, Grid, Line, Sampled, SparseVolume, Transform};
@@ -12,28 +14,7 @@ use volga_core::{Aabb, DenseVolume, Field, Filter, GradientMethod, Grid, Line, S
 /// A 21×18×13 volume (bricks cut by the grid's end, seams on every axis): a uniform
 /// region, empty voxels and noise.
 fn volumes(seed: u64) -> (DenseVolume, SparseVolume) {
-    let transform = Transform::new(DVec3::new(-3.0, 1.0, 0.5), DVec3::new(0.5, 0.25, 1.0)).unwrap();
-    let g = Grid::new(transform, UVec3::new(21, 18, 13)).unwrap();
-    let mut dense = DenseVolume::new(g, 0.0, false).unwrap();
-    let mut state = seed | 1;
-    let mut next = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
-    for ijk in g.index_box().iter() {
-        let v = if ijk.x < 8 {
-            0.75
-        } else if next() < 0.3 {
-            0.0
-        } else {
-            next()
-        };
-        dense.density.set(ijk, v);
-    }
-    let sparse = SparseVolume::from_dense(&dense);
-    (dense, sparse)
+    common::random_volumes(seed | 1, UVec3::new(21, 18, 13), 0.3)
 }
 
 fn combos() -> Vec<(Filter, GradientMethod)> {
