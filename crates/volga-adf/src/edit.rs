@@ -148,6 +148,8 @@ impl Adf {
                 may_jump: false,
                 cells: AtomicUsize::new(0),
                 evaluations: AtomicU64::new(0),
+                lattice_origin: self.root_min,
+                lattice_unit: self.root_size / (1u64 << (self.options.max_depth + 1)) as f64,
             },
             ranges,
             kept: AtomicUsize::new(0),
@@ -202,7 +204,7 @@ impl Adf {
             s
         };
         if cell.is_leaf() {
-            let (tree, stats) = editor.builder.build(min, size, depth, samples)?;
+            let (tree, stats) = editor.builder.build(min, size, depth, samples, None)?;
             local.merge(&stats);
             editor.regenerated.fetch_add(tree.cells.len(), Ordering::Relaxed);
             return Ok(tree);

@@ -31,11 +31,43 @@ pub trait DistanceSource: Sync {
         }
     }
 
+    /// Narrowing for one cell of the build: the ids of the primitives (a mesh: its
+    /// triangles) that can hold the nearest surface point of any point of `cell`, given
+    /// `reach`, an upper bound of `|distance|` over the cell, and the parent cell's list
+    /// (`None` at the top). The builder passes the list to [`DistanceSource::sample_among`]
+    /// for the cell's test points and narrows it again for the children. `None`: the source
+    /// does not narrow (the default).
+    fn candidates(&self, _cell: &Aabb, _reach: f64, _parent: Option<&[u32]>) -> Option<Vec<u32>> {
+        None
+    }
+
+    /// [`DistanceSource::sample`] at a point of a cell whose [`DistanceSource::candidates`]
+    /// are `candidates`, with `near` in the same cell. Must return exactly what `sample`
+    /// returns (the default calls it).
+    fn sample_among(&self, world_pos: DVec3, near: Option<(DVec3, &Sample)>, _candidates: &[u32]) -> Sample {
+        self.sample(world_pos, near)
+    }
+
     /// A smooth function with the sign of the distance, for sources whose signed distance
     /// jumps from `+d` to `−d` away from any surface (an open mesh, across the surface
     /// that spans a hole, where the winding number passes ½): there the ADF stores this
     /// function at its cell corners to place the jump. `None`: the distance has no jumps.
     fn sign_field(&self, _world_pos: DVec3) -> Option<f64> {
+        None
+    }
+
+    /// [`DistanceSource::sign_field`] at a point whose sample is known (the source may
+    /// reuse what it learnt); must return the same value (the default calls `sign_field`).
+    fn sign_field_at(&self, world_pos: DVec3, _sample: &Sample) -> Option<f64> {
+        self.sign_field(world_pos)
+    }
+
+    /// Whether `world_pos` is inside (distance < 0), for a point of a cell that no surface
+    /// meets, given a sample `near` in the same cell: the sign alone, cheaper than
+    /// [`DistanceSource::sample`] for sources whose sign can jump ([`DistanceSource::may_jump`]).
+    /// Must agree with the sign of `sample`'s value; `None`: not known cheaply (the
+    /// default), the builder samples the point.
+    fn inside_in_empty_cell(&self, _world_pos: DVec3, _near: (DVec3, &Sample)) -> Option<bool> {
         None
     }
 
@@ -70,11 +102,23 @@ impl<S: DistanceSource + ?Sized> DistanceSource for &S {
     fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
         (**self).sample(p, near)
     }
+    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&[u32]>) -> Option<Vec<u32>> {
+        (**self).candidates(cell, reach, parent)
+    }
+    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &[u32]) -> Sample {
+        (**self).sample_among(p, near, candidates)
+    }
     fn sign_field(&self, p: DVec3) -> Option<f64> {
         (**self).sign_field(p)
     }
     fn may_jump(&self) -> bool {
         (**self).may_jump()
+    }
+    fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
+        (**self).sign_field_at(p, sample)
+    }
+    fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
+        (**self).inside_in_empty_cell(p, near)
     }
     fn bounds(&self) -> Aabb {
         (**self).bounds()
@@ -91,11 +135,23 @@ impl<S: DistanceSource + ?Sized> DistanceSource for Box<S> {
     fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
         (**self).sample(p, near)
     }
+    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&[u32]>) -> Option<Vec<u32>> {
+        (**self).candidates(cell, reach, parent)
+    }
+    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &[u32]) -> Sample {
+        (**self).sample_among(p, near, candidates)
+    }
     fn sign_field(&self, p: DVec3) -> Option<f64> {
         (**self).sign_field(p)
     }
     fn may_jump(&self) -> bool {
         (**self).may_jump()
+    }
+    fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
+        (**self).sign_field_at(p, sample)
+    }
+    fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
+        (**self).inside_in_empty_cell(p, near)
     }
     fn bounds(&self) -> Aabb {
         (**self).bounds()
@@ -132,6 +188,9 @@ impl<S: SignedDistance + Sync> DistanceSource for ShapeSource<S> {
 #[derive(Debug)]
 pub struct MeshSource {
     bvh: Bvh,
+    /// Triangle corners and boxes by mesh id, for scans of a cell's candidate list.
+    triangles: Vec<[DVec3; 3]>,
+    boxes: Vec<(DVec3, DVec3)>,
     winding: CappedWinding,
     bounds: Aabb,
     queries: AtomicU64,
@@ -149,8 +208,12 @@ impl MeshSource {
         if !(bounds.min.is_finite() && bounds.max.is_finite()) {
             return Err(crate::AdfError::EmptySource("the mesh has non-finite vertices".into()));
         }
+        let triangles: Vec<[DVec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.triangle(i)).collect();
+        let boxes = triangles.iter().map(|&[a, b, c]| (a.min(b).min(c), a.max(b).max(c))).collect();
         Ok(MeshSource {
             bvh: Bvh::build(mesh),
+            triangles,
+            boxes,
             winding: CappedWinding::new(mesh),
             bounds,
             queries: AtomicU64::new(0),
@@ -188,6 +251,48 @@ impl MeshSource {
     }
 }
 
+/// Candidate lists longer than this are narrowed with the BVH, not by filtering.
+const NARROW_FROM_BVH: usize = 4096;
+/// Candidate lists longer than this are not scanned: the point asks the BVH.
+const SCAN_LIMIT: usize = 192;
+
+/// The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
+#[inline]
+fn near_bound(p: DVec3, near: Option<(DVec3, &Sample)>) -> f64 {
+    near.map_or(f64::INFINITY, |(q, s)| (s.value.abs() + (p - q).length()) * (1.0 + 1e-9))
+}
+
+impl MeshSource {
+    /// The sample from its unsigned distance: the sign from the winding number
+    /// `w = I − w_C` (`volga_mesh::CappedWinding`), the integer `I` carried over from
+    /// `near` by counting the sheets crossed in between (among `candidates` when given:
+    /// they hold every mesh triangle meeting the segment) or computed when that count is
+    /// not certain; `w_C` (the caps alone) is always computed, certified against `I − ½`.
+    fn signed(&self, p: DVec3, unsigned: f64, near: Option<(DVec3, &Sample)>, candidates: Option<&[u32]>) -> Sample {
+        if unsigned == 0.0 {
+            return Sample {
+                value: 0.0,
+                region: None,
+            };
+        }
+        let known = near.and_then(|(q, s)| {
+            s.region.and_then(|i| match candidates {
+                Some(c) => self.winding.integer_along_among(q, i, p, c),
+                None => self.winding.integer_along(q, i, p),
+            })
+        });
+        if known.is_none() {
+            self.integer_queries.fetch_add(1, Ordering::Relaxed);
+        }
+        let (inside, integer, cost) = self.winding.inside_with(p, known);
+        self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
+        Sample {
+            value: if inside { -unsigned } else { unsigned },
+            region: integer,
+        }
+    }
+}
+
 impl DistanceSource for MeshSource {
     fn distance(&self, p: DVec3) -> f64 {
         self.sample(p, None).value
@@ -200,32 +305,75 @@ impl DistanceSource for MeshSource {
     /// certain; `w_C` (the caps alone) is always computed, certified against `I − ½`.
     fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
         self.queries.fetch_add(1, Ordering::Relaxed);
-        // The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
-        let bound = near.map_or(f64::INFINITY, |(q, s)| {
-            (s.value.abs() + (p - q).length()) * (1.0 + 1e-9)
-        });
+        let bound = near_bound(p, near);
         let unsigned = self
             .bvh
             .closest_within(p, bound)
             .or_else(|| self.bvh.closest(p))
             .map_or(f64::INFINITY, |c| c.distance);
-        if unsigned == 0.0 {
-            return Sample {
-                value: 0.0,
-                region: None,
-            };
+        self.signed(p, unsigned, near, None)
+    }
+
+    /// The triangles whose boxes are within `reach` (Euclidean) of the cell: they hold
+    /// the nearest point of every point of the cell (its distance is at most `reach`).
+    /// From the BVH at the top of the tree (no parent, or a long parent list), else by
+    /// filtering the parent's list.
+    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&[u32]>) -> Option<Vec<u32>> {
+        // Slack for the rounding of `reach` and of the box distances.
+        let reach = reach * (1.0 + 1e-9) + 1e-12 * cell.size().max_element();
+        let reach_squared = reach * reach;
+        let near = |id: u32| {
+            let (lo, hi) = self.boxes[id as usize];
+            let gap = (lo - cell.max).max(cell.min - hi).max(DVec3::ZERO);
+            gap.length_squared() <= reach_squared
+        };
+        Some(match parent {
+            Some(list) if list.len() <= NARROW_FROM_BVH => list.iter().copied().filter(|&id| near(id)).collect(),
+            _ => {
+                let grown = Aabb::new(cell.min - DVec3::splat(reach), cell.max + DVec3::splat(reach));
+                let mut ids = Vec::new();
+                self.bvh.boxes_overlapping(&grown, &mut ids);
+                ids.retain(|&id| near(id));
+                ids.sort_unstable();
+                ids
+            }
+        })
+    }
+
+    /// The nearest of the cell's candidates (a scan pruned by the triangles' boxes) when
+    /// the list is short, and the sheets crossed from `near` counted among them; the BVH
+    /// otherwise. The same distance as [`MeshSource::sample`]: the minimum over a set that
+    /// holds the nearest triangle.
+    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &[u32]) -> Sample {
+        if candidates.len() > SCAN_LIMIT {
+            return self.sample(p, near);
         }
-        // `I` carried over from the neighbour by counting the sheets between them.
-        let known = near.and_then(|(q, s)| s.region.and_then(|i| self.winding.integer_along(q, i, p)));
-        if known.is_none() {
-            self.integer_queries.fetch_add(1, Ordering::Relaxed);
+        self.queries.fetch_add(1, Ordering::Relaxed);
+        let bound = near_bound(p, near);
+        let mut best = if bound.is_finite() {
+            bound * bound * (1.0 + 1e-12)
+        } else {
+            f64::INFINITY
+        };
+        let mut found = false;
+        for &id in candidates {
+            let (lo, hi) = self.boxes[id as usize];
+            let gap = (lo - p).max(p - hi).max(DVec3::ZERO);
+            if gap.length_squared() > best {
+                continue;
+            }
+            let (q, _) = volga_mesh::closest_point_on_triangle(p, self.triangles[id as usize]);
+            let d2 = (p - q).length_squared();
+            if d2 <= best {
+                best = d2;
+                found = true;
+            }
         }
-        let (inside, integer, cost) = self.winding.inside_with(p, known);
-        self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
-        Sample {
-            value: if inside { -unsigned } else { unsigned },
-            region: integer,
+        if !found {
+            // Only through rounding of the neighbour's bound: ask the BVH.
+            return self.sample(p, near);
         }
+        self.signed(p, best.sqrt(), near, Some(candidates))
     }
 
     /// Only with holes (caps closing a boundary).
@@ -240,6 +388,24 @@ impl DistanceSource for MeshSource {
 
     fn bounds(&self) -> Aabb {
         self.bounds
+    }
+
+    /// `I − w_C` with the sample's certified `I`.
+    fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
+        Some(match sample.region {
+            Some(i) => 0.5 - self.winding.winding_value_with(p, i, 1e-6),
+            None => 0.5 - self.winding.winding_value(p, 1e-6),
+        })
+    }
+
+    /// No mesh triangle meets the cell, so `I` changes only across the caps between
+    /// `near` and `p` (counted); `w_C` decides.
+    fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
+        let (q, s) = near;
+        let integer = self.winding.integer_along_among(q, s.region?, p, &[])?;
+        let (inside, _, cost) = self.winding.inside_with(p, Some(integer));
+        self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
+        Some(inside)
     }
 }
 

@@ -209,7 +209,21 @@ pub(crate) struct Builder<'a, S: ?Sized> {
     pub may_jump: bool,
     pub cells: AtomicUsize,
     pub evaluations: AtomicU64,
+    /// World position of lattice point `(0, 0, 0)` (the root's minimum) and the lattice
+    /// step (half the finest cell): keys of the sample cache.
+    pub lattice_origin: DVec3,
+    pub lattice_unit: f64,
 }
+
+/// Samples already taken in one sequentially built subtree, by lattice point (integer
+/// coordinates in half-finest-cell units from the root's minimum): a point shared by
+/// sibling or cousin cells is evaluated once. Values are functions of the point alone, so
+/// the cache changes the work, never the tree.
+pub(crate) type SampleCache = rustc_hash::FxHashMap<[u32; 3], Sample>;
+
+/// A cell's candidate list ([`DistanceSource::candidates`]), `None` if the source does
+/// not narrow.
+type Candidates = Option<Vec<u32>>;
 
 /// The 27 points of a cell's 3×3×3 lattice, index `i + 3j + 9k`, in half-cell units.
 #[inline]
@@ -270,6 +284,16 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         }
     }
 
+    fn eval_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &[u32]) -> Result<Sample, AdfError> {
+        self.evaluations.fetch_add(1, Ordering::Relaxed);
+        let s = self.source.sample_among(p, near, candidates);
+        if s.value.is_finite() {
+            Ok(s)
+        } else {
+            Err(AdfError::NonFinite(p.to_array()))
+        }
+    }
+
     fn count(&self, n: usize) -> Result<(), AdfError> {
         let total = self.cells.fetch_add(n, Ordering::Relaxed) + n;
         if total > self.max_cells {
@@ -282,8 +306,16 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
     }
 
     /// The 27 samples of a cell's 3×3×3 lattice: its corners and its 19 test points (each
-    /// given the nearest corner that knows its region).
-    fn lattice(&self, min: DVec3, size: f64, samples: &[Sample; 8]) -> Result<[Sample; 27], AdfError> {
+    /// given the nearest corner that knows its region), from `cache` when a neighbour
+    /// took them already, among the cell's `candidates` when the source narrows.
+    fn lattice(
+        &self,
+        min: DVec3,
+        size: f64,
+        samples: &[Sample; 8],
+        candidates: Option<&[u32]>,
+        mut cache: Option<&mut SampleCache>,
+    ) -> Result<[Sample; 27], AdfError> {
         let mut lattice = [None; 27];
         for b in 0..8 {
             lattice[corner_lattice(b)] = Some(samples[b]);
@@ -297,16 +329,71 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                         continue;
                     }
                     let p = min + DVec3::new(i as f64, j as f64, k as f64) * half;
+                    let key = self.lattice_key(p);
+                    if let Some(s) = cache.as_deref().and_then(|c| c.get(&key)) {
+                        lattice[l] = Some(*s);
+                        continue;
+                    }
                     // The nearest corner that knows its region (the shortest carry).
                     let near = (0..8)
                         .filter(|&b| samples[b].region.is_some())
                         .map(|b| (corner_position(min, size, b), &samples[b]))
                         .min_by(|a, b| (p - a.0).length_squared().total_cmp(&(p - b.0).length_squared()));
-                    lattice[l] = Some(self.eval(p, near)?);
+                    let s = match candidates {
+                        Some(c) => self.eval_among(p, near, c)?,
+                        None => self.eval(p, near)?,
+                    };
+                    if let Some(c) = cache.as_deref_mut() {
+                        c.insert(key, s);
+                    }
+                    lattice[l] = Some(s);
                 }
             }
         }
         Ok(lattice.map(|s| s.expect("every lattice point is sampled")))
+    }
+
+    /// Whether the source proves cheaply that all 19 test points of a cell no surface
+    /// meets have the corners' sign (`outside`: all positive): the same answer as sampling
+    /// them ([`DistanceSource::inside_in_empty_cell`]); `false` when it cannot tell.
+    fn signs_confirmed(&self, min: DVec3, size: f64, samples: &[Sample; 8], outside: bool) -> bool {
+        let half = size * 0.5;
+        for k in 0..3 {
+            for j in 0..3 {
+                for i in 0..3 {
+                    if i % 2 == 0 && j % 2 == 0 && k % 2 == 0 {
+                        continue; // a corner
+                    }
+                    let b = (i / 2) | ((j / 2) << 1) | ((k / 2) << 2);
+                    let p = min + DVec3::new(i as f64, j as f64, k as f64) * half;
+                    match self
+                        .source
+                        .inside_in_empty_cell(p, (corner_position(min, size, b), &samples[b]))
+                    {
+                        Some(inside) if inside != outside => {}
+                        _ => return false,
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// Integer lattice coordinates of a lattice point (exact: points and origin are on
+    /// the lattice of the finest cells).
+    #[inline]
+    fn lattice_key(&self, p: DVec3) -> [u32; 3] {
+        let k = ((p - self.lattice_origin) / self.lattice_unit).round();
+        [k.x as u32, k.y as u32, k.z as u32]
+    }
+
+    /// The cell's candidate list, narrowed from its parent's: the cell's distance is at
+    /// most its nearest corner's plus its diagonal.
+    fn candidates(&self, min: DVec3, size: f64, samples: &[Sample; 8], parent: Option<&[u32]>) -> Candidates {
+        let nearest = samples.iter().map(|s| s.value.abs()).fold(f64::INFINITY, f64::min);
+        let reach = nearest + size * 3f64.sqrt();
+        self.source
+            .candidates(&Aabb::new(min, min + DVec3::splat(size)), reach, parent)
     }
 
     /// Decides one cell: a leaf (with its sign-field corners if it is a jump leaf), or
@@ -318,6 +405,8 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         depth: u8,
         samples: &[Sample; 8],
         stats: &mut LocalStats,
+        parent_candidates: Option<&[u32]>,
+        cache: Option<&mut SampleCache>,
     ) -> Result<Decision, AdfError> {
         let corners = samples.map(|s| s.value as f32);
         stats.depth = stats.depth.max(depth);
@@ -337,7 +426,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             let mut w = [0f32; 8];
             let mut known = true;
             for (b, w) in w.iter_mut().enumerate() {
-                match self.source.sign_field(corner_position(min, size, b)) {
+                match self.source.sign_field_at(corner_position(min, size, b), &samples[b]) {
                     Some(v) if v.is_finite() => *w = v as f32,
                     _ => known = false,
                 }
@@ -350,7 +439,12 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             stats.leaf(true, false, jump.is_some());
             return Ok(Decision::Leaf(corners, jump));
         }
-        let lattice = self.lattice(min, size, samples)?;
+        if prunable && self.signs_confirmed(min, size, samples, positive == 8) {
+            stats.leaf(false, true, false);
+            return Ok(Decision::Leaf(corners, None));
+        }
+        let candidates = self.candidates(min, size, samples, parent_candidates);
+        let lattice = self.lattice(min, size, samples, candidates.as_deref(), cache)?;
         if prunable && lattice.iter().all(|s| (s.value > 0.0) == (positive == 8)) {
             stats.leaf(false, true, false);
             return Ok(Decision::Leaf(corners, None));
@@ -383,7 +477,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             return Ok(Decision::Leaf(corners, jump));
         }
         self.count(8)?;
-        Ok(Decision::Split(Box::new(lattice)))
+        Ok(Decision::Split(Box::new(lattice), candidates))
     }
 
     /// Builds the subtree of one cell into `out[index]` and onwards (sequential).
@@ -398,12 +492,14 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         depth: u8,
         samples: [Sample; 8],
         stats: &mut LocalStats,
+        parent_candidates: Option<&[u32]>,
+        cache: &mut SampleCache,
     ) -> Result<(), AdfError> {
-        match self.decide(min, size, depth, &samples, stats)? {
+        match self.decide(min, size, depth, &samples, stats, parent_candidates, Some(&mut *cache))? {
             Decision::Leaf(corners, jump) => {
                 out[index] = leaf_cell(corners, jump, jumps);
             }
-            Decision::Split(lattice) => {
+            Decision::Split(lattice, candidates) => {
                 let first = out.len();
                 out[index] = Cell {
                     corners: samples.map(|s| s.value as f32),
@@ -419,7 +515,18 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                 let half = size * 0.5;
                 for o in 0..8 {
                     let (child_min, child_samples) = child_of(min, half, o, &lattice);
-                    self.build_into(out, jumps, first + o, child_min, half, depth + 1, child_samples, stats)?;
+                    self.build_into(
+                        out,
+                        jumps,
+                        first + o,
+                        child_min,
+                        half,
+                        depth + 1,
+                        child_samples,
+                        stats,
+                        candidates.as_deref(),
+                        cache,
+                    )?;
                 }
             }
         }
@@ -433,6 +540,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         size: f64,
         depth: u8,
         samples: [Sample; 8],
+        parent_candidates: Option<&[u32]>,
     ) -> Result<(Subtree, LocalStats), AdfError> {
         let mut stats = LocalStats::default();
         let mut jumps = Vec::new();
@@ -441,10 +549,22 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                 corners: [0.0; 8],
                 children: LEAF,
             }];
-            self.build_into(&mut out, &mut jumps, 0, min, size, depth, samples, &mut stats)?;
+            let mut cache = SampleCache::default();
+            self.build_into(
+                &mut out,
+                &mut jumps,
+                0,
+                min,
+                size,
+                depth,
+                samples,
+                &mut stats,
+                parent_candidates,
+                &mut cache,
+            )?;
             return Ok((Subtree { cells: out, jumps }, stats));
         }
-        match self.decide(min, size, depth, &samples, &mut stats)? {
+        match self.decide(min, size, depth, &samples, &mut stats, parent_candidates, None)? {
             Decision::Leaf(corners, jump) => {
                 let cell = leaf_cell(corners, jump, &mut jumps);
                 Ok((
@@ -455,13 +575,13 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                     stats,
                 ))
             }
-            Decision::Split(lattice) => {
+            Decision::Split(lattice, candidates) => {
                 let half = size * 0.5;
                 let children: Vec<(Subtree, LocalStats)> = (0..8usize)
                     .into_par_iter()
                     .map(|o| {
                         let (child_min, child_samples) = child_of(min, half, o, &lattice);
-                        self.build(child_min, half, depth + 1, child_samples)
+                        self.build(child_min, half, depth + 1, child_samples, candidates.as_deref())
                     })
                     .collect::<Result<_, _>>()?;
                 let (subtrees, child_stats): (Vec<Subtree>, Vec<LocalStats>) = children.into_iter().unzip();
@@ -480,7 +600,8 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
 
 pub(crate) enum Decision {
     Leaf([f32; 8], Option<[f32; 8]>),
-    Split(Box<[Sample; 27]>),
+    /// The lattice the children take their corners from, and the cell's candidates.
+    Split(Box<[Sample; 27]>, Candidates),
 }
 
 fn leaf_cell(corners: [f32; 8], jump: Option<[f32; 8]>, jumps: &mut Vec<[f32; 8]>) -> Cell {
@@ -631,6 +752,8 @@ impl Adf {
             may_jump: source.may_jump(),
             cells: AtomicUsize::new(1),
             evaluations: AtomicU64::new(0),
+            lattice_origin: root_min,
+            lattice_unit: root_size / (1u64 << (options.max_depth + 1)) as f64,
         };
         let mut samples = Vec::with_capacity(8);
         for b in 0..8 {
@@ -642,7 +765,7 @@ impl Adf {
             samples.push(s);
         }
         let samples: [Sample; 8] = samples.try_into().expect("8 corners");
-        let (tree, local) = builder.build(root_min, root_size, 0, samples)?;
+        let (tree, local) = builder.build(root_min, root_size, 0, samples, None)?;
         let stats = BuildStats {
             cells: tree.cells.len(),
             leaves: local.leaves,

@@ -145,6 +145,39 @@ impl CappedWinding {
         let query = volga_core::Aabb::new(from.min(to), from.max(to));
         let mut ids = Vec::new();
         self.closed.boxes_overlapping(&query, &mut ids);
+        self.count_crossings(from, from_integer, to, ids)
+    }
+
+    /// [`CappedWinding::integer_along`] with the mesh triangles to test given by the
+    /// caller: `mesh_triangles` (ids in the mesh) must include every triangle of the mesh
+    /// that meets the segment (e.g. every triangle near a box containing it); the cap
+    /// triangles are found here. The answer is the same certified `I` (it may be `None`
+    /// where `integer_along` is not, or the reverse, only when an endpoint lies within
+    /// rounding of the plane of a triangle that one of them tests and the other does not).
+    pub fn integer_along_among(&self, from: DVec3, from_integer: i64, to: DVec3, mesh_triangles: &[u32]) -> Option<i64> {
+        if from == to {
+            return Some(from_integer);
+        }
+        let query = volga_core::Aabb::new(from.min(to), from.max(to));
+        let mesh_count = (self.closed_triangles.len() - self.cap_triangles) as u32;
+        let mut caps = Vec::new();
+        if let Some(c) = &self.caps {
+            c.boxes_overlapping(&query, &mut caps);
+        }
+        let boxes = |id: &u32| {
+            let [a, b, c] = self.closed_triangles[*id as usize];
+            !(a.min(b).min(c).cmpgt(query.max).any() || a.max(b).max(c).cmplt(query.min).any())
+        };
+        let ids = mesh_triangles
+            .iter()
+            .filter(|&id| *id < mesh_count && boxes(id))
+            .copied()
+            .chain(caps.into_iter().map(|c| c + mesh_count));
+        self.count_crossings(from, from_integer, to, ids)
+    }
+
+    /// `I(to)` from `I(from)` counting the crossings of the listed triangles of `M + C`.
+    fn count_crossings(&self, from: DVec3, from_integer: i64, to: DVec3, ids: impl IntoIterator<Item = u32>) -> Option<i64> {
         let mut integer = from_integer;
         let segment = to - from;
         for id in ids {
@@ -224,6 +257,19 @@ impl CappedWinding {
             }
             None => self.mesh.winding_number_bounded(p, None, |_, e| e <= tolerance).value,
         }
+    }
+}
+
+impl CappedWinding {
+    /// [`CappedWinding::winding_value`] given the integer part `I` at `p` (certified by the
+    /// caller, e.g. from [`CappedWinding::inside_with`]): `I − w_C(p)` with `w_C` summed to
+    /// within `tolerance`. The same value as `winding_value` off the sheets of `M + C`.
+    pub fn winding_value_with(&self, p: DVec3, integer: i64, tolerance: f64) -> f64 {
+        let cap = self
+            .caps
+            .as_ref()
+            .map_or(0.0, |c| c.winding_number_bounded(p, None, |_, e| e <= tolerance).value);
+        integer as f64 - cap
     }
 }
 
