@@ -1,7 +1,7 @@
 //! An ADF is a [`Field`] of signed-distance kind: the raycaster renders it directly.
 
 use glam::DVec3;
-use volga_core::{Aabb, Field, FieldKind, Line};
+use volga_core::{Aabb, Crossing, Field, FieldKind, Line};
 
 use crate::Adf;
 
@@ -54,6 +54,20 @@ impl Field for Adf {
 
     fn gradient_step(&self) -> DVec3 {
         DVec3::splat(self.cell_size(self.stats.depth_reached))
+    }
+
+    /// The leaf walk with exact cubic roots ([`Adf::first_crossing_between`]): a few
+    /// leaves per ray instead of a sample every [`Field::sample_spacing`].
+    fn first_crossing(&self, world_origin: DVec3, world_dir: DVec3, t0: f64, t1: f64, iso: f64) -> Crossing {
+        if !(world_origin.is_finite() && world_dir.is_finite() && t0.is_finite() && t1.is_finite())
+            || world_dir == DVec3::ZERO
+        {
+            return Crossing::NotProvided;
+        }
+        match self.first_crossing_between(world_origin, world_dir, t0, t1, iso).0 {
+            Some(t) => Crossing::At(t),
+            None => Crossing::Miss,
+        }
     }
 
     /// Per-leaf corner ranges (conservative), so iso rendering skips every macro cell the

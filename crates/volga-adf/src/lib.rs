@@ -53,7 +53,7 @@ mod tree;
 pub use edit::EditStats;
 pub use measure::{measure_errors, ErrorStats};
 pub use ray::RayHit;
-pub use source::{Csg, CsgOp, DistanceSource, FieldSource, MeshSource, Sample, ShapeSource};
+pub use source::{CellCandidates, Csg, CsgOp, DistanceSource, FieldSource, MeshSource, Sample, ShapeSource};
 pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};
 
 use volga_core::FieldKind;

@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use crate::tree::{corner_position, trilinear};
+use crate::tree::{corner_position, trilinear, MAX_SUPPORTED_DEPTH};
 use crate::Adf;
 
 /// The first point where a ray meets the reconstructed surface.
@@ -21,68 +21,201 @@ impl Adf {
     /// The first `t ∈ [0, t_max]` where the reconstruction along `origin + t·dir` reaches 0
     /// (`dir` need not be unit; `t` is in its units).
     ///
-    /// Walks the leaves the ray crosses. In a leaf whose corners are all positive the
-    /// reconstruction has no zero, and the ray advances by the larger of the leaf's exit
-    /// and a sphere-tracing step: the 1-Lipschitz lower bound `max_b (d_b − |p − x_b|)`
-    /// of the distance from the corners (a conservative step, also valid for pruned
-    /// leaves whose reconstruction is not within the tolerance). In a leaf with a sign
-    /// change the reconstruction along the ray is a cubic polynomial; it is split into
-    /// monotone pieces at its critical points and the first downward crossing is
-    /// bisected to the last bit, so no crossing that the reconstruction has is stepped
-    /// over. A ray starting inside reports `t = 0`.
+    /// Walks the leaves the ray crosses ([`Adf::first_crossing_between`]). A ray
+    /// starting inside reports `t = 0`.
     pub fn ray_hit(&self, origin: DVec3, dir: DVec3, t_max: f64) -> Option<RayHit> {
         if !(origin.is_finite() && dir.is_finite()) || dir == DVec3::ZERO {
             return None;
         }
         let (t0, t1) = self.root_box().ray_interval(origin, dir)?;
-        let end = t1.min(t_max);
-        let mut t = t0;
+        let (hit_t, steps) = self.first_crossing_between(origin, dir, t0, t1.min(t_max), 0.0);
+        let hit_t = hit_t?;
+        let world_pos = origin + dir * hit_t;
+        let g = self.gradient(world_pos);
+        let normal = if g.length() > 0.0 {
+            g.normalize()
+        } else {
+            -dir / dir.length()
+        };
+        Some(RayHit {
+            t: hit_t,
+            world_pos,
+            normal,
+            steps,
+        })
+    }
+
+    /// The first `t ∈ [t_start, t_end]` where the reconstruction along `origin + t·dir`
+    /// falls to `iso` or below, and the number of leaves visited.
+    ///
+    /// Walks the leaves the ray crosses, keeping the path of ancestors so each next leaf
+    /// is found from the nearest common ancestor, not from the root. In a leaf whose
+    /// corners are all above `iso` the reconstruction has no crossing, and the ray
+    /// advances by the larger of the leaf's exit and a sphere-tracing step: the
+    /// 1-Lipschitz lower bound `max_b (d_b − iso − |p − x_b|)` of the distance to the
+    /// level set from the corners (also valid for pruned leaves, whose reconstruction is
+    /// not within the tolerance). In a leaf with a corner at or below `iso` the
+    /// reconstruction along the ray is a cubic polynomial; it is split into monotone
+    /// pieces at its critical points and the first downward crossing is bisected to the
+    /// last bit, so no crossing that the reconstruction has is stepped over.
+    pub fn first_crossing_between(&self, origin: DVec3, dir: DVec3, t_start: f64, t_end: f64, iso: f64) -> (Option<f64>, u32) {
+        let mut t = t_start;
         let mut steps = 0u32;
         let scale = dir.length();
-        while t <= end {
+        let mut walk = LeafWalk::new(self);
+        while t <= t_end {
             steps += 1;
-            // Locate a point slightly inside the leaf ahead so a ray on a cell face
-            // resolves to the leaf it is entering.
-            let (index, min, size, _) = self.locate(origin + dir * t);
-            let leaf_box = volga_core::Aabb::new(min, min + DVec3::splat(size));
-            let exit = match leaf_box.ray_interval(origin, dir) {
-                Some((_, b)) => b.min(end),
-                None => t,
-            };
-            let corners = self.cells[index].corners;
-            // The sign of the reconstruction along the segment: the trilinear corners, or a
-            // jump leaf's sign field (its magnitude is positive: no surface passes here).
-            let signs = match self.cells[index].jump() {
-                None => corners,
-                Some(k) => self.jumps[k],
-            };
-            let at = |s: f64| trilinear(&signs, ((origin + dir * s - min) / size).clamp(DVec3::ZERO, DVec3::ONE));
-            let (lo, _) = self.cells[index].corner_range();
-            if lo > 0.0 {
+            let (index, min, size) = walk.locate(origin + dir * t);
+            let inv = 1.0 / size;
+            let exit = leaf_exit(origin, dir, min, size).min(t_end).max(t);
+            let cell = &self.cells[index];
+            let corners = cell.corners;
+            let lo = corners.iter().fold(f32::INFINITY, |a, &c| a.min(c)) as f64;
+            if lo > iso {
                 let p = origin + dir * t;
                 let mut bound = f64::NEG_INFINITY;
                 for (b, &c) in corners.iter().enumerate() {
-                    bound = bound.max(c as f64 * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
+                    bound = bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
                 }
-                let step = bound / scale;
-                t = next_t(t, exit.max(t + step), size / scale);
+                t = next_t(t, exit.max(t + bound / scale), size / scale);
                 continue;
             }
-            if let Some(hit_t) = first_root(&at, t, exit) {
-                let world_pos = origin + dir * hit_t;
-                let g = self.gradient(world_pos);
-                let normal = if g.length() > 0.0 { g.normalize() } else { -dir / scale };
-                return Some(RayHit {
-                    t: hit_t,
-                    world_pos,
-                    normal,
-                    steps,
-                });
+            let found = match cell.jump() {
+                // The trilinear reconstruction, shifted by `iso`.
+                None => {
+                    let at = |s: f64| {
+                        trilinear(&corners, ((origin + dir * s - min) * inv).clamp(DVec3::ZERO, DVec3::ONE)) - iso
+                    };
+                    first_root(&at, t, exit)
+                }
+                // A jump leaf: the trilinear magnitude with the sign field's sign.
+                Some(k) => {
+                    let magnitudes = corners.map(f32::abs);
+                    let signs = &self.jumps[k];
+                    let at = |s: f64| {
+                        let u = ((origin + dir * s - min) * inv).clamp(DVec3::ZERO, DVec3::ONE);
+                        let m = trilinear(&magnitudes, u);
+                        (if trilinear(signs, u) > 0.0 { m } else { -m }) - iso
+                    };
+                    if iso == 0.0 {
+                        // The sign field's own cubic places the jump.
+                        let sign_at = |s: f64| {
+                            trilinear(signs, ((origin + dir * s - min) * inv).clamp(DVec3::ZERO, DVec3::ONE))
+                        };
+                        first_root(&sign_at, t, exit)
+                    } else {
+                        first_root_sampled(&at, t, exit)
+                    }
+                }
+            };
+            if let Some(hit_t) = found {
+                return (Some(hit_t), steps);
             }
             t = next_t(t, exit, size / scale);
         }
-        None
+        (None, steps)
     }
+}
+
+/// The leaf walk's state: the path from the root to the current leaf.
+struct LeafWalk<'a> {
+    adf: &'a Adf,
+    /// `(cell index, world min, size)` from the root down.
+    path: Vec<(usize, DVec3, f64)>,
+}
+
+impl<'a> LeafWalk<'a> {
+    fn new(adf: &'a Adf) -> Self {
+        let mut path = Vec::with_capacity(MAX_SUPPORTED_DEPTH as usize + 1);
+        path.push((0, adf.root_min, adf.root_size));
+        LeafWalk { adf, path }
+    }
+
+    /// The leaf containing `p`: the same leaf as [`Adf::locate`] (a point outside the
+    /// root goes to the leaf it would clamp to), found from the deepest ancestor on the
+    /// current path whose half-open box contains `p`.
+    fn locate(&mut self, p: DVec3) -> (usize, DVec3, f64) {
+        while self.path.len() > 1 {
+            let (_, min, size) = *self.path.last().expect("non-empty");
+            if p.cmpge(min).all() && p.cmplt(min + DVec3::splat(size)).all() {
+                break;
+            }
+            self.path.pop();
+        }
+        let (mut index, mut min, mut size) = *self.path.last().expect("non-empty");
+        loop {
+            let c = &self.adf.cells[index];
+            if c.is_leaf() {
+                return (index, min, size);
+            }
+            size *= 0.5;
+            let mid = min + DVec3::splat(size);
+            let mut o = 0;
+            if p.x >= mid.x {
+                o |= 1;
+                min.x = mid.x;
+            }
+            if p.y >= mid.y {
+                o |= 2;
+                min.y = mid.y;
+            }
+            if p.z >= mid.z {
+                o |= 4;
+                min.z = mid.z;
+            }
+            index = c.children as usize + o;
+            self.path.push((index, min, size));
+        }
+    }
+}
+
+/// Where the ray leaves the box `min + [0, size]³` (the largest `t` inside it).
+#[inline]
+fn leaf_exit(origin: DVec3, dir: DVec3, min: DVec3, size: f64) -> f64 {
+    let mut exit = f64::INFINITY;
+    for a in 0..3 {
+        let d = dir[a];
+        if d > 0.0 {
+            exit = exit.min((min[a] + size - origin[a]) / d);
+        } else if d < 0.0 {
+            exit = exit.min((min[a] - origin[a]) / d);
+        }
+    }
+    exit
+}
+
+/// The first `s ∈ [a, b]` with `g(s) ≤ 0` for a function that is not a cubic (a jump
+/// leaf's signed magnitude at a non-zero iso value): 16 samples, then bisection.
+fn first_root_sampled(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
+    if g(a) <= 0.0 {
+        return Some(a);
+    }
+    let n = 16;
+    let mut prev = a;
+    for k in 1..=n {
+        let s = if k == n { b } else { a + (b - a) * k as f64 / n as f64 };
+        if g(s) <= 0.0 {
+            return Some(bisect(g, prev, s));
+        }
+        prev = s;
+    }
+    None
+}
+
+/// Bisection of `[l, r]` with `g(l) > 0 ≥ g(r)` to the last bit; returns the inside end.
+fn bisect(g: &impl Fn(f64) -> f64, mut l: f64, mut r: f64) -> f64 {
+    for _ in 0..200 {
+        let m = 0.5 * (l + r);
+        if m <= l || m >= r {
+            break;
+        }
+        if g(m) <= 0.0 {
+            r = m;
+        } else {
+            l = m;
+        }
+    }
+    r
 }
 
 /// The next ray parameter: `candidate`, but always past `t` by a sliver of the cell so a
@@ -115,7 +248,8 @@ fn first_root(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
     let c2 = (18.0 * g0 - 45.0 * g1 + 36.0 * g2 - 9.0 * g3) / 2.0;
     let c3 = (-9.0 * g0 + 27.0 * g1 - 27.0 * g2 + 9.0 * g3) / 2.0;
     // Critical points: 3 c3 u² + 2 c2 u + c1 = 0.
-    let mut cuts = vec![0.0, 1.0];
+    let mut cuts = [0.0, 1.0, 2.0, 2.0];
+    let mut n = 2;
     let (qa, qb, qc) = (3.0 * c3, 2.0 * c2, c1);
     if qa.abs() > 1e-300 {
         let disc = qb * qb - 4.0 * qa * qc;
@@ -124,34 +258,25 @@ fn first_root(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
             let q = -0.5 * (qb + qb.signum() * r);
             for u in [q / qa, if q != 0.0 { qc / q } else { f64::NAN }] {
                 if u > 0.0 && u < 1.0 {
-                    cuts.push(u);
+                    cuts[n] = u;
+                    n += 1;
                 }
             }
         }
     } else if qb.abs() > 1e-300 {
         let u = -qc / qb;
         if u > 0.0 && u < 1.0 {
-            cuts.push(u);
+            cuts[n] = u;
+            n += 1;
         }
     }
+    let cuts = &mut cuts[..n];
     cuts.sort_by(f64::total_cmp);
     for w in cuts.windows(2) {
         let (lo, hi) = (a + w[0] * h, a + w[1] * h);
         if g(hi) <= 0.0 {
             // g(lo) > 0 (checked at the previous piece's end) and g(hi) ≤ 0: bisect.
-            let (mut l, mut r) = (lo, hi);
-            for _ in 0..200 {
-                let m = 0.5 * (l + r);
-                if m <= l || m >= r {
-                    break;
-                }
-                if g(m) <= 0.0 {
-                    r = m;
-                } else {
-                    l = m;
-                }
-            }
-            return Some(r);
+            return Some(bisect(g, lo, hi));
         }
     }
     None

@@ -37,14 +37,14 @@ pub trait DistanceSource: Sync {
     /// (`None` at the top). The builder passes the list to [`DistanceSource::sample_among`]
     /// for the cell's test points and narrows it again for the children. `None`: the source
     /// does not narrow (the default).
-    fn candidates(&self, _cell: &Aabb, _reach: f64, _parent: Option<&[u32]>) -> Option<Vec<u32>> {
+    fn candidates(&self, _cell: &Aabb, _reach: f64, _parent: Option<&CellCandidates>) -> Option<CellCandidates> {
         None
     }
 
     /// [`DistanceSource::sample`] at a point of a cell whose [`DistanceSource::candidates`]
     /// are `candidates`, with `near` in the same cell. Must return exactly what `sample`
     /// returns (the default calls it).
-    fn sample_among(&self, world_pos: DVec3, near: Option<(DVec3, &Sample)>, _candidates: &[u32]) -> Sample {
+    fn sample_among(&self, world_pos: DVec3, near: Option<(DVec3, &Sample)>, _candidates: &CellCandidates) -> Sample {
         self.sample(world_pos, near)
     }
 
@@ -71,6 +71,13 @@ pub trait DistanceSource: Sync {
         None
     }
 
+    /// Whether every point of `cell`, a cell no surface meets, is inside, proven at once
+    /// from a corner's sample (`corner`); `None`: not proven (the default), the builder
+    /// asks [`DistanceSource::inside_in_empty_cell`] at each test point.
+    fn side_of_empty_cell(&self, _cell: &Aabb, _corner: (DVec3, &Sample)) -> Option<bool> {
+        None
+    }
+
     /// Whether the sign may change away from any surface (an open mesh's inside across a
     /// hole). Then a cell far from the surface is pruned only if its test points confirm
     /// its corners' sign.
@@ -83,6 +90,17 @@ pub trait DistanceSource: Sync {
     fn is_exact(&self) -> bool {
         true
     }
+}
+
+/// What a source narrowed for one cell of the build ([`DistanceSource::candidates`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CellCandidates {
+    /// Ids of the primitives (a mesh: triangle indices) that can hold the nearest surface
+    /// point of any point of the cell.
+    pub ids: Vec<u32>,
+    /// Certified bounds over the cell of a quantity the source decides signs with (a mesh
+    /// with holes: the caps' winding number `w_C`), when it could bound it.
+    pub sign_bounds: Option<(f64, f64)>,
 }
 
 /// A distance and what the source learnt computing it.
@@ -102,10 +120,10 @@ impl<S: DistanceSource + ?Sized> DistanceSource for &S {
     fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
         (**self).sample(p, near)
     }
-    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&[u32]>) -> Option<Vec<u32>> {
+    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
         (**self).candidates(cell, reach, parent)
     }
-    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &[u32]) -> Sample {
+    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
         (**self).sample_among(p, near, candidates)
     }
     fn sign_field(&self, p: DVec3) -> Option<f64> {
@@ -113,6 +131,9 @@ impl<S: DistanceSource + ?Sized> DistanceSource for &S {
     }
     fn may_jump(&self) -> bool {
         (**self).may_jump()
+    }
+    fn side_of_empty_cell(&self, cell: &Aabb, corner: (DVec3, &Sample)) -> Option<bool> {
+        (**self).side_of_empty_cell(cell, corner)
     }
     fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
         (**self).sign_field_at(p, sample)
@@ -135,10 +156,10 @@ impl<S: DistanceSource + ?Sized> DistanceSource for Box<S> {
     fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
         (**self).sample(p, near)
     }
-    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&[u32]>) -> Option<Vec<u32>> {
+    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
         (**self).candidates(cell, reach, parent)
     }
-    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &[u32]) -> Sample {
+    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
         (**self).sample_among(p, near, candidates)
     }
     fn sign_field(&self, p: DVec3) -> Option<f64> {
@@ -146,6 +167,9 @@ impl<S: DistanceSource + ?Sized> DistanceSource for Box<S> {
     }
     fn may_jump(&self) -> bool {
         (**self).may_jump()
+    }
+    fn side_of_empty_cell(&self, cell: &Aabb, corner: (DVec3, &Sample)) -> Option<bool> {
+        (**self).side_of_empty_cell(cell, corner)
     }
     fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
         (**self).sign_field_at(p, sample)
@@ -254,7 +278,7 @@ impl MeshSource {
 /// Candidate lists longer than this are narrowed with the BVH, not by filtering.
 const NARROW_FROM_BVH: usize = 4096;
 /// Candidate lists longer than this are not scanned: the point asks the BVH.
-const SCAN_LIMIT: usize = 192;
+const SCAN_LIMIT: usize = 512;
 
 /// The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
 #[inline]
@@ -268,7 +292,7 @@ impl MeshSource {
     /// `near` by counting the sheets crossed in between (among `candidates` when given:
     /// they hold every mesh triangle meeting the segment) or computed when that count is
     /// not certain; `w_C` (the caps alone) is always computed, certified against `I − ½`.
-    fn signed(&self, p: DVec3, unsigned: f64, near: Option<(DVec3, &Sample)>, candidates: Option<&[u32]>) -> Sample {
+    fn signed(&self, p: DVec3, unsigned: f64, near: Option<(DVec3, &Sample)>, candidates: Option<&CellCandidates>) -> Sample {
         if unsigned == 0.0 {
             return Sample {
                 value: 0.0,
@@ -277,15 +301,28 @@ impl MeshSource {
         }
         let known = near.and_then(|(q, s)| {
             s.region.and_then(|i| match candidates {
-                Some(c) => self.winding.integer_along_among(q, i, p, c),
+                Some(c) => self.winding.integer_along_among(q, i, p, &c.ids),
                 None => self.winding.integer_along(q, i, p),
             })
         });
         if known.is_none() {
             self.integer_queries.fetch_add(1, Ordering::Relaxed);
         }
-        let (inside, integer, cost) = self.winding.inside_with(p, known);
-        self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
+        // Inside ⇔ w_C ≤ I − ½: decided by the cell's bounds on w_C when they clear it.
+        let threshold = known.map(|i| i as f64 - 0.5);
+        let by_bounds = match (candidates.and_then(|c| c.sign_bounds), threshold) {
+            (Some((_, hi)), Some(t)) if hi < t => Some(true),
+            (Some((lo, _)), Some(t)) if lo > t => Some(false),
+            _ => None,
+        };
+        let (inside, integer) = match by_bounds {
+            Some(inside) => (inside, known),
+            None => {
+                let (inside, integer, cost) = self.winding.inside_with(p, known);
+                self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
+                (inside, integer)
+            }
+        };
         Sample {
             value: if inside { -unsigned } else { unsigned },
             region: integer,
@@ -318,7 +355,7 @@ impl DistanceSource for MeshSource {
     /// the nearest point of every point of the cell (its distance is at most `reach`).
     /// From the BVH at the top of the tree (no parent, or a long parent list), else by
     /// filtering the parent's list.
-    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&[u32]>) -> Option<Vec<u32>> {
+    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
         // Slack for the rounding of `reach` and of the box distances.
         let reach = reach * (1.0 + 1e-9) + 1e-12 * cell.size().max_element();
         let reach_squared = reach * reach;
@@ -327,16 +364,21 @@ impl DistanceSource for MeshSource {
             let gap = (lo - cell.max).max(cell.min - hi).max(DVec3::ZERO);
             gap.length_squared() <= reach_squared
         };
-        Some(match parent {
-            Some(list) if list.len() <= NARROW_FROM_BVH => list.iter().copied().filter(|&id| near(id)).collect(),
+        let ids = match parent {
+            Some(list) if list.ids.len() <= NARROW_FROM_BVH => list.ids.iter().copied().filter(|&id| near(id)).collect(),
             _ => {
                 let grown = Aabb::new(cell.min - DVec3::splat(reach), cell.max + DVec3::splat(reach));
                 let mut ids = Vec::new();
                 self.bvh.boxes_overlapping(&grown, &mut ids);
                 ids.retain(|&id| near(id));
-                ids.sort_unstable();
                 ids
             }
+        };
+        Some(CellCandidates {
+            ids,
+            sign_bounds: self
+                .winding
+                .caps_range_over_ball(cell.center(), 0.5 * cell.size().length() * (1.0 + 1e-9)),
         })
     }
 
@@ -344,8 +386,8 @@ impl DistanceSource for MeshSource {
     /// the list is short, and the sheets crossed from `near` counted among them; the BVH
     /// otherwise. The same distance as [`MeshSource::sample`]: the minimum over a set that
     /// holds the nearest triangle.
-    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &[u32]) -> Sample {
-        if candidates.len() > SCAN_LIMIT {
+    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
+        if candidates.ids.len() > SCAN_LIMIT {
             return self.sample(p, near);
         }
         self.queries.fetch_add(1, Ordering::Relaxed);
@@ -356,7 +398,7 @@ impl DistanceSource for MeshSource {
             f64::INFINITY
         };
         let mut found = false;
-        for &id in candidates {
+        for &id in &candidates.ids {
             let (lo, hi) = self.boxes[id as usize];
             let gap = (lo - p).max(p - hi).max(DVec3::ZERO);
             if gap.length_squared() > best {
@@ -396,6 +438,17 @@ impl DistanceSource for MeshSource {
             Some(i) => 0.5 - self.winding.winding_value_with(p, i, 1e-6),
             None => 0.5 - self.winding.winding_value(p, 1e-6),
         })
+    }
+
+    /// `CappedWinding::inside_over_ball` over the cell's circumscribed ball: its centre is
+    /// farther than the ball's radius from the mesh (the corner is farther than the
+    /// cell's diagonal), so `I` is the corner's unless a cap meets the ball (then `None`).
+    fn side_of_empty_cell(&self, cell: &Aabb, corner: (DVec3, &Sample)) -> Option<bool> {
+        let radius = 0.5 * cell.size().length();
+        if !(corner.1.value.abs() > 2.0 * radius) {
+            return None;
+        }
+        self.winding.inside_over_ball(cell.center(), radius * (1.0 + 1e-9), corner.1.region?)
     }
 
     /// No mesh triangle meets the cell, so `I` changes only across the caps between

@@ -6,7 +6,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use volga_core::Aabb;
 
-use crate::source::{DistanceSource, Sample};
+use crate::source::{CellCandidates, DistanceSource, Sample};
 use crate::AdfError;
 
 /// `children` of a leaf.
@@ -219,11 +219,16 @@ pub(crate) struct Builder<'a, S: ?Sized> {
 /// coordinates in half-finest-cell units from the root's minimum): a point shared by
 /// sibling or cousin cells is evaluated once. Values are functions of the point alone, so
 /// the cache changes the work, never the tree.
-pub(crate) type SampleCache = rustc_hash::FxHashMap<[u32; 3], Sample>;
+#[derive(Default)]
+pub(crate) struct SampleCache {
+    samples: rustc_hash::FxHashMap<[u32; 3], Sample>,
+    /// Sign-field values at jump leaves' corners ([`DistanceSource::sign_field_at`]).
+    sign_fields: rustc_hash::FxHashMap<[u32; 3], Option<f64>>,
+}
 
 /// A cell's candidate list ([`DistanceSource::candidates`]), `None` if the source does
 /// not narrow.
-type Candidates = Option<Vec<u32>>;
+type Candidates = Option<CellCandidates>;
 
 /// The 27 points of a cell's 3×3×3 lattice, index `i + 3j + 9k`, in half-cell units.
 #[inline]
@@ -284,7 +289,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         }
     }
 
-    fn eval_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &[u32]) -> Result<Sample, AdfError> {
+    fn eval_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Result<Sample, AdfError> {
         self.evaluations.fetch_add(1, Ordering::Relaxed);
         let s = self.source.sample_among(p, near, candidates);
         if s.value.is_finite() {
@@ -313,7 +318,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         min: DVec3,
         size: f64,
         samples: &[Sample; 8],
-        candidates: Option<&[u32]>,
+        candidates: Option<&CellCandidates>,
         mut cache: Option<&mut SampleCache>,
     ) -> Result<[Sample; 27], AdfError> {
         let mut lattice = [None; 27];
@@ -330,7 +335,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                     }
                     let p = min + DVec3::new(i as f64, j as f64, k as f64) * half;
                     let key = self.lattice_key(p);
-                    if let Some(s) = cache.as_deref().and_then(|c| c.get(&key)) {
+                    if let Some(s) = cache.as_deref().and_then(|c| c.samples.get(&key)) {
                         lattice[l] = Some(*s);
                         continue;
                     }
@@ -344,7 +349,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                         None => self.eval(p, near)?,
                     };
                     if let Some(c) = cache.as_deref_mut() {
-                        c.insert(key, s);
+                        c.samples.insert(key, s);
                     }
                     lattice[l] = Some(s);
                 }
@@ -357,6 +362,10 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
     /// meets have the corners' sign (`outside`: all positive): the same answer as sampling
     /// them ([`DistanceSource::inside_in_empty_cell`]); `false` when it cannot tell.
     fn signs_confirmed(&self, min: DVec3, size: f64, samples: &[Sample; 8], outside: bool) -> bool {
+        let cell = Aabb::new(min, min + DVec3::splat(size));
+        if let Some(inside) = self.source.side_of_empty_cell(&cell, (min, &samples[0])) {
+            return inside != outside;
+        }
         let half = size * 0.5;
         for k in 0..3 {
             for j in 0..3 {
@@ -389,7 +398,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
 
     /// The cell's candidate list, narrowed from its parent's: the cell's distance is at
     /// most its nearest corner's plus its diagonal.
-    fn candidates(&self, min: DVec3, size: f64, samples: &[Sample; 8], parent: Option<&[u32]>) -> Candidates {
+    fn candidates(&self, min: DVec3, size: f64, samples: &[Sample; 8], parent: Option<&CellCandidates>) -> Candidates {
         let nearest = samples.iter().map(|s| s.value.abs()).fold(f64::INFINITY, f64::min);
         let reach = nearest + size * 3f64.sqrt();
         self.source
@@ -405,8 +414,8 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         depth: u8,
         samples: &[Sample; 8],
         stats: &mut LocalStats,
-        parent_candidates: Option<&[u32]>,
-        cache: Option<&mut SampleCache>,
+        parent_candidates: Option<&CellCandidates>,
+        mut cache: Option<&mut SampleCache>,
     ) -> Result<Decision, AdfError> {
         let corners = samples.map(|s| s.value as f32);
         stats.depth = stats.depth.max(depth);
@@ -426,7 +435,15 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             let mut w = [0f32; 8];
             let mut known = true;
             for (b, w) in w.iter_mut().enumerate() {
-                match self.source.sign_field_at(corner_position(min, size, b), &samples[b]) {
+                let p = corner_position(min, size, b);
+                let value = match cache.as_deref_mut() {
+                    Some(c) => *c
+                        .sign_fields
+                        .entry(self.lattice_key(p))
+                        .or_insert_with(|| self.source.sign_field_at(p, &samples[b])),
+                    None => self.source.sign_field_at(p, &samples[b]),
+                };
+                match value {
                     Some(v) if v.is_finite() => *w = v as f32,
                     _ => known = false,
                 }
@@ -444,7 +461,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             return Ok(Decision::Leaf(corners, None));
         }
         let candidates = self.candidates(min, size, samples, parent_candidates);
-        let lattice = self.lattice(min, size, samples, candidates.as_deref(), cache)?;
+        let lattice = self.lattice(min, size, samples, candidates.as_ref(), cache)?;
         if prunable && lattice.iter().all(|s| (s.value > 0.0) == (positive == 8)) {
             stats.leaf(false, true, false);
             return Ok(Decision::Leaf(corners, None));
@@ -492,7 +509,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         depth: u8,
         samples: [Sample; 8],
         stats: &mut LocalStats,
-        parent_candidates: Option<&[u32]>,
+        parent_candidates: Option<&CellCandidates>,
         cache: &mut SampleCache,
     ) -> Result<(), AdfError> {
         match self.decide(min, size, depth, &samples, stats, parent_candidates, Some(&mut *cache))? {
@@ -524,7 +541,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                         depth + 1,
                         child_samples,
                         stats,
-                        candidates.as_deref(),
+                        candidates.as_ref(),
                         cache,
                     )?;
                 }
@@ -540,7 +557,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         size: f64,
         depth: u8,
         samples: [Sample; 8],
-        parent_candidates: Option<&[u32]>,
+        parent_candidates: Option<&CellCandidates>,
     ) -> Result<(Subtree, LocalStats), AdfError> {
         let mut stats = LocalStats::default();
         let mut jumps = Vec::new();
@@ -581,7 +598,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                     .into_par_iter()
                     .map(|o| {
                         let (child_min, child_samples) = child_of(min, half, o, &lattice);
-                        self.build(child_min, half, depth + 1, child_samples, candidates.as_deref())
+                        self.build(child_min, half, depth + 1, child_samples, candidates.as_ref())
                     })
                     .collect::<Result<_, _>>()?;
                 let (subtrees, child_stats): (Vec<Subtree>, Vec<LocalStats>) = children.into_iter().unzip();

@@ -60,6 +60,17 @@ impl Line {
     }
 }
 
+/// What [`Field::first_crossing`] found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Crossing {
+    /// The field does not find crossings itself: march it (the default).
+    NotProvided,
+    /// No crossing in the interval.
+    Miss,
+    /// The first crossing, at this ray parameter.
+    At(f64),
+}
+
 /// The one sampling interface: everything the raycaster can render is a `Field`.
 ///
 /// Positions are **world space** (`f64`). Values are densities, distances or
@@ -133,6 +144,16 @@ pub trait Field: Sync {
         None
     }
 
+    /// The first crossing of the `iso` level set from outside to inside (as
+    /// [`Field::kind`] orients it) along `world_origin + t·world_dir`, `t ∈ [t0, t1]`,
+    /// found by the field's own structure (an ADF walks its leaves and solves each
+    /// trilinear cell's cubic exactly) instead of by marching samples. A value at `t0`
+    /// already inside gives `t0`. The default, [`Crossing::NotProvided`], makes the
+    /// renderer march the sample lattice as for any field.
+    fn first_crossing(&self, _world_origin: DVec3, _world_dir: DVec3, _t0: f64, _t1: f64, _iso: f64) -> Crossing {
+        Crossing::NotProvided
+    }
+
     /// A conservative `(min, max)` of the value over a world box: the true range lies
     /// inside it. Used for empty-space skipping; `(-∞, ∞)` is always correct.
     fn value_range(&self, world_box: &Aabb) -> (f64, f64);
@@ -184,6 +205,9 @@ impl<F: Field + ?Sized> Field for &F {
     }
     fn value_range(&self, b: &Aabb) -> (f64, f64) {
         (**self).value_range(b)
+    }
+    fn first_crossing(&self, o: DVec3, d: DVec3, t0: f64, t1: f64, iso: f64) -> Crossing {
+        (**self).first_crossing(o, d, t0, t1, iso)
     }
     fn has_colour(&self) -> bool {
         (**self).has_colour()

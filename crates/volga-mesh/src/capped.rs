@@ -36,6 +36,8 @@ pub struct CappedWinding {
     /// `M` alone, for the rare fallback on cap triangles.
     mesh: Bvh,
     cap_triangles: usize,
+    /// Total area of the cap triangles: bounds the gradient of `w_C` away from them.
+    cap_area: f64,
     /// Size of the mesh (its box's diagonal plus its distance from the origin): the scale
     /// of "on a cap" tests.
     scale: f64,
@@ -78,6 +80,7 @@ impl CappedWinding {
             caps: (cap_count > 0).then(|| Bvh::build(&cap_mesh)),
             mesh: Bvh::build(mesh),
             cap_triangles: cap_count,
+            cap_area: caps.iter().map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length()).sum(),
             scale: {
                 let b = mesh.bounds();
                 b.size().length() + b.min.abs().max(b.max.abs()).max_element()
@@ -261,6 +264,50 @@ impl CappedWinding {
 }
 
 impl CappedWinding {
+    /// Whether every point of the ball `|x − centre| ≤ radius` is inside, proven with one
+    /// query, for a ball that no sheet of the mesh meets and whose integer part `I` is
+    /// `integer` (the caller knows both, e.g. from a point of the ball farther from the
+    /// mesh than its diameter). `None` when the ball meets a cap or the proof fails.
+    ///
+    /// With no sheet of `M + C` in the ball, `I` is constant and `w_M = I − w_C`; the
+    /// gradient of the caps' winding number is at most `A_C / (π ρ³)` at distance `ρ`
+    /// from caps of area `A_C` (the solid-angle kernel's gradient is at most `4/ρ³`, over
+    /// `4π`), so `w_C` varies by at most `radius · A_C / (π r³)` over the ball, `r` its
+    /// distance from the caps. If `w_C(centre)`, certified, clears `I − ½` by more than
+    /// that, the side is the same everywhere in the ball.
+    pub fn inside_over_ball(&self, centre: DVec3, radius: f64, integer: i64) -> Option<bool> {
+        let Some(caps) = &self.caps else {
+            return Some(integer >= 1);
+        };
+        let r = self.cap_distance(centre) - radius;
+        if !(r > 0.0) {
+            return None;
+        }
+        let variation = radius * self.cap_area / (std::f64::consts::PI * r * r * r) * (1.0 + 1e-9);
+        let threshold = integer as f64 - 0.5;
+        let cap = caps.winding_number_bounded(centre, None, |v, e| (v - threshold).abs() > e + variation);
+        ((cap.value - threshold).abs() > cap.error + variation).then_some(cap.value < threshold)
+    }
+
+    /// Certified bounds of the caps' winding number `w_C` over the ball
+    /// `|x − centre| ≤ radius`, when the ball meets no cap (see
+    /// [`CappedWinding::inside_over_ball`] for the gradient bound); `None` for a closed
+    /// mesh (no caps: `w_C = 0`, nothing to bound) or a ball near a cap.
+    pub fn caps_range_over_ball(&self, centre: DVec3, radius: f64) -> Option<(f64, f64)> {
+        let caps = self.caps.as_ref()?;
+        let r = self.cap_distance(centre) - radius;
+        if !(r > 0.0) {
+            return None;
+        }
+        let variation = radius * self.cap_area / (std::f64::consts::PI * r * r * r) * (1.0 + 1e-9);
+        if variation > 0.25 {
+            return None;
+        }
+        let cap = caps.winding_number_bounded(centre, None, |_, e| e <= 0.01);
+        let spread = cap.error + variation;
+        Some((cap.value - spread, cap.value + spread))
+    }
+
     /// [`CappedWinding::winding_value`] given the integer part `I` at `p` (certified by the
     /// caller, e.g. from [`CappedWinding::inside_with`]): `I − w_C(p)` with `w_C` summed to
     /// within `tolerance`. The same value as `winding_value` off the sheets of `M + C`.

@@ -2,7 +2,7 @@
 //! safeguarded by bisection), shaded with survey eq. 9.
 
 use glam::Vec3;
-use volga_core::{Field, FieldKind};
+use volga_core::{Crossing, Field, FieldKind};
 
 use super::{Effect, Effects, Integrator, March};
 use crate::error::bad_setting;
@@ -82,17 +82,22 @@ impl Integrator for Iso {
         interval: (f64, f64),
         stats: &mut RenderStats,
     ) -> (Vec3, f32) {
-        let hit = march_iso(
-            m.field,
-            ray,
-            m.inward,
-            self.value,
-            interval,
-            m.step,
-            m.tol,
-            m.grid,
-            stats,
-        );
+        // A field that finds its own crossings (an ADF) answers; the others are marched.
+        let hit = match m.field.first_crossing(ray.origin, ray.dir, interval.0, interval.1, self.value) {
+            Crossing::At(t) => Some(t),
+            Crossing::Miss => None,
+            Crossing::NotProvided => march_iso(
+                m.field,
+                ray,
+                m.inward,
+                self.value,
+                interval,
+                m.step,
+                m.tol,
+                m.grid,
+                stats,
+            ),
+        };
         match hit {
             None => (Vec3::ZERO, 0.0),
             Some(t) => {
