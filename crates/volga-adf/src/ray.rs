@@ -56,8 +56,9 @@ impl Adf {
     /// level set from the corners (also valid for pruned leaves, whose reconstruction is
     /// not within the tolerance). In a leaf with a corner at or below `iso` the
     /// reconstruction along the ray is a cubic polynomial; it is split into monotone
-    /// pieces at its critical points and the first downward crossing is bisected to the
-    /// last bit, so no crossing that the reconstruction has is stepped over.
+    /// pieces at its critical points and the first downward crossing is refined (regula
+    /// falsi safeguarded by bisection) to 1e-12 of the piece, so no crossing that the
+    /// reconstruction has is stepped over.
     pub fn first_crossing_between(&self, origin: DVec3, dir: DVec3, t_start: f64, t_end: f64, iso: f64) -> (Option<f64>, u32) {
         let mut t = t_start;
         let mut steps = 0u32;
@@ -72,12 +73,19 @@ impl Adf {
             let corners = cell.corners;
             let lo = corners.iter().fold(f32::INFINITY, |a, &c| a.min(c)) as f64;
             if lo > iso {
-                let p = origin + dir * t;
-                let mut bound = f64::NEG_INFINITY;
-                for (b, &c) in corners.iter().enumerate() {
-                    bound = bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
+                // The sphere-tracing bound is at most `max_b d_b − iso`: computed only when
+                // that could reach past the leaf's exit.
+                let hi = corners.iter().fold(f32::NEG_INFINITY, |a, &c| a.max(c)) as f64;
+                let mut candidate = exit;
+                if hi - iso > (exit - t) * scale {
+                    let p = origin + dir * t;
+                    let mut bound = f64::NEG_INFINITY;
+                    for (b, &c) in corners.iter().enumerate() {
+                        bound = bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
+                    }
+                    candidate = exit.max(t + bound / scale);
                 }
-                t = next_t(t, exit.max(t + bound / scale), size / scale);
+                t = next_t(t, candidate, size / scale);
                 continue;
             }
             let found = match cell.jump() {
@@ -202,18 +210,48 @@ fn first_root_sampled(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
     None
 }
 
-/// Bisection of `[l, r]` with `g(l) > 0 ≥ g(r)` to the last bit; returns the inside end.
+/// The crossing in `[l, r]` with `g(l) > 0 ≥ g(r)` on a monotone piece, to within a
+/// sliver of the interval (1e-12 of its width, or the last bit): regula falsi with the
+/// Illinois modification, safeguarded by bisection whenever a step fails to halve the
+/// bracket. Returns the inside end of the final bracket (`g ≤ 0` there).
 fn bisect(g: &impl Fn(f64) -> f64, mut l: f64, mut r: f64) -> f64 {
+    let tol = (r - l) * 1e-12;
+    let (mut gl, mut gr) = (g(l), g(r));
+    let mut kept = 0i8;
+    let mut bisect_next = false;
     for _ in 0..200 {
-        let m = 0.5 * (l + r);
-        if m <= l || m >= r {
+        let width = r - l;
+        if width <= tol {
             break;
         }
-        if g(m) <= 0.0 {
+        let mut m = if !bisect_next && gl > 0.0 && gr <= 0.0 && gl != gr {
+            l + width * (gl / (gl - gr))
+        } else {
+            0.5 * (l + r)
+        };
+        if !(m > l && m < r) {
+            m = 0.5 * (l + r);
+            if !(m > l && m < r) {
+                break;
+            }
+        }
+        let gm = g(m);
+        if gm <= 0.0 {
             r = m;
+            gr = gm;
+            if kept == 1 {
+                gl *= 0.5;
+            }
+            kept = 1;
         } else {
             l = m;
+            gl = gm;
+            if kept == -1 {
+                gr *= 0.5;
+            }
+            kept = -1;
         }
+        bisect_next = r - l > 0.5 * width;
     }
     r
 }
