@@ -51,7 +51,7 @@ mod source;
 mod tree;
 
 pub use edit::EditStats;
-pub use measure::{measure_errors, ErrorStats};
+pub use measure::{measure_errors, measure_errors_with_probes, ErrorStats, Probe};
 pub use ray::RayHit;
 pub use source::{CellCandidates, Csg, CsgOp, DistanceSource, FieldSource, MeshSource, Sample, ShapeSource};
 pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};

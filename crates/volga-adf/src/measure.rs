@@ -27,6 +27,18 @@ pub struct ErrorStats {
     pub sign_differences: usize,
 }
 
+/// One measured point ([`measure_errors_with_probes`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probe {
+    pub world_pos: DVec3,
+    /// The source's signed distance (world units, negative inside).
+    pub exact: f64,
+    /// The ADF's reconstruction there.
+    pub reconstructed: f64,
+    /// Whether the point lies in a maximum-depth leaf.
+    pub at_max_depth: bool,
+}
+
 /// The i-th point of the 3D R-sequence in the unit cube (low-discrepancy, deterministic).
 fn r3(i: u64) -> DVec3 {
     const G: f64 = 1.220_744_084_605_759_5; // plastic constant in 3D
@@ -44,6 +56,31 @@ pub fn measure_errors<S: DistanceSource + ?Sized>(
     band: f64,
     count: usize,
 ) -> ErrorStats {
+    measure(adf, source, region, band, count, None)
+}
+
+/// [`measure_errors`], also returning every measured point (for comparisons with other
+/// tools at the same points: `volga bench adf --probes-out`).
+pub fn measure_errors_with_probes<S: DistanceSource + ?Sized>(
+    adf: &Adf,
+    source: &S,
+    region: &Aabb,
+    band: f64,
+    count: usize,
+) -> (ErrorStats, Vec<Probe>) {
+    let mut probes = Vec::with_capacity(count);
+    let stats = measure(adf, source, region, band, count, Some(&mut probes));
+    (stats, probes)
+}
+
+fn measure<S: DistanceSource + ?Sized>(
+    adf: &Adf,
+    source: &S,
+    region: &Aabb,
+    band: f64,
+    count: usize,
+    mut probes: Option<&mut Vec<Probe>>,
+) -> ErrorStats {
     let mut stats = ErrorStats::default();
     let mut sum = 0.0;
     let mut next = 0u64;
@@ -51,7 +88,7 @@ pub fn measure_errors<S: DistanceSource + ?Sized>(
     while stats.points < count && next < limit {
         let chunk: Vec<u64> = (next..(next + 4096).min(limit)).collect();
         next += chunk.len() as u64;
-        let measured: Vec<Option<(f64, bool, bool, bool)>> = chunk
+        let measured: Vec<Option<(Probe, bool, bool)>> = chunk
             .par_iter()
             .map(|&i| {
                 let p = region.min + r3(i) * region.size();
@@ -61,15 +98,17 @@ pub fn measure_errors<S: DistanceSource + ?Sized>(
                 }
                 let got = adf.distance(p);
                 let leaf = adf.leaf_at(p);
-                Some((
-                    (got - exact).abs(),
-                    leaf.depth >= adf.options.max_depth,
-                    (got <= 0.0) != (exact <= 0.0),
-                    leaf.pruned,
-                ))
+                let probe = Probe {
+                    world_pos: p,
+                    exact,
+                    reconstructed: got,
+                    at_max_depth: leaf.depth >= adf.options.max_depth,
+                };
+                Some((probe, (got <= 0.0) != (exact <= 0.0), leaf.pruned))
             })
             .collect();
-        for (err, at_max, sign, pruned) in measured.into_iter().flatten() {
+        for (probe, sign, pruned) in measured.into_iter().flatten() {
+            let (err, at_max) = ((probe.reconstructed - probe.exact).abs(), probe.at_max_depth);
             if pruned {
                 stats.points_pruned += 1;
                 continue;
@@ -86,6 +125,9 @@ pub fn measure_errors<S: DistanceSource + ?Sized>(
                 stats.max_below_max_depth = stats.max_below_max_depth.max(err);
             }
             stats.sign_differences += sign as usize;
+            if let Some(p) = probes.as_deref_mut() {
+                p.push(probe);
+            }
         }
     }
     stats.rms = (sum / stats.points.max(1) as f64).sqrt();

@@ -128,29 +128,30 @@ impl Adf {
 /// The leaf walk's state: the path from the root to the current leaf.
 struct LeafWalk<'a> {
     adf: &'a Adf,
-    /// `(cell index, world min, size)` from the root down.
-    path: Vec<(usize, DVec3, f64)>,
+    /// `(cell index, world min, size)` from the root down; `path[..len]` is live.
+    path: [(usize, DVec3, f64); MAX_SUPPORTED_DEPTH as usize + 1],
+    len: usize,
 }
 
 impl<'a> LeafWalk<'a> {
     fn new(adf: &'a Adf) -> Self {
-        let mut path = Vec::with_capacity(MAX_SUPPORTED_DEPTH as usize + 1);
-        path.push((0, adf.root_min, adf.root_size));
-        LeafWalk { adf, path }
+        let mut path = [(0, DVec3::ZERO, 0.0); MAX_SUPPORTED_DEPTH as usize + 1];
+        path[0] = (0, adf.root_min, adf.root_size);
+        LeafWalk { adf, path, len: 1 }
     }
 
     /// The leaf containing `p`: the same leaf as [`Adf::locate`] (a point outside the
     /// root goes to the leaf it would clamp to), found from the deepest ancestor on the
     /// current path whose half-open box contains `p`.
     fn locate(&mut self, p: DVec3) -> (usize, DVec3, f64) {
-        while self.path.len() > 1 {
-            let (_, min, size) = *self.path.last().expect("non-empty");
+        while self.len > 1 {
+            let (_, min, size) = self.path[self.len - 1];
             if p.cmpge(min).all() && p.cmplt(min + DVec3::splat(size)).all() {
                 break;
             }
-            self.path.pop();
+            self.len -= 1;
         }
-        let (mut index, mut min, mut size) = *self.path.last().expect("non-empty");
+        let (mut index, mut min, mut size) = self.path[self.len - 1];
         loop {
             let c = &self.adf.cells[index];
             if c.is_leaf() {
@@ -172,7 +173,8 @@ impl<'a> LeafWalk<'a> {
                 min.z = mid.z;
             }
             index = c.children as usize + o;
-            self.path.push((index, min, size));
+            self.path[self.len] = (index, min, size);
+            self.len += 1;
         }
     }
 }

@@ -12,7 +12,7 @@ use std::time::Instant;
 use clap::Args;
 use glam::{DVec3, Vec3};
 use serde_json::{json, Value};
-use volga_adf::{measure_errors, Adf, AdfOptions, MeshSource};
+use volga_adf::{measure_errors_with_probes, Adf, AdfOptions, MeshSource, Probe};
 use volga_core::{Aabb, NoProgress};
 use volga_render::{Camera, Iso, Projection, RenderSettings, Renderer, SurfaceColour};
 
@@ -63,6 +63,10 @@ pub struct AdfBenchArgs {
     /// other benchmarks).
     #[arg(long)]
     pub json: bool,
+    /// Also write the error probes (points, exact signed distances, ADF values) and the
+    /// bounding-box diagonal to this JSON file (layout in docs/ADF.md), written atomically.
+    #[arg(long)]
+    pub probes_out: Option<PathBuf>,
 }
 
 struct Built {
@@ -119,12 +123,14 @@ fn camera(bounds: &Aabb) -> Result<Camera, Failure> {
     .map_err(|e| failed(e.to_string()))
 }
 
-/// Statistics and accuracy as JSON (errors relative to the bounding-box diagonal).
-fn report(b: &Built, args: &AdfArgs) -> Value {
+/// Statistics and accuracy as JSON (errors relative to the bounding-box diagonal), and the
+/// points the errors were measured at.
+fn report(b: &Built, args: &AdfArgs) -> (Value, Vec<Probe>) {
     let diagonal = b.mesh_bounds.size().length();
-    let errors = measure_errors(&b.adf, &b.source, &b.mesh_bounds, 0.02 * diagonal, args.points);
+    let (errors, probes) =
+        measure_errors_with_probes(&b.adf, &b.source, &b.mesh_bounds, 0.02 * diagonal, args.points);
     let s = b.adf.stats();
-    json!({
+    let value = json!({
         "mesh": args.mesh.display().to_string(),
         "tolerance": args.tolerance,
         "max_depth": args.max_depth,
@@ -148,6 +154,27 @@ fn report(b: &Built, args: &AdfArgs) -> Value {
         "source_queries": b.source.queries(),
         "integer_winding_queries": b.source.integer_queries(),
         "sign_differences": errors.sign_differences,
+    });
+    (value, probes)
+}
+
+/// The probe file of `--probes-out` (format `volga-adf-probes/1`, see docs/ADF.md).
+fn probes_json(b: &Built, args: &AdfArgs, probes: &[Probe]) -> Value {
+    let diagonal = b.mesh_bounds.size().length();
+    json!({
+        "format": "volga-adf-probes/1",
+        "mesh": args.mesh.display().to_string(),
+        "bounds_min": b.mesh_bounds.min.to_array(),
+        "bounds_max": b.mesh_bounds.max.to_array(),
+        "diagonal": diagonal,
+        "tolerance_relative": args.tolerance,
+        "tolerance_world": args.tolerance * diagonal,
+        "band_world": 0.02 * diagonal,
+        "columns": ["x", "y", "z", "exact_signed_distance", "adf_distance", "at_max_depth"],
+        "probes": probes
+            .iter()
+            .map(|p| json!([p.world_pos.x, p.world_pos.y, p.world_pos.z, p.exact, p.reconstructed, p.at_max_depth as u8]))
+            .collect::<Vec<_>>(),
     })
 }
 
@@ -164,7 +191,7 @@ fn render_setup(size: u32) -> (RenderSettings, Iso) {
 /// `volga adf MESH --out DIR`.
 pub fn run(args: AdfBuildArgs) -> Result<(), Failure> {
     let built = build(&args.adf, 1)?;
-    let mut value = report(&built, &args.adf);
+    let (mut value, _) = report(&built, &args.adf);
     let (settings, iso) = render_setup(args.adf.size);
     let renderer = Renderer::new(&built.adf, &iso, &settings).map_err(|e| failed(e.to_string()))?;
     let start = Instant::now();
@@ -191,7 +218,13 @@ pub fn run(args: AdfBuildArgs) -> Result<(), Failure> {
 /// `volga bench adf MESH --tolerance T --json`.
 pub fn bench(args: AdfBenchArgs) -> Result<(), Failure> {
     let built = build(&args.adf, args.repeat)?;
-    let mut value = report(&built, &args.adf);
+    let (mut value, probes) = report(&built, &args.adf);
+    if let Some(path) = &args.probes_out {
+        let text = serde_json::to_string(&probes_json(&built, &args.adf, &probes)).expect("json");
+        volga_io::write_atomic(path, |w| w.write_all(text.as_bytes()))
+            .map_err(|e| failed(format!("--probes-out {}: {e}", path.display())))?;
+        value["probes_out"] = json!(path.display().to_string());
+    }
     let (settings, iso) = render_setup(args.adf.size);
     let renderer = Renderer::new(&built.adf, &iso, &settings).map_err(|e| failed(e.to_string()))?;
     let cam = camera(&built.mesh_bounds)?;
@@ -209,6 +242,28 @@ pub fn bench(args: AdfBenchArgs) -> Result<(), Failure> {
     value["render_rays"] = json!(warm.rays);
     value["render_cells_skipped"] = json!(warm.cells_skipped);
     value["render_gradient_evaluations"] = json!(warm.gradient_evaluations);
+    let walk_start = Instant::now();
+    let (leaves, hits) = leaves_per_ray(&built.adf, &cam, args.adf.size);
+    value["ray_walk_s_one_thread"] = json!(walk_start.elapsed().as_secs_f64());
+    value["ray_leaves_mean"] = json!(leaves as f64 / (args.adf.size as f64).powi(2));
+    value["ray_hits"] = json!(hits);
     println!("{value}");
     Ok(())
+}
+
+/// Leaves visited by [`Adf::ray_hit`] over the camera's pixel-centre rays (the work of the
+/// iso render's leaf walk), and the rays that hit.
+fn leaves_per_ray(adf: &Adf, camera: &Camera, size: u32) -> (u64, u64) {
+    let mut leaves = 0u64;
+    let mut hits = 0u64;
+    for y in 0..size {
+        for x in 0..size {
+            let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5, size, size);
+            let (t0, t1) = adf.root_box().ray_interval(ray.origin, ray.dir).unwrap_or((0.0, -1.0));
+            let (hit, steps) = adf.first_crossing_between(ray.origin, ray.dir, t0, t1, 0.0);
+            leaves += steps as u64;
+            hits += hit.is_some() as u64;
+        }
+    }
+    (leaves, hits)
 }
