@@ -512,3 +512,74 @@ fn mesh_export_is_closed_and_on_the_surface() {
         );
     }
 }
+
+/// A mesh source without its build shortcuts: every `DistanceSource` method the build's
+/// fast paths add (`candidates`, `sample_among`, `sign_field_at`, `inside_in_empty_cell`,
+/// `side_of_empty_cell`) falls back to its default, so each test point asks the BVH and
+/// the certified winding number directly.
+struct Plain<'a>(&'a MeshSource);
+
+impl DistanceSource for Plain<'_> {
+    fn distance(&self, p: DVec3) -> f64 {
+        self.0.distance(p)
+    }
+    fn sample(&self, p: DVec3, near: Option<(DVec3, &volga_adf::Sample)>) -> volga_adf::Sample {
+        self.0.sample(p, near)
+    }
+    fn sign_field(&self, p: DVec3) -> Option<f64> {
+        self.0.sign_field(p)
+    }
+    fn may_jump(&self) -> bool {
+        self.0.may_jump()
+    }
+    fn bounds(&self) -> Aabb {
+        self.0.bounds()
+    }
+}
+
+/// The build's shortcuts (per-cell triangle candidates, the sample cache, sign proofs over
+/// whole cells, sign fields from the carried winding integer) change the work, not the
+/// tree: the same leaves and the same reconstruction bit for bit as the plain build, on
+/// open, self-intersecting and overlapping meshes, and identical for 1 and 2 threads.
+#[test]
+fn build_shortcuts_give_the_plain_tree() {
+    let mut open_meshes = 0;
+    for (name, mesh) in unclean::corpus() {
+        if mesh.triangle_count() < 4 || mesh.bounds().size().min_element() < 1e-9 {
+            continue;
+        }
+        let source = MeshSource::new(&mesh).unwrap();
+        open_meshes += source.may_jump() as usize;
+        let opts = AdfOptions {
+            max_depth: 7,
+            ..AdfOptions::relative(5e-3, &mesh.bounds())
+        };
+        let fast = Adf::build(&source, opts).unwrap();
+        let plain = Adf::build(&Plain(&source), opts).unwrap();
+        assert_eq!(fast.leaves(), plain.leaves(), "{name}");
+        assert_eq!(fast.stats().jump_leaves, plain.stats().jump_leaves, "{name}");
+        assert!(
+            fast.stats().evaluations <= plain.stats().evaluations,
+            "{name}: {} > {}",
+            fast.stats().evaluations,
+            plain.stats().evaluations
+        );
+        let mut rng = Rng(5);
+        for _ in 0..500 {
+            let p = rng.in_box(&fast.root_box());
+            assert_eq!(fast.distance(p).to_bits(), plain.distance(p).to_bits(), "{name} at {p}");
+        }
+        let two = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap()
+            .install(|| Adf::build(&source, opts).unwrap());
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| Adf::build(&source, opts).unwrap());
+        assert_eq!(one, two, "{name}: 1 and 2 threads");
+    }
+    assert!(open_meshes > 0, "the corpus has open meshes (jump leaves)");
+}

@@ -86,6 +86,8 @@ pub enum NodeSpec {
         operand: Box<NodeSpec>,
         strokes: Vec<crate::strokes::StrokeSpec>,
     },
+    /// An adaptively sampled distance field built from a mesh or a shape (`nodes/adf.rs`).
+    Adf(crate::nodes::adf::AdfSpec),
 }
 
 /// A solid of the scene: a leaf whose shape decides its node kind.

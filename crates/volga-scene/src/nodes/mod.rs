@@ -12,6 +12,7 @@
 //! `model::ShapeSpec` (a leaf) or `model::NodeSpec` (an operator) and one arm in
 //! [`leaf`] (or `union::from_spec`). `nodes/torus.rs` is the worked example.
 
+pub mod adf;
 pub mod cvg;
 pub mod fuzzy;
 pub mod hypertexture;

@@ -63,7 +63,7 @@ impl Node for ShapeNode {
 }
 
 /// The analytic shape a spec describes; `f` is its field path.
-fn validate_shape(cx: &Ctx, f: &str, s: &ShapeSpec) -> Result<Shape, SceneError> {
+pub(crate) fn validate_shape(cx: &Ctx, f: &str, s: &ShapeSpec) -> Result<Shape, SceneError> {
     Ok(match s {
         ShapeSpec::Sphere { center, radius } => {
             let c = cx.finite3(&format!("{f}.center"), *center)?;

@@ -131,6 +131,15 @@ fn from_spec(cx: &Ctx, f: &str, spec: &NodeSpec, leaves: &mut usize) -> Result<S
                 *leaves - 1,
             )?))
         }
+        NodeSpec::Adf(s) => {
+            *leaves += 1;
+            Spec::Other(Box::new(super::adf::AdfNode::validate(
+                cx,
+                &format!("{f}.Adf"),
+                s,
+                *leaves - 1,
+            )?))
+        }
         NodeSpec::Sculpt { operand, strokes } => {
             let sf = format!("{f}.Sculpt");
             let child: Box<dyn Node> = match from_spec(cx, &format!("{sf}.operand"), operand, leaves)? {
