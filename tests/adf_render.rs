@@ -152,5 +152,8 @@ fn adf_leaf_walk_image_equals_the_marched_image() {
     // gradient jumps there, and the two root finders' last digits pick either leaf) or
     // the marcher stepped over a sliver in front (measured: 2 of 3,100 pixels).
     assert!(coverage_differs <= 8, "{coverage_differs} pixels differ in coverage");
-    assert!(shading_differs <= 4, "{shading_differs} of {covered} pixels shaded differently");
+    assert!(
+        shading_differs <= 4,
+        "{shading_differs} of {covered} pixels shaded differently"
+    );
 }

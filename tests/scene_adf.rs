@@ -5,8 +5,8 @@
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use volga::scene::nodes::Node;
 use volga::scene::load_scene;
+use volga::scene::nodes::Node;
 use volga::shapes::{Cylinder, OrientedBoxFilter, SignedDistance};
 use volga::NoProgress;
 
@@ -54,7 +54,10 @@ fn adf_nodes_bake_what_they_render_within_the_tolerance() {
         let exact = filter.density(post.signed_distance(p));
         let got = post_field.value(p);
         // Pruned cells (far from the surface) are saturated on both sides.
-        assert!((got - exact).abs() <= tolerance * slope + 1e-9, "{p}: ADF {got} vs exact {exact}");
+        assert!(
+            (got - exact).abs() <= tolerance * slope + 1e-9,
+            "{p}: ADF {got} vs exact {exact}"
+        );
     }
     assert!(inside > 500, "{inside} voxels inside");
 }
@@ -63,8 +66,16 @@ fn adf_nodes_bake_what_they_render_within_the_tolerance() {
 fn adf_option_errors_name_their_field_path() {
     let dir = tempfile::tempdir().unwrap();
     for (from, to, field) in [
-        ("tolerance: 1e-2, max_depth: 7", "tolerance: -1.0, max_depth: 7", "root.Union[0].Adf.tolerance"),
-        ("tolerance: 1e-2, max_depth: 7", "tolerance: 1e-2, max_depth: 40", "root.Union[0].Adf.max_depth"),
+        (
+            "tolerance: 1e-2, max_depth: 7",
+            "tolerance: -1.0, max_depth: 7",
+            "root.Union[0].Adf.tolerance",
+        ),
+        (
+            "tolerance: 1e-2, max_depth: 7",
+            "tolerance: 1e-2, max_depth: 40",
+            "root.Union[0].Adf.max_depth",
+        ),
         ("radius: 0.25", "radius: -0.25", "root.Union[1].Adf.source"),
         ("assets/spot.obj", "assets/missing.obj", "root.Union[0].Adf.source.path"),
     ] {

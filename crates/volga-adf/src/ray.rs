@@ -59,7 +59,14 @@ impl Adf {
     /// pieces at its critical points and the first downward crossing is refined (regula
     /// falsi safeguarded by bisection) to 1e-12 of the piece, so no crossing that the
     /// reconstruction has is stepped over.
-    pub fn first_crossing_between(&self, origin: DVec3, dir: DVec3, t_start: f64, t_end: f64, iso: f64) -> (Option<f64>, u32) {
+    pub fn first_crossing_between(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        t_start: f64,
+        t_end: f64,
+        iso: f64,
+    ) -> (Option<f64>, u32) {
         let mut t = t_start;
         let mut steps = 0u32;
         let scale = dir.length();
@@ -81,7 +88,8 @@ impl Adf {
                     let p = origin + dir * t;
                     let mut bound = f64::NEG_INFINITY;
                     for (b, &c) in corners.iter().enumerate() {
-                        bound = bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
+                        bound =
+                            bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
                     }
                     candidate = exit.max(t + bound / scale);
                 }
@@ -92,7 +100,10 @@ impl Adf {
                 // The trilinear reconstruction, shifted by `iso`.
                 None => {
                     let at = |s: f64| {
-                        trilinear(&corners, ((origin + dir * s - min) * inv).clamp(DVec3::ZERO, DVec3::ONE)) - iso
+                        trilinear(
+                            &corners,
+                            ((origin + dir * s - min) * inv).clamp(DVec3::ZERO, DVec3::ONE),
+                        ) - iso
                     };
                     first_root(&at, t, exit)
                 }
@@ -107,9 +118,8 @@ impl Adf {
                     };
                     if iso == 0.0 {
                         // The sign field's own cubic places the jump.
-                        let sign_at = |s: f64| {
-                            trilinear(signs, ((origin + dir * s - min) * inv).clamp(DVec3::ZERO, DVec3::ONE))
-                        };
+                        let sign_at =
+                            |s: f64| trilinear(signs, ((origin + dir * s - min) * inv).clamp(DVec3::ZERO, DVec3::ONE));
                         first_root(&sign_at, t, exit)
                     } else {
                         first_root_sampled(&at, t, exit)

@@ -233,7 +233,10 @@ impl MeshSource {
             return Err(crate::AdfError::EmptySource("the mesh has non-finite vertices".into()));
         }
         let triangles: Vec<[DVec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.triangle(i)).collect();
-        let boxes = triangles.iter().map(|&[a, b, c]| (a.min(b).min(c), a.max(b).max(c))).collect();
+        let boxes = triangles
+            .iter()
+            .map(|&[a, b, c]| (a.min(b).min(c), a.max(b).max(c)))
+            .collect();
         Ok(MeshSource {
             bvh: Bvh::build(mesh),
             triangles,
@@ -283,7 +286,9 @@ const SCAN_LIMIT: usize = 512;
 /// The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
 #[inline]
 fn near_bound(p: DVec3, near: Option<(DVec3, &Sample)>) -> f64 {
-    near.map_or(f64::INFINITY, |(q, s)| (s.value.abs() + (p - q).length()) * (1.0 + 1e-9))
+    near.map_or(f64::INFINITY, |(q, s)| {
+        (s.value.abs() + (p - q).length()) * (1.0 + 1e-9)
+    })
 }
 
 impl MeshSource {
@@ -292,7 +297,13 @@ impl MeshSource {
     /// `near` by counting the sheets crossed in between (among `candidates` when given:
     /// they hold every mesh triangle meeting the segment) or computed when that count is
     /// not certain; `w_C` (the caps alone) is always computed, certified against `I − ½`.
-    fn signed(&self, p: DVec3, unsigned: f64, near: Option<(DVec3, &Sample)>, candidates: Option<&CellCandidates>) -> Sample {
+    fn signed(
+        &self,
+        p: DVec3,
+        unsigned: f64,
+        near: Option<(DVec3, &Sample)>,
+        candidates: Option<&CellCandidates>,
+    ) -> Sample {
         if unsigned == 0.0 {
             return Sample {
                 value: 0.0,
@@ -365,7 +376,9 @@ impl DistanceSource for MeshSource {
             gap.length_squared() <= reach_squared
         };
         let ids = match parent {
-            Some(list) if list.ids.len() <= NARROW_FROM_BVH => list.ids.iter().copied().filter(|&id| near(id)).collect(),
+            Some(list) if list.ids.len() <= NARROW_FROM_BVH => {
+                list.ids.iter().copied().filter(|&id| near(id)).collect()
+            }
             _ => {
                 let grown = Aabb::new(cell.min - DVec3::splat(reach), cell.max + DVec3::splat(reach));
                 let mut ids = Vec::new();
@@ -445,10 +458,11 @@ impl DistanceSource for MeshSource {
     /// cell's diagonal), so `I` is the corner's unless a cap meets the ball (then `None`).
     fn side_of_empty_cell(&self, cell: &Aabb, corner: (DVec3, &Sample)) -> Option<bool> {
         let radius = 0.5 * cell.size().length();
-        if !(corner.1.value.abs() > 2.0 * radius) {
+        if corner.1.value.is_nan() || corner.1.value.abs() <= 2.0 * radius {
             return None;
         }
-        self.winding.inside_over_ball(cell.center(), radius * (1.0 + 1e-9), corner.1.region?)
+        self.winding
+            .inside_over_ball(cell.center(), radius * (1.0 + 1e-9), corner.1.region?)
     }
 
     /// No mesh triangle meets the cell, so `I` changes only across the caps between

@@ -289,7 +289,12 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
         }
     }
 
-    fn eval_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Result<Sample, AdfError> {
+    fn eval_among(
+        &self,
+        p: DVec3,
+        near: Option<(DVec3, &Sample)>,
+        candidates: &CellCandidates,
+    ) -> Result<Sample, AdfError> {
         self.evaluations.fetch_add(1, Ordering::Relaxed);
         let s = self.source.sample_among(p, near, candidates);
         if s.value.is_finite() {
@@ -407,6 +412,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
 
     /// Decides one cell: a leaf (with its sign-field corners if it is a jump leaf), or
     /// the 3×3×3 lattice of samples its children take their corners from.
+    #[allow(clippy::too_many_arguments)]
     fn decide(
         &self,
         min: DVec3,

@@ -127,8 +127,7 @@ fn camera(bounds: &Aabb) -> Result<Camera, Failure> {
 /// points the errors were measured at.
 fn report(b: &Built, args: &AdfArgs) -> (Value, Vec<Probe>) {
     let diagonal = b.mesh_bounds.size().length();
-    let (errors, probes) =
-        measure_errors_with_probes(&b.adf, &b.source, &b.mesh_bounds, 0.02 * diagonal, args.points);
+    let (errors, probes) = measure_errors_with_probes(&b.adf, &b.source, &b.mesh_bounds, 0.02 * diagonal, args.points);
     let s = b.adf.stats();
     let value = json!({
         "mesh": args.mesh.display().to_string(),

@@ -80,7 +80,10 @@ impl CappedWinding {
             caps: (cap_count > 0).then(|| Bvh::build(&cap_mesh)),
             mesh: Bvh::build(mesh),
             cap_triangles: cap_count,
-            cap_area: caps.iter().map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length()).sum(),
+            cap_area: caps
+                .iter()
+                .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
+                .sum(),
             scale: {
                 let b = mesh.bounds();
                 b.size().length() + b.min.abs().max(b.max.abs()).max_element()
@@ -157,7 +160,13 @@ impl CappedWinding {
     /// triangles are found here. The answer is the same certified `I` (it may be `None`
     /// where `integer_along` is not, or the reverse, only when an endpoint lies within
     /// rounding of the plane of a triangle that one of them tests and the other does not).
-    pub fn integer_along_among(&self, from: DVec3, from_integer: i64, to: DVec3, mesh_triangles: &[u32]) -> Option<i64> {
+    pub fn integer_along_among(
+        &self,
+        from: DVec3,
+        from_integer: i64,
+        to: DVec3,
+        mesh_triangles: &[u32],
+    ) -> Option<i64> {
         if from == to {
             return Some(from_integer);
         }
@@ -180,7 +189,13 @@ impl CappedWinding {
     }
 
     /// `I(to)` from `I(from)` counting the crossings of the listed triangles of `M + C`.
-    fn count_crossings(&self, from: DVec3, from_integer: i64, to: DVec3, ids: impl IntoIterator<Item = u32>) -> Option<i64> {
+    fn count_crossings(
+        &self,
+        from: DVec3,
+        from_integer: i64,
+        to: DVec3,
+        ids: impl IntoIterator<Item = u32>,
+    ) -> Option<i64> {
         let mut integer = from_integer;
         let segment = to - from;
         for id in ids {
@@ -280,7 +295,7 @@ impl CappedWinding {
             return Some(integer >= 1);
         };
         let r = self.cap_distance(centre) - radius;
-        if !(r > 0.0) {
+        if r.is_nan() || r <= 0.0 {
             return None;
         }
         let variation = radius * self.cap_area / (std::f64::consts::PI * r * r * r) * (1.0 + 1e-9);
@@ -296,7 +311,7 @@ impl CappedWinding {
     pub fn caps_range_over_ball(&self, centre: DVec3, radius: f64) -> Option<(f64, f64)> {
         let caps = self.caps.as_ref()?;
         let r = self.cap_distance(centre) - radius;
-        if !(r > 0.0) {
+        if r.is_nan() || r <= 0.0 {
             return None;
         }
         let variation = radius * self.cap_area / (std::f64::consts::PI * r * r * r) * (1.0 + 1e-9);
