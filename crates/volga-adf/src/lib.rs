@@ -14,18 +14,27 @@
 //!   point, so the open Stanford bunny gets the same inside as the voxelizer's), a shape
 //!   of the geometry layer ([`ShapeSource`]), CSG trees of sources ([`Csg`]), a sampled
 //!   signed-distance volume ([`FieldSource`]), or another ADF. The top levels are built in
-//!   parallel; the tree is identical for any thread count.
+//!   parallel; the tree is identical for any thread count. The build evaluates each
+//!   lattice point once per subtree, lets a source narrow its work per cell
+//!   ([`DistanceSource::candidates`]: a mesh scans the few triangles that can be nearest
+//!   instead of walking its BVH) and prove a whole far cell's sign at once
+//!   ([`DistanceSource::side_of_empty_cell`]); these change the work, never the tree.
 //! * **Queries**: [`Adf::distance`], [`Adf::gradient`] (the trilinear cell's analytic
 //!   derivative), [`Adf::closest_point`], [`Adf::inside`], [`Adf::range`] (conservative
 //!   bounds over a box), [`Adf::ray_hit`] (the cell structure walked with sphere-tracing
 //!   steps, the first crossing found exactly in the leaf where it lies).
 //! * **Rendering**: an `Adf` is a [`volga_core::Field`] of signed-distance kind, so the
-//!   raycaster renders it directly, skipping empty space with per-cell ranges.
+//!   raycaster renders it directly; iso rays ask [`volga_core::Field::first_crossing`],
+//!   which the ADF answers with its own leaf walk ([`Adf::first_crossing_between`]),
+//!   other modes sample it and skip empty space with per-cell ranges.
 //! * **CSG and edits** ([`Adf::combine`], [`Adf::edit`]): union, intersection and
 //!   difference with another ADF or any source, regenerating only the cells the operation
 //!   can change (the Kizamu approach of Perry & Frisken 2001); counted in [`EditStats`].
 //! * **Conversions**: [`Adf::to_narrow_band`] (a sparse signed-distance volume) and
-//!   [`Adf::to_mesh`] (the zero iso-surface through `volga_mesh::extract_surface`).
+//!   [`Adf::to_mesh`] (the zero iso-surface through `volga_mesh::extract_surface`); a
+//!   sculpt samples an ADF with `volga_sculpt::Sculpt::from_field` like any distance field.
+//! * **Accuracy**: [`measure_errors`] at random points against an exact source, and
+//!   [`measure_errors_with_probes`] with the points themselves ([`Probe`]).
 //!
 //! ## Precision
 //! Geometry is `f64` world space (`world_*`): the root cube, cell corners and queries, so
