@@ -68,9 +68,74 @@ fn bench_adf_prints_one_json_object() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    for key in ["build_s", "cells", "bytes", "max_error", "rms_error", "render_fps"] {
+    for key in [
+        "build_s",
+        "cells",
+        "bytes",
+        "max_error",
+        "rms_error",
+        "render_fps",
+        "ray_leaves_mean",
+    ] {
         assert!(json[key].is_number(), "{key} missing: {json}");
     }
+}
+
+#[test]
+fn bench_adf_writes_the_error_probes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("octa.obj");
+    std::fs::write(&mesh, OCTAHEDRON).unwrap();
+    let probes = dir.path().join("probes.json");
+    let o = volga(&[
+        "bench",
+        "adf",
+        arg(&mesh),
+        "--tolerance",
+        "1e-2",
+        "--max-depth",
+        "6",
+        "--points",
+        "500",
+        "--size",
+        "16",
+        "--repeat",
+        "1",
+        "--frames",
+        "1",
+        "--probes-out",
+        arg(&probes),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bench: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let file: serde_json::Value = serde_json::from_slice(&std::fs::read(&probes).unwrap()).unwrap();
+    assert_eq!(file["format"], "volga-adf-probes/1");
+    let diagonal = file["diagonal"].as_f64().unwrap();
+    assert!(
+        (diagonal - 12f64.sqrt()).abs() < 1e-12,
+        "the octahedron's box is [-1, 1]³"
+    );
+    let rows = file["probes"].as_array().unwrap();
+    assert_eq!(rows.len(), 500);
+    // The file's points give the reported maximum error, and their exact distances are
+    // the octahedron's: (|x| + |y| + |z| − 1)/√3 on the faces' side of the band.
+    let mut max_error = 0f64;
+    for row in rows {
+        let v: Vec<f64> = row.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        let (p, exact, adf) = ([v[0], v[1], v[2]], v[3], v[4]);
+        max_error = max_error.max((adf - exact).abs());
+        assert!(exact.abs() <= 0.02 * diagonal + 1e-12);
+        let plane = (p[0].abs() + p[1].abs() + p[2].abs() - 1.0) / 3f64.sqrt();
+        if exact < 0.0 {
+            assert!((plane - exact).abs() < 1e-9, "{p:?}: {exact} vs {plane}");
+        }
+    }
+    let reported = bench["max_error"].as_f64().unwrap() * diagonal;
+    assert!(
+        (max_error - reported).abs() <= 1e-12 * diagonal,
+        "{max_error} vs {reported}"
+    );
 }
 
 #[test]
