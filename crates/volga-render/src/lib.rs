@@ -120,6 +120,7 @@ mod classify;
 mod error;
 mod integrators;
 mod march;
+mod packet;
 mod render;
 mod settings;
 mod shading;
