@@ -16,8 +16,7 @@ use std::collections::HashMap;
 use glam::{DVec3, IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use crate::grid::clamp_to_ivec3;
-use crate::{fast_floor, Grid, IndexBox, VoxelSource, MAX_ATLAS_BYTES};
+use crate::{Grid, IndexBox, VoxelSource, MAX_ATLAS_BYTES};
 
 const TILE_LOG2: i32 = 4;
 const TILE: i32 = 1 << TILE_LOG2;
@@ -191,12 +190,22 @@ impl PackedVolume {
 
     /// The base voxel and fractions of continuous index coordinates (as
     /// [`Sampled`](crate::Sampled) computes them).
+    ///
+    /// The floor is taken through one `i32` conversion per axis (on coordinates clamped
+    /// to ±10⁹, far outside any grid): the same base voxel and fractions as
+    /// [`fast_floor`](crate::fast_floor) inside that range, and the background beyond it either way.
     #[inline(always)]
     pub fn cell_at_index(&self, index_pos: DVec3) -> PackedCell {
-        let base = index_pos.map(fast_floor);
+        const LIM: f64 = 1e9;
+        let c = index_pos.clamp(DVec3::splat(-LIM), DVec3::splat(LIM));
+        let floor = |x: f64| {
+            let t = x as i32; // NaN → 0, like `fast_floor`
+            t - ((t as f64) > x) as i32
+        };
+        let base = IVec3::new(floor(c.x), floor(c.y), floor(c.z));
         PackedCell {
-            offset: self.offset(clamp_to_ivec3(base)),
-            fraction: index_pos - base,
+            offset: self.offset(base),
+            fraction: index_pos - base.as_dvec3(),
         }
     }
 

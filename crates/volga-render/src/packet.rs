@@ -104,49 +104,55 @@ impl<F: Field + ?Sized> Field for PackedField<'_, F> {
     }
 }
 
+/// Most control points [`TransferLanes`] takes (more classify on the general path).
+const MAX_LANE_POINTS: usize = 8;
+
 /// A 1D transfer function in `f32` for the packed loop: `n + 1` segments, the first and
 /// last constant (below the first and from the last control value on), so a value's
-/// segment is the number of control values `≤` it and its RGBA one lerp, without
-/// branches.
+/// segment is the number of control values `≤` it (two 4-wide compares) and its RGBA
+/// one lerp, without branches.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct TransferLanes {
-    values: Vec<f32>,
+    /// The control values, padded with +∞ (never `≤` a value).
+    values: [Vec4; 2],
     /// Per segment: start value, 1 / width, RGBA at the start, RGBA change over it.
-    start: Vec<f32>,
-    inv_width: Vec<f32>,
-    rgba: Vec<Vec4>,
-    delta: Vec<Vec4>,
+    start: [f32; MAX_LANE_POINTS + 1],
+    inv_width: [f32; MAX_LANE_POINTS + 1],
+    rgba: [Vec4; MAX_LANE_POINTS + 1],
+    delta: [Vec4; MAX_LANE_POINTS + 1],
 }
 
 impl TransferLanes {
-    /// The `f32` form of sorted control points, or `None` if a value or a segment's
-    /// inverse width is not finite in `f32` (the general path then classifies).
+    /// The `f32` form of sorted control points, or `None` if there are more than
+    /// [`MAX_LANE_POINTS`] or a value or a segment's inverse width is not finite in
+    /// `f32` (the general path then classifies).
     pub(crate) fn new(values: &[f64], rgba: &[Vec4]) -> Option<TransferLanes> {
         let n = values.len();
-        if n == 0 || values.iter().any(|v| !(*v as f32).is_finite()) {
+        if n == 0 || n > MAX_LANE_POINTS || values.iter().any(|v| !(*v as f32).is_finite()) {
             return None;
         }
+        let mut padded = [f32::INFINITY; 8];
+        for (p, v) in padded.iter_mut().zip(values) {
+            *p = *v as f32;
+        }
         let mut lanes = TransferLanes {
-            values: values.iter().map(|v| *v as f32).collect(),
-            start: vec![0.0],
-            inv_width: vec![0.0],
-            rgba: vec![rgba[0]],
-            delta: vec![Vec4::ZERO],
+            values: [Vec4::from_slice(&padded[..4]), Vec4::from_slice(&padded[4..])],
+            start: [0.0; MAX_LANE_POINTS + 1],
+            inv_width: [0.0; MAX_LANE_POINTS + 1],
+            rgba: [rgba[n - 1]; MAX_LANE_POINTS + 1],
+            delta: [Vec4::ZERO; MAX_LANE_POINTS + 1],
         };
+        lanes.rgba[0] = rgba[0];
         for k in 1..n {
             let inv = (1.0 / (values[k] - values[k - 1])) as f32;
             if !inv.is_finite() {
                 return None;
             }
-            lanes.start.push(values[k - 1] as f32);
-            lanes.inv_width.push(inv);
-            lanes.rgba.push(rgba[k - 1]);
-            lanes.delta.push(rgba[k] - rgba[k - 1]);
+            lanes.start[k] = values[k - 1] as f32;
+            lanes.inv_width[k] = inv;
+            lanes.rgba[k] = rgba[k - 1];
+            lanes.delta[k] = rgba[k] - rgba[k - 1];
         }
-        lanes.start.push(0.0);
-        lanes.inv_width.push(0.0);
-        lanes.rgba.push(rgba[n - 1]);
-        lanes.delta.push(Vec4::ZERO);
         Some(lanes)
     }
 
@@ -154,7 +160,10 @@ impl TransferLanes {
     /// [`TransferFunction::eval`](crate::TransferFunction::eval).
     #[inline(always)]
     pub(crate) fn eval(&self, v: f32) -> Vec4 {
-        let k = self.values.iter().map(|c| (*c <= v) as usize).sum::<usize>();
+        let s = Vec4::splat(v);
+        let k = (self.values[0].cmple(s).bitmask().count_ones() + self.values[1].cmple(s).bitmask().count_ones())
+            as usize;
+        let k = k.min(MAX_LANE_POINTS);
         let f = ((v - self.start[k]) * self.inv_width[k]).clamp(0.0, 1.0);
         (self.rgba[k] + self.delta[k] * f).clamp(Vec4::ZERO, Vec4::ONE)
     }
