@@ -18,7 +18,7 @@
 //! rendering classifies, corrects opacity and shades in `f32`. The tests bound the
 //! difference at ≤ 1/255 per channel over many random views.
 
-use glam::{DVec3, Vec3, Vec3A, Vec4};
+use glam::{DVec3, Vec3, Vec4};
 use volga_core::{Aabb, Field, FieldKind, Line, PackedVolume};
 
 use crate::integrators::March;
@@ -109,8 +109,8 @@ const MAX_LANE_POINTS: usize = 8;
 
 /// A 1D transfer function in `f32` for the packed loop: `n + 1` segments, the first and
 /// last constant (below the first and from the last control value on), so a value's
-/// segment is the number of control values `≤` it (two 4-wide compares) and its RGBA
-/// one lerp, without branches.
+/// segment is the number of control values `≤` it (selects over the control values in
+/// the packet's lanes) and its RGBA one lerp.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct TransferLanes {
     /// The control values, padded with +∞ (never `≤` a value).
@@ -155,30 +155,21 @@ impl TransferLanes {
         }
         Some(lanes)
     }
-
-    /// RGBA at `v` (not NaN), within `f32` rounding of
-    /// [`TransferFunction::eval`](crate::TransferFunction::eval).
-    #[inline(always)]
-    pub(crate) fn eval(&self, v: f32) -> Vec4 {
-        let s = Vec4::splat(v);
-        let k = (self.values[0].cmple(s).bitmask().count_ones() + self.values[1].cmple(s).bitmask().count_ones())
-            as usize;
-        let k = k.min(MAX_LANE_POINTS);
-        let f = ((v - self.start[k]) * self.inv_width[k]).clamp(0.0, 1.0);
-        (self.rgba[k] + self.delta[k] * f).clamp(Vec4::ZERO, Vec4::ONE)
-    }
 }
 
+/// Samples per packet: eight consecutive samples of one ray, in `f32` lanes.
+const LANES: usize = 8;
+
 /// Blinn-Phong (survey eq. 9) in `f32` for one ray: the light directions, half vectors
-/// and coefficients of the image's [`Shader`] with the view of the ray. The same
-/// formula as [`Shader::shade`] term by term.
+/// and coefficients of the image's [`Shader`] with the view of the ray, as per-ray
+/// constants of the packet loop. The same formula as [`Shader::shade`] term by term.
 struct RayShader32 {
     count: usize,
-    light: [Vec3A; MAX_PACKET_LIGHTS],
-    light_colour: [Vec3A; MAX_PACKET_LIGHTS],
-    half: [Vec3A; MAX_PACKET_LIGHTS],
-    view: Vec3A,
-    ambient: Vec3A,
+    light: [Vec3; MAX_PACKET_LIGHTS],
+    light_colour: [Vec3; MAX_PACKET_LIGHTS],
+    half: [Vec3; MAX_PACKET_LIGHTS],
+    view: Vec3,
+    ambient: Vec3,
     diffuse: f32,
     specular: f32,
     shininess: f32,
@@ -194,11 +185,11 @@ impl RayShader32 {
         let view = -ray_dir;
         let mut s = RayShader32 {
             count: p.lights.len().min(MAX_PACKET_LIGHTS),
-            light: [Vec3A::ZERO; MAX_PACKET_LIGHTS],
-            light_colour: [Vec3A::ZERO; MAX_PACKET_LIGHTS],
-            half: [Vec3A::ZERO; MAX_PACKET_LIGHTS],
-            view: view.as_vec3().into(),
-            ambient: p.ambient.into(),
+            light: [Vec3::ZERO; MAX_PACKET_LIGHTS],
+            light_colour: [Vec3::ZERO; MAX_PACKET_LIGHTS],
+            half: [Vec3::ZERO; MAX_PACKET_LIGHTS],
+            view: view.as_vec3(),
+            ambient: p.ambient,
             diffuse: p.material.diffuse,
             specular: p.material.specular,
             shininess: p.material.shininess,
@@ -207,47 +198,212 @@ impl RayShader32 {
             outward_sign: kind.outward(DVec3::ONE).x as f32,
         };
         for (k, (l, cl)) in p.lights.iter().take(MAX_PACKET_LIGHTS).enumerate() {
-            s.light[k] = l.as_vec3().into();
-            s.light_colour[k] = (*cl).into();
-            s.half[k] = crate::camera::safe_normalize(*l + view).as_vec3().into();
+            s.light[k] = l.as_vec3();
+            s.light_colour[k] = *cl;
+            s.half[k] = crate::camera::safe_normalize(*l + view).as_vec3();
         }
         s
     }
+}
 
+/// `x^n` per lane by repeated squaring (the exponent is the same in every lane, so
+/// the loop is uniform and the lanes vectorize); the algorithm of
+/// [`powi`](crate::shading::powi).
+#[inline(always)]
+fn powi_lanes(mut x: [f32; LANES], mut n: i32) -> [f32; LANES] {
+    let mut r = [1.0f32; LANES];
+    loop {
+        if n & 1 != 0 {
+            for l in 0..LANES {
+                r[l] *= x[l];
+            }
+        }
+        n /= 2;
+        if n == 0 {
+            return r;
+        }
+        for v in x.iter_mut() {
+            *v *= *v;
+        }
+    }
+}
+
+/// One packet's classified and shaded samples: opacity (0 where invisible) and RGB.
+struct Shaded {
+    alpha: [f32; LANES],
+    rgb: [[f32; LANES]; 3],
+}
+
+/// The per-ray constants of the packet loop.
+struct RayPackets<'a> {
+    packed: &'a PackedVolume,
+    tf: &'a TransferLanes,
+    shader: RayShader32,
+    lit: bool,
+    /// Opacity correction `1 − (1 − α)^e` in the lanes: `e = ½` (the default step) as
+    /// `α / (1 + √(1 − α))`, `e = 1` as is; other exponents are corrected per sample
+    /// afterwards.
+    half_step: bool,
+    index_origin: DVec3,
+    index_step: DVec3,
+}
+
+impl RayPackets<'_> {
+    /// Samples `j .. j + 8`: values and gradients from one packed fetch each (4-wide
+    /// over `[v, gx, gy, gz]`), then classification, opacity correction and shading
+    /// 8-wide across the samples, every lane a function of its sample index alone.
     #[inline(always)]
-    fn shade(&self, colour: Vec3A, gradient: Vec3A) -> Vec3A {
-        let outward = gradient * self.outward_sign;
-        let len = outward.length();
-        let mut n = if len.is_finite() && len > self.min_gradient {
-            outward * len.recip()
-        } else {
-            self.view
+    fn shade(&self, j: u64) -> Shaded {
+        let mut v = [0.0f32; LANES];
+        let mut g = [[0.0f32; LANES]; 3];
+        for l in 0..LANES {
+            let index_pos = self.index_origin + self.index_step * (j + l as u64) as f64;
+            let s = self.packed.sample4(&self.packed.cell_at_index(index_pos));
+            v[l] = s.x;
+            g[0][l] = s.y;
+            g[1][l] = s.z;
+            g[2][l] = s.w;
+        }
+        // Classification: the segment of each lane by selects over the control values.
+        let tf = self.tf;
+        let mut start = [tf.start[0]; LANES];
+        let mut inv = [tf.inv_width[0]; LANES];
+        let mut base = [tf.rgba[0].to_array(); LANES];
+        let mut delta = [tf.delta[0].to_array(); LANES];
+        let values = [tf.values[0].to_array(), tf.values[1].to_array()];
+        for m in 0..MAX_LANE_POINTS {
+            let c = values[m / 4][m % 4];
+            if c == f32::INFINITY {
+                break;
+            }
+            for l in 0..LANES {
+                if v[l] >= c {
+                    start[l] = tf.start[m + 1];
+                    inv[l] = tf.inv_width[m + 1];
+                    base[l] = tf.rgba[m + 1].to_array();
+                    delta[l] = tf.delta[m + 1].to_array();
+                }
+            }
+        }
+        let mut out = Shaded {
+            alpha: [0.0; LANES],
+            rgb: [[0.0; LANES]; 3],
         };
-        if n.dot(self.view) < 0.0 {
-            n = -n;
-        }
-        let mut r = self.ambient * colour;
-        for k in 0..self.count {
-            let n_dot_l = n.dot(self.light[k]).max(0.0);
-            let n_dot_h = n.dot(self.half[k]).max(0.0);
-            let highlight = match self.integer_shininess {
-                Some(ns) => crate::shading::powi(n_dot_h, ns),
-                None => n_dot_h.powf(self.shininess),
+        let mut colour = [[0.0f32; LANES]; 3];
+        for l in 0..LANES {
+            let f = ((v[l] - start[l]) * inv[l]).clamp(0.0, 1.0);
+            for ch in 0..3 {
+                colour[ch][l] = (base[l][ch] + delta[l][ch] * f).clamp(0.0, 1.0);
+            }
+            let a = (base[l][3] + delta[l][3] * f).clamp(0.0, 1.0);
+            // NaN values are invisible.
+            let a = if v[l] == v[l] { a } else { 0.0 };
+            out.alpha[l] = if self.half_step && a < 1.0 {
+                a / (1.0 + (1.0 - a).sqrt())
+            } else {
+                a
             };
-            let cl = self.light_colour[k];
-            r += cl * colour * (self.diffuse * n_dot_l) + cl * (self.specular * highlight);
         }
-        r
+        if !self.lit {
+            out.rgb = colour;
+            return out;
+        }
+        // Blinn-Phong with the outward normal flipped towards the viewer (two-sided).
+        let sh = &self.shader;
+        let mut n = [[0.0f32; LANES]; 3];
+        for l in 0..LANES {
+            let o = [
+                g[0][l] * sh.outward_sign,
+                g[1][l] * sh.outward_sign,
+                g[2][l] * sh.outward_sign,
+            ];
+            let len = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
+            let ok = len.is_finite() && len > sh.min_gradient;
+            let r = 1.0 / len;
+            let mut q = if ok {
+                [o[0] * r, o[1] * r, o[2] * r]
+            } else {
+                sh.view.to_array()
+            };
+            if q[0] * sh.view.x + q[1] * sh.view.y + q[2] * sh.view.z < 0.0 {
+                q = [-q[0], -q[1], -q[2]];
+            }
+            for a in 0..3 {
+                n[a][l] = q[a];
+            }
+        }
+        for ch in 0..3 {
+            for l in 0..LANES {
+                out.rgb[ch][l] = sh.ambient[ch] * colour[ch][l];
+            }
+        }
+        for k in 0..sh.count {
+            let (ld, hd, cl) = (sh.light[k], sh.half[k], sh.light_colour[k]);
+            let mut n_dot_l = [0.0f32; LANES];
+            let mut n_dot_h = [0.0f32; LANES];
+            for l in 0..LANES {
+                n_dot_l[l] = (n[0][l] * ld.x + n[1][l] * ld.y + n[2][l] * ld.z).max(0.0);
+                n_dot_h[l] = (n[0][l] * hd.x + n[1][l] * hd.y + n[2][l] * hd.z).max(0.0);
+            }
+            let highlight = match sh.integer_shininess {
+                Some(ns) => powi_lanes(n_dot_h, ns),
+                None => n_dot_h.map(|x| x.powf(sh.shininess)),
+            };
+            for ch in 0..3 {
+                for l in 0..LANES {
+                    out.rgb[ch][l] +=
+                        cl[ch] * colour[ch][l] * (sh.diffuse * n_dot_l[l]) + cl[ch] * (sh.specular * highlight[l]);
+                }
+            }
+        }
+        out
     }
 }
 
 /// Front-to-back compositing (survey eq. 13) of the packed path: the general
-/// [`Volume`](crate::Volume) loop's lattice, skipping and early termination, with each
-/// sample's value and gradient from one packed fetch, classification by
-/// [`TransferLanes`], opacity correction and shading in `f32`. Counters as the general
-/// loop counts them (samples per run of at most [`BATCH`]; a gradient per composited
-/// visible sample).
+/// [`Volume`](crate::Volume) loop's lattice, skipping and early termination, the
+/// samples of each run taken eight at a time ([`RayPackets::shade`]) and composited in
+/// order. Counters as the general loop counts them (samples per run of at most
+/// [`BATCH`]; a gradient per composited visible sample).
+///
+/// On x86-64 CPUs with AVX2 and FMA the loop is compiled for them (8-wide `f32` lanes);
+/// elsewhere the same code runs with the baseline instructions. Both evaluate the same
+/// operations in the same order (no fused multiply-adds are written), so the image
+/// does not depend on which runs.
 pub(crate) fn composite<F: Field + ?Sized>(
+    m: &March<'_, F>,
+    packed: &PackedVolume,
+    tf: &TransferLanes,
+    ray: &Ray,
+    interval: (f64, f64),
+    stats: &mut RenderStats,
+) -> (Vec3, f32) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU supports AVX2 and FMA (checked just above), the one
+        // requirement for calling a function compiled with those features.
+        // Measured reason: see docs/BENCHMARKS.md (the packed path's AVX2 row).
+        return unsafe { composite_avx2(m, packed, tf, ray, interval, stats) };
+    }
+    composite_lanes(m, packed, tf, ray, interval, stats)
+}
+
+/// [`composite_lanes`] compiled for AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn composite_avx2<F: Field + ?Sized>(
+    m: &March<'_, F>,
+    packed: &PackedVolume,
+    tf: &TransferLanes,
+    ray: &Ray,
+    interval: (f64, f64),
+    stats: &mut RenderStats,
+) -> (Vec3, f32) {
+    composite_lanes(m, packed, tf, ray, interval, stats)
+}
+
+#[inline(always)]
+fn composite_lanes<F: Field + ?Sized>(
     m: &March<'_, F>,
     packed: &PackedVolume,
     tf: &TransferLanes,
@@ -257,13 +413,20 @@ pub(crate) fn composite<F: Field + ?Sized>(
 ) -> (Vec3, f32) {
     let n = midpoint_lattice_len(t0, t1, m.step);
     let transform = packed.grid().transform;
-    let index_origin = transform.world_to_index(ray.at(t0 + 0.5 * m.step));
-    let index_step = (ray.dir * m.step) / transform.spacing();
     let lit = m.shader.is_lit();
-    let shader = RayShader32::new(m.shader, ray.dir, m.kind);
     let half_step = m.alpha_exponent == 0.5;
+    let per_sample_correction = !(half_step || m.alpha_exponent == 1.0);
+    let packets = RayPackets {
+        packed,
+        tf,
+        shader: RayShader32::new(m.shader, ray.dir, m.kind),
+        lit,
+        half_step,
+        index_origin: transform.world_to_index(ray.at(t0 + 0.5 * m.step)),
+        index_step: (ray.dir * m.step) / transform.spacing(),
+    };
     let eta = m.early_termination_alpha;
-    let mut c = Vec3A::ZERO;
+    let mut c = Vec3::ZERO;
     let mut a = 0.0f32;
     let mut visible = 0u64;
     // The last opacity corrected by `powf` and its correction (uniform regions repeat it).
@@ -285,47 +448,36 @@ pub(crate) fn composite<F: Field + ?Sized>(
         }
         let run_end = end.min(i + BATCH as u64);
         stats.samples += run_end - i;
-        for j in i..run_end {
-            let s = packed.sample4(&packed.cell_at_index(index_origin + index_step * j as f64));
-            let v = s.x;
-            if v.is_nan() {
-                continue;
-            }
-            let rgba = tf.eval(v);
-            let alpha = rgba.w;
-            if !(alpha > 0.0) {
-                continue;
-            }
-            // Opacity correction `1 − (1 − α)^e`: at the default step (e = ½) as
-            // `α / (1 + √(1 − α))` (the same value without cancellation).
-            let alpha = if alpha >= 1.0 || m.alpha_exponent == 1.0 {
-                alpha
-            } else if half_step {
-                alpha / (1.0 + (1.0 - alpha).sqrt())
-            } else {
-                if corrected.0 != alpha {
-                    corrected = (alpha, m.correct_alpha(alpha));
+        let mut j = i;
+        while j < run_end {
+            let lanes = ((run_end - j) as usize).min(LANES);
+            let shaded = packets.shade(j);
+            for l in 0..lanes {
+                let mut alpha = shaded.alpha[l];
+                if !(alpha > 0.0) {
+                    continue;
                 }
-                corrected.1
-            };
-            let colour = Vec3A::from(rgba.truncate());
-            let rgb = if lit {
-                visible += 1;
-                shader.shade(colour, Vec3A::new(s.y, s.z, s.w))
-            } else {
-                colour
-            };
-            let w = (1.0 - a) * alpha;
-            c += rgb * w;
-            a += w;
-            if a >= eta {
-                stats.rays_terminated_early += 1;
-                stats.gradient_evaluations += visible;
-                return (c.into(), a);
+                if per_sample_correction && alpha < 1.0 {
+                    if corrected.0 != alpha {
+                        corrected = (alpha, m.correct_alpha(alpha));
+                    }
+                    alpha = corrected.1;
+                }
+                visible += lit as u64;
+                let rgb = Vec3::new(shaded.rgb[0][l], shaded.rgb[1][l], shaded.rgb[2][l]);
+                let w = (1.0 - a) * alpha;
+                c += rgb * w;
+                a += w;
+                if a >= eta {
+                    stats.rays_terminated_early += 1;
+                    stats.gradient_evaluations += visible;
+                    return (c, a);
+                }
             }
+            j += lanes as u64;
         }
         i = run_end;
     }
     stats.gradient_evaluations += visible;
-    (c.into(), a)
+    (c, a)
 }
