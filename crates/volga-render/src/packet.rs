@@ -362,9 +362,10 @@ impl RayPackets<'_> {
 
 /// Front-to-back compositing (survey eq. 13) of the packed path: the general
 /// [`Volume`](crate::Volume) loop's lattice, skipping and early termination, the
-/// samples of each run taken eight at a time ([`RayPackets::shade`]) and composited in
-/// order. Counters as the general loop counts them (samples per run of at most
-/// [`BATCH`]; a gradient per composited visible sample).
+/// samples of each active cell taken eight at a time ([`RayPackets::shade`], the last
+/// packet running on past the cell) and composited in order. Counters: every sample
+/// read (a few more than the general loop, which stops each run at its cell's end), a
+/// gradient per composited visible sample.
 ///
 /// On x86-64 CPUs with AVX2 and FMA the loop is compiled for them (8-wide `f32` lanes);
 /// elsewhere the same code runs with the baseline instructions. Both evaluate the same
@@ -446,11 +447,14 @@ fn composite_lanes<F: Field + ?Sized>(
             }
             end = next;
         }
-        let run_end = end.min(i + BATCH as u64);
+        // Whole packets from `i`, past the cell's end if it ends inside one: the
+        // samples beyond it are read and composited like any other (a sample of a
+        // transparent cell adds nothing), so no lane is wasted.
+        let run_end = end.max(i + LANES as u64).min(n).min(i + BATCH as u64);
         stats.samples += run_end - i;
         let mut j = i;
         while j < run_end {
-            let lanes = ((run_end - j) as usize).min(LANES);
+            let lanes = ((n - j) as usize).min(LANES);
             let shaded = packets.shade(j);
             for l in 0..lanes {
                 let mut alpha = shaded.alpha[l];
@@ -476,7 +480,8 @@ fn composite_lanes<F: Field + ?Sized>(
             }
             j += lanes as u64;
         }
-        i = run_end;
+        stats.samples += j - run_end;
+        i = j;
     }
     stats.gradient_evaluations += visible;
     (c, a)

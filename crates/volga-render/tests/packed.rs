@@ -186,10 +186,16 @@ fn packed_images_match_the_general_path() {
                     worst = worst.max(d);
                     assert!(d <= TOLERANCE, "{name}, view {view}, {mode:?}, early {early}: {d}");
                     assert_eq!(sa.rays, sb.rays);
-                    assert_eq!(sa.samples, sb.samples, "{name} view {view} {mode:?}");
-                    assert_eq!(sa.cells_skipped, sb.cells_skipped);
-                    if !early {
-                        assert_eq!(sa.gradient_evaluations, sb.gradient_evaluations);
+                    if matches!(mode, Mode::Iso(_)) {
+                        // The same march: the same samples, cells and hits.
+                        assert_eq!(sa, sb, "{name} view {view}");
+                    } else {
+                        if !early {
+                            // Whole packets read a few samples past a cell's end, never
+                            // fewer than the general loop, and shade the same visible ones.
+                            assert!(sa.samples >= sb.samples, "{name} view {view}");
+                            assert_eq!(sa.gradient_evaluations, sb.gradient_evaluations, "{name} view {view}");
+                        }
                     }
                 }
             }
