@@ -60,12 +60,6 @@ impl Integrator for Iso {
         }
     }
 
-    /// The iso march and refinement read the packed values (the same bits) and the
-    /// hit's gradient the packed gradients.
-    fn packed_path(&self) -> bool {
-        true
-    }
-
     /// A cell is skipped when its whole (oriented) range lies on one side of the
     /// iso value; the side is kept so the bracket, and the hit, are unchanged.
     fn classify_cell(&self, lo: f64, hi: f64, kind: FieldKind) -> CellClass {
