@@ -297,8 +297,11 @@ mod tests {
     use crate::{DenseVolume, Field, Filter, GradientMethod, Sampled, SparseVolume, Transform};
 
     fn volume(dims: UVec3, background: f32) -> SparseVolume {
-        let grid = Grid::new(Transform::new(DVec3::new(-3.0, 1e3, 2.0), DVec3::new(0.5, 0.25, 0.75)).unwrap(), dims)
-            .unwrap();
+        let grid = Grid::new(
+            Transform::new(DVec3::new(-3.0, 1e3, 2.0), DVec3::new(0.5, 0.25, 0.75)).unwrap(),
+            dims,
+        )
+        .unwrap();
         let mut dense = DenseVolume::new(grid, background, false).unwrap();
         for ijk in grid.index_box().iter() {
             let h = ijk.x.wrapping_mul(73_856_093) ^ ijk.y.wrapping_mul(19_349_663) ^ ijk.z.wrapping_mul(83_492_791);
@@ -314,14 +317,20 @@ mod tests {
     /// (including the stored region's edges and beyond it).
     #[test]
     fn values_and_gradients_match_the_sampled_field() {
-        for (dims, bg) in [(UVec3::new(37, 20, 45), 0.0), (UVec3::ONE, 0.5), (UVec3::new(16, 3, 30), -1.0)] {
+        for (dims, bg) in [
+            (UVec3::new(37, 20, 45), 0.0),
+            (UVec3::ONE, 0.5),
+            (UVec3::new(16, 3, 30), -1.0),
+        ] {
             let v = volume(dims, bg);
             let field = Sampled::new(&v, Filter::Trilinear).with_gradient(GradientMethod::CentralDifference);
             let packed = PackedVolume::build(&v).expect("small volume");
             let t = &v.grid.transform;
             let mut state = 12345u64;
             let mut next = || {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 (state >> 11) as f64 / (1u64 << 53) as f64
             };
             let lo = DVec3::splat(-4.0);
@@ -339,7 +348,10 @@ mod tests {
                 let p = t.voxel_center(ijk);
                 assert_eq!(packed.value(p).to_bits(), field.value(p).to_bits(), "{ijk}");
                 let (a, b) = (packed.gradient(p), field.gradient(p));
-                assert!((a - b).abs().max_element() <= 1e-6 * (1.0 + b.abs().max_element()), "{ijk}");
+                assert!(
+                    (a - b).abs().max_element() <= 1e-6 * (1.0 + b.abs().max_element()),
+                    "{ijk}"
+                );
             }
         }
     }

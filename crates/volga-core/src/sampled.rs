@@ -6,8 +6,8 @@ use crate::filters::{
 use crate::grid::{clamp_to_ivec3, fast_floor};
 use crate::sparse::brick_of;
 use crate::{
-    Aabb, Brick, BrickAtlas, DenseVolume, PackedVolume, Field, Filter, GradientMethod, Grid, IndexBox, Line, Rgb, SparseGrid,
-    SparseVolume, BRICK_DIM, BRICK_SHAPE,
+    Aabb, Brick, BrickAtlas, DenseVolume, Field, Filter, GradientMethod, Grid, IndexBox, Line, PackedVolume, Rgb,
+    SparseGrid, SparseVolume, BRICK_DIM, BRICK_SHAPE,
 };
 
 /// Voxel storage that [`Sampled`] can reconstruct from. Reads outside the grid

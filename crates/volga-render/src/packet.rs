@@ -252,6 +252,8 @@ impl RayPackets<'_> {
     /// Samples `j .. j + 8`: values and gradients from one packed fetch each (4-wide
     /// over `[v, gx, gy, gz]`), then classification, opacity correction and shading
     /// 8-wide across the samples, every lane a function of its sample index alone.
+    // Index loops over the lanes on purpose: they are what the compiler vectorizes.
+    #[allow(clippy::needless_range_loop)]
     #[inline(always)]
     fn shade(&self, j: u64) -> Shaded {
         let mut v = [0.0f32; LANES];
@@ -297,7 +299,7 @@ impl RayPackets<'_> {
             }
             let a = (base[l][3] + delta[l][3] * f).clamp(0.0, 1.0);
             // NaN values are invisible.
-            let a = if v[l] == v[l] { a } else { 0.0 };
+            let a = if v[l].is_nan() { 0.0 } else { a };
             out.alpha[l] = if self.half_step && a < 1.0 {
                 a / (1.0 + (1.0 - a).sqrt())
             } else {
@@ -458,7 +460,7 @@ fn composite_lanes<F: Field + ?Sized>(
             let shaded = packets.shade(j);
             for l in 0..lanes {
                 let mut alpha = shaded.alpha[l];
-                if !(alpha > 0.0) {
+                if alpha.is_nan() || alpha <= 0.0 {
                     continue;
                 }
                 if per_sample_correction && alpha < 1.0 {

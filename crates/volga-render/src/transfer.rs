@@ -15,7 +15,7 @@ pub struct TransferFunction {
     values: Vec<f64>,
     rgba: Vec<Vec4>,
     /// The `f32` form the packed path classifies with (`None` if not representable).
-    lanes: Option<crate::packet::TransferLanes>,
+    lanes: Option<Box<crate::packet::TransferLanes>>,
 }
 
 impl TransferFunction {
@@ -45,13 +45,13 @@ impl TransferFunction {
         }
         let values: Vec<f64> = points.iter().map(|p| p.0).collect();
         let rgba: Vec<Vec4> = points.iter().map(|p| p.1).collect();
-        let lanes = crate::packet::TransferLanes::new(&values, &rgba);
+        let lanes = crate::packet::TransferLanes::new(&values, &rgba).map(Box::new);
         Ok(TransferFunction { values, rgba, lanes })
     }
 
     /// The `f32` segments of the packed path.
     pub(crate) fn lanes(&self) -> Option<&crate::packet::TransferLanes> {
-        self.lanes.as_ref()
+        self.lanes.as_deref()
     }
 
     /// The control points, sorted by value.

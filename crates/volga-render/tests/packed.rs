@@ -6,9 +6,7 @@
 //! fields and settings that must not take it.
 
 use glam::{DVec3, UVec3, Vec3, Vec4};
-use volga_core::{
-    DenseVolume, Field, Filter, GradientMethod, Grid, NoProgress, Sampled, SparseVolume, Transform,
-};
+use volga_core::{DenseVolume, Field, Filter, GradientMethod, Grid, NoProgress, Sampled, SparseVolume, Transform};
 use volga_render::{
     Camera, Image, Iso, Light, Mip, Mode, Projection, RenderSettings, RenderStats, Renderer, SurfaceColour,
     TransferFunction, Volume,
@@ -21,7 +19,10 @@ const TOLERANCE: f32 = 1.0 / 255.0;
 struct Lcg(u64);
 impl Lcg {
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
 }
@@ -29,7 +30,9 @@ impl Lcg {
 fn volume_from(grid: Grid, density: impl Fn(DVec3) -> f32) -> SparseVolume {
     let mut dense = DenseVolume::new(grid, 0.0, false).unwrap();
     for ijk in grid.index_box().iter() {
-        dense.density.set(ijk, density(ijk.as_dvec3() / (grid.dims().as_dvec3() - 1.0)));
+        dense
+            .density
+            .set(ijk, density(ijk.as_dvec3() / (grid.dims().as_dvec3() - 1.0)));
     }
     SparseVolume::from_dense(&dense)
 }
