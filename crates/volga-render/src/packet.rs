@@ -1,22 +1,23 @@
-//! The packed fast path: volumes sampled from a [`PackedVolume`] (per voxel the density
+//! The packed fast path of volume rendering: a [`PackedVolume`] (per voxel the density
 //! and its central-difference gradient, four `f32` side by side), so one trilinear fetch
-//! of eight 16-byte corners gives a sample's value **and** gradient; volume rendering
-//! then classifies, shades (Blinn-Phong in `f32`, per-ray constants) and composites in a
-//! fused loop without calls per sample.
+//! of eight 16-byte corners gives a sample's value **and** gradient; the samples of a
+//! ray are taken eight at a time and classified, opacity-corrected and shaded
+//! (Blinn-Phong, per-ray constants) in 8 `f32` lanes, then composited in order.
 //!
 //! Chosen automatically by [`Renderer::new`](crate::Renderer::new) when
-//! [`packet_path_allowed`] holds for the integrator and settings and the field packs
-//! itself ([`Field::pack`]: trilinear, central-difference sampled volumes); every other
-//! field (analytic fields, CVG trees, octrees, ADFs, cubic filters, analytic gradients)
-//! renders through the general path. [`Sampling::packed_path`](crate::Sampling::packed_path)
-//! turns it off.
+//! [`packet_path_allowed`] holds for the integrator and settings (today: shaded or unlit
+//! DVR with a 1D transfer function taking its colour from it) and the field packs itself
+//! ([`Field::pack`]: trilinear, central-difference sampled volumes); every other field
+//! (analytic fields, CVG trees, octrees, ADFs, cubic filters, analytic gradients) and
+//! mode (iso-surfaces included) renders through the general path.
+//! [`Sampling::packed_path`](crate::Sampling::packed_path) turns it off.
 //!
-//! **What it changes in the image**: sample positions, lattices, skipping and iso hits
-//! are those of the general path bit for bit (values are the same `f64` trilinear
-//! reconstruction of the same `f32` densities); gradients are the same central
-//! differences rounded to `f32` once per voxel and interpolated in `f32`, and volume
-//! rendering classifies, corrects opacity and shades in `f32`. The tests bound the
-//! difference at ≤ 1/255 per channel over many random views.
+//! **What it changes in the image**: the lattice, skipping and early termination are the
+//! general loop's; values are the same trilinear reconstruction of the same `f32`
+//! densities (in `f32`), gradients the same central differences rounded to `f32` once
+//! per voxel and interpolated in `f32`, and classification, opacity correction and
+//! shading run in `f32`. The tests bound the difference at ≤ 1/255 per channel over many
+//! random views (`tests/packed.rs`).
 
 use glam::{DVec3, Vec3, Vec4};
 use volga_core::{Aabb, Field, FieldKind, Line, PackedVolume};
