@@ -61,6 +61,14 @@ pub struct RenderBenchArgs {
     /// Ray step in voxels (the renderer's default is 0.5).
     #[arg(long, default_value_t = 0.5)]
     step_voxels: f64,
+    /// Edge of the square pixel tiles rendered in parallel (the renderer's default is
+    /// 16; never changes the image, only the order rays read memory in).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    tile_size: u32,
+    /// Render sampled volumes through the renderer's packed fast path (`on`, the
+    /// renderer's default) or its general path (`off`), to compare them in one build.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    packed: String,
     /// The mesh voxelized for the `bunny` volume.
     #[arg(long, default_value = "../shared/data/stanford-bunny.obj")]
     mesh: PathBuf,
@@ -137,6 +145,8 @@ pub fn run(args: RenderBenchArgs) -> Result<(), Failure> {
         "height": args.height,
         "size": args.size,
         "step_voxels": args.step_voxels,
+        "tile_size": args.tile_size,
+        "packed": args.packed,
         "filter": args.filter,
         "threads": rayon::current_num_threads(),
         "warmup": args.warmup,
@@ -203,6 +213,8 @@ fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failur
     let field = Sampled::new(&v.volume, filter);
     let mut lit = RenderSettings::new(args.width, args.height);
     lit.sampling.step_voxels = args.step_voxels;
+    lit.image.tile_size = args.tile_size;
+    lit.sampling.packed_path = args.packed == "on";
     let iso_mode = Iso {
         value: 0.5,
         colour: SurfaceColour::Constant(Vec3::new(0.85, 0.8, 0.7)),
@@ -306,6 +318,8 @@ fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failur
         "baseline_cpu_s": median(&cpu_times[2]),
         "iso_prepare_s": iso_prepare_s,
         "dvr_prepare_s": dvr_prepare_s,
+        "iso_packed": iso_renderer.is_packed(),
+        "dvr_packed": dvr_renderer.is_packed(),
         "baseline_prepare_s": baseline_prepare_s,
         "iso_times_s": iso_times,
         "dvr_times_s": dvr_times,

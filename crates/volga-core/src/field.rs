@@ -1,6 +1,6 @@
 use glam::{DVec3, Vec3};
 
-use crate::Aabb;
+use crate::{Aabb, PackedVolume};
 
 /// What a [`Field`]'s value means, so consumers (the renderer, planners, exporters)
 /// know which side of an iso value is the inside and which way the outward normal
@@ -154,6 +154,22 @@ pub trait Field: Sync {
         Crossing::NotProvided
     }
 
+    /// The field's voxels packed for a renderer's fast path: a [`PackedVolume`] (per
+    /// voxel the density and its central-difference gradient, four `f32` side by side),
+    /// built once per render. Only a field whose value is the trilinear reconstruction of
+    /// those densities and whose gradient is its central differences may return one (a
+    /// trilinear, central-difference [`Sampled`](crate::Sampled) volume does); the default,
+    /// `None`, keeps the renderer on its general path.
+    fn pack(&self) -> Option<PackedVolume> {
+        None
+    }
+
+    /// The [`PackedVolume`] this field samples, if it is a packed view (a renderer's
+    /// fast path checks it once per ray); default `None`.
+    fn packed(&self) -> Option<&PackedVolume> {
+        None
+    }
+
     /// A conservative `(min, max)` of the value over a world box: the true range lies
     /// inside it. Used for empty-space skipping; `(-∞, ∞)` is always correct.
     fn value_range(&self, world_box: &Aabb) -> (f64, f64);
@@ -202,6 +218,12 @@ impl<F: Field + ?Sized> Field for &F {
     }
     fn prepare(&self) -> Option<Box<dyn Field + '_>> {
         (**self).prepare()
+    }
+    fn pack(&self) -> Option<PackedVolume> {
+        (**self).pack()
+    }
+    fn packed(&self) -> Option<&PackedVolume> {
+        (**self).packed()
     }
     fn value_range(&self, b: &Aabb) -> (f64, f64) {
         (**self).value_range(b)

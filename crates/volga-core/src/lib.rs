@@ -49,6 +49,7 @@ mod filters;
 mod grid;
 mod layout;
 pub mod memory;
+mod packed;
 mod progress;
 mod sampled;
 mod sparse;
@@ -64,6 +65,7 @@ pub use field::{Crossing, Field, FieldKind, Line};
 pub use filters::{Filter, GradientMethod};
 pub use grid::{fast_floor, Grid, IndexBox, Transform};
 pub use layout::Shape3;
+pub use packed::{PackedCell, PackedVolume, PackedVoxel};
 pub use progress::{NoProgress, Progress};
 pub use sampled::{DenseReader, Sampled, SparseReader, VoxelReader, VoxelSource};
 pub use sparse::{

@@ -6,8 +6,8 @@ use crate::filters::{
 use crate::grid::{clamp_to_ivec3, fast_floor};
 use crate::sparse::brick_of;
 use crate::{
-    Aabb, Brick, BrickAtlas, DenseVolume, Field, Filter, GradientMethod, Grid, IndexBox, Line, Rgb, SparseGrid,
-    SparseVolume, BRICK_DIM, BRICK_SHAPE,
+    Aabb, Brick, BrickAtlas, DenseVolume, Field, Filter, GradientMethod, Grid, IndexBox, Line, PackedVolume, Rgb,
+    SparseGrid, SparseVolume, BRICK_DIM, BRICK_SHAPE,
 };
 
 /// Voxel storage that [`Sampled`] can reconstruct from. Reads outside the grid
@@ -492,6 +492,17 @@ impl<S: VoxelSource> Field for Sampled<S> {
     /// already or the atlas would exceed [`MAX_ATLAS_BYTES`](crate::MAX_ATLAS_BYTES).
     fn prepare(&self) -> Option<Box<dyn Field + '_>> {
         self.source.prepared_field(self.filter, self.gradient)
+    }
+
+    /// The voxels packed with their central-difference gradients ([`PackedVolume`])
+    /// when this field is trilinear with central-difference gradients (what a packed
+    /// sample reproduces); `None` for other filters or gradient methods, or if the
+    /// copy would exceed [`MAX_ATLAS_BYTES`](crate::MAX_ATLAS_BYTES).
+    fn pack(&self) -> Option<PackedVolume> {
+        if self.filter != Filter::Trilinear || self.gradient != GradientMethod::CentralDifference {
+            return None;
+        }
+        PackedVolume::build(&self.source)
     }
 
     /// The voxels' range over the box grown by the filter's reach (and the background

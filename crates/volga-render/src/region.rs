@@ -29,7 +29,8 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         let same = field.bounds() == self.bounds
             && field.sample_spacing() == self.field.sample_spacing()
             && field.kind() == self.constants.kind
-            && self.prepared.is_none();
+            && self.prepared.is_none()
+            && self.packed.is_none();
         if !same {
             return Renderer::new(field, self.integrator, self.settings);
         }
@@ -54,6 +55,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             bounds: self.bounds,
             field,
             prepared: None,
+            packed: None,
             constants: self.constants,
             shader: self.shader,
             grid,
@@ -78,6 +80,13 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         }
         // Gradients and cubic filters read up to two voxels (gradient steps) around a sample.
         let grown = changed.expanded(self.field.gradient_step() * 2.0);
+        if let Some(packed) = &self.packed {
+            let field = crate::packet::PackedField {
+                field: self.field,
+                packed,
+            };
+            return self.rerender_march(&self.march(&field), camera, &grown, image);
+        }
         match &self.prepared {
             Some(p) => self.rerender_march(&self.march(&**p), camera, &grown, image),
             None => self.rerender_march(&self.march(self.field), camera, &grown, image),

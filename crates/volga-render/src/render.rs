@@ -136,6 +136,9 @@ pub struct Renderer<'a, F: ?Sized, I> {
     field: &'a F,
     /// What [`Field::prepare`] returned: sampled instead of `field` when present.
     prepared: Option<Box<dyn Field + 'a>>,
+    /// What [`Field::pack`] returned when the packed path is allowed: sampled through
+    /// `packet.rs` instead of `field` and `prepared`.
+    packed: Option<volga_core::PackedVolume>,
     constants: MarchConstants,
     shader: Shader,
     grid: Option<MacroGrid>,
@@ -169,7 +172,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         let step = settings.sampling.world_step(&bounds, spacing)?;
         let kind = field.kind();
 
-        let prepared = if settings.sampling.prepare_field {
+        let packed = crate::packet::packet_path_allowed(integrator, settings)
+            .then(|| field.pack())
+            .flatten();
+        let prepared = if packed.is_none() && settings.sampling.prepare_field {
             field.prepare()
         } else {
             None
@@ -191,6 +197,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             bounds,
             field,
             prepared,
+            packed,
             constants: MarchConstants {
                 inward: kind.inward_sign(),
                 kind,
@@ -207,6 +214,12 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
     /// Whether [`Field::prepare`] gave a faster field that this renderer samples.
     pub fn is_prepared(&self) -> bool {
         self.prepared.is_some()
+    }
+
+    /// Whether this renderer takes the packed fast path ([`Field::pack`] gave a packed
+    /// copy and [`Sampling::packed_path`](crate::Sampling::packed_path) allows it).
+    pub fn is_packed(&self) -> bool {
+        self.packed.is_some()
     }
 
     fn march<'r, G: Field + ?Sized>(&'r self, field: &'r G) -> March<'r, G> {
@@ -234,6 +247,13 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
     /// any thread count. Progress: `start("render", tiles)`, `inc(1)` per tile,
     /// `finish()`.
     pub fn render(&self, camera: &Camera, progress: &dyn Progress) -> (Image, RenderStats) {
+        if let Some(packed) = &self.packed {
+            let field = crate::packet::PackedField {
+                field: self.field,
+                packed,
+            };
+            return self.render_march(&self.march(&field), camera, progress);
+        }
         match &self.prepared {
             Some(p) => self.render_march(&self.march(&**p), camera, progress),
             None => self.render_march(&self.march(self.field), camera, progress),

@@ -63,6 +63,11 @@ pub struct Sampling {
     /// sampled volume's brick atlas: the same bits, faster) instead of the field
     /// itself; default on. Never changes the image.
     pub prepare_field: bool,
+    /// Render trilinear, central-difference sampled volumes through the packed fast path
+    /// (per-voxel gradients, `f32` shading; see `packet.rs` in this crate): the same
+    /// image within 1/255 per channel, faster; default on. Fields that do not pack
+    /// themselves ([`Field::pack`](volga_core::Field::pack)) ignore it.
+    pub packed_path: bool,
 }
 
 impl Default for Sampling {
@@ -73,6 +78,7 @@ impl Default for Sampling {
             early_termination_alpha: 0.99,
             empty_space_skipping: true,
             prepare_field: true,
+            packed_path: true,
         }
     }
 }

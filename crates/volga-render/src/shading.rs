@@ -105,11 +105,34 @@ impl Shader {
     }
 }
 
+/// A [`Shader`]'s lights and coefficients, for the packed path's `f32` shading.
+pub(crate) struct ShaderParts<'s> {
+    pub(crate) lights: &'s [(DVec3, Vec3)],
+    pub(crate) ambient: Vec3,
+    pub(crate) material: Material,
+    pub(crate) integer_shininess: Option<i32>,
+    pub(crate) min_gradient: f64,
+}
+
+impl Shader {
+    /// The unit light directions and colours, `k_a·C_a`, the material, the integer
+    /// shininess and the smallest gradient shaded (read by `packet.rs`).
+    pub(crate) fn parts(&self) -> ShaderParts<'_> {
+        ShaderParts {
+            lights: &self.lights,
+            ambient: self.ambient,
+            material: self.material,
+            integer_shininess: self.integer_shininess,
+            min_gradient: self.min_gradient,
+        }
+    }
+}
+
 /// `x^n` for `n ≥ 0` by repeated squaring, the algorithm of compiler-rt's
 /// `__powisf2` (what `f32::powi` calls for a run-time exponent), inlined: the same bits
 /// without a call per sample and light.
 #[inline(always)]
-fn powi(mut x: f32, mut n: i32) -> f32 {
+pub(crate) fn powi(mut x: f32, mut n: i32) -> f32 {
     debug_assert!(n >= 0);
     let mut r = 1.0f32;
     loop {

@@ -14,6 +14,8 @@ pub struct TransferFunction {
     /// Strictly increasing control-point values.
     values: Vec<f64>,
     rgba: Vec<Vec4>,
+    /// The `f32` form the packed path classifies with (`None` if not representable).
+    lanes: Option<Box<crate::packet::TransferLanes>>,
 }
 
 impl TransferFunction {
@@ -41,10 +43,15 @@ impl TransferFunction {
         if let Some(w) = points.windows(2).find(|w| w[0].0 == w[1].0) {
             return Err(RenderError::DuplicateTransferValue(w[0].0));
         }
-        Ok(TransferFunction {
-            values: points.iter().map(|p| p.0).collect(),
-            rgba: points.iter().map(|p| p.1).collect(),
-        })
+        let values: Vec<f64> = points.iter().map(|p| p.0).collect();
+        let rgba: Vec<Vec4> = points.iter().map(|p| p.1).collect();
+        let lanes = crate::packet::TransferLanes::new(&values, &rgba).map(Box::new);
+        Ok(TransferFunction { values, rgba, lanes })
+    }
+
+    /// The `f32` segments of the packed path.
+    pub(crate) fn lanes(&self) -> Option<&crate::packet::TransferLanes> {
+        self.lanes.as_deref()
     }
 
     /// The control points, sorted by value.

@@ -35,6 +35,12 @@ pub trait Integrator: Sync + std::fmt::Debug {
         true
     }
 
+    /// Whether the mode has a packed fast path (`packet.rs`), used when the field packs
+    /// itself and the settings allow it; default `false`.
+    fn packed_path(&self) -> bool {
+        false
+    }
+
     /// What empty-space skipping may do with a macro cell over which the field's
     /// value lies in `[lo, hi]` (conservative, never NaN, possibly infinite), for a
     /// field of `kind`.

@@ -61,6 +61,11 @@ impl Integrator for Volume {
         }
     }
 
+    /// A 1D transfer function with the classifier's colour composites in the packed loop.
+    fn packed_path(&self) -> bool {
+        matches!(self.classifier, Classifier::Transfer(_)) && !self.colour_from_field
+    }
+
     /// Transparent cells (zero opacity over the cell's range) are skipped.
     fn classify_cell(&self, lo: f64, hi: f64, _kind: FieldKind) -> CellClass {
         if self.classifier.max_alpha(lo, hi) == 0.0 {
@@ -78,7 +83,12 @@ impl Integrator for Volume {
         stats: &mut RenderStats,
     ) -> (Vec3, f32) {
         match &self.classifier {
-            Classifier::Transfer(tf) => composite(m, tf, self.colour_from_field, ray, interval, stats),
+            Classifier::Transfer(tf) => match (m.field.packed(), tf.lanes()) {
+                (Some(p), Some(lanes)) if !self.colour_from_field => {
+                    crate::packet::composite(m, p, lanes, ray, interval, stats)
+                }
+                _ => composite(m, tf, self.colour_from_field, ray, interval, stats),
+            },
         }
     }
 }

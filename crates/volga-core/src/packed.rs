@@ -1,0 +1,368 @@
+//! A voxel source packed for the renderer's fast path: per voxel its density **and** its
+//! central-difference gradient, four `f32` side by side, in padded tiles behind a flat
+//! table. A trilinear sample of value and gradient together is then one table read,
+//! eight 16-byte loads and seven 4-wide lerps, instead of a 4×4×4 stencil and four
+//! trilinear reconstructions.
+//!
+//! Why this equals the central-difference gradient of the trilinear reconstruction:
+//! that gradient ([`GradientMethod::CentralDifference`](crate::GradientMethod) with
+//! [`Filter::Trilinear`](crate::Filter)) is, per axis, the trilinear interpolation of
+//! the voxels' own differences `(v[i + 1] − v[i − 1]) / 2h` at the cell's eight corners
+//! (see `filters::trilinear_central_gradient`). Storing those per-voxel differences
+//! and interpolating them gives the same quantity, rounded to `f32` once per voxel.
+
+use std::collections::HashMap;
+
+use glam::{DVec3, IVec3, Vec3, Vec4};
+use rayon::prelude::*;
+
+use crate::{Grid, IndexBox, VoxelSource, MAX_ATLAS_BYTES};
+
+const TILE_LOG2: i32 = 4;
+const TILE: i32 = 1 << TILE_LOG2;
+/// Stored tile edge: the tile's 16 voxels plus one after (the far corners of a cell).
+const PADDED: i32 = TILE + 1;
+const PADDED_VOXELS: usize = (PADDED * PADDED * PADDED) as usize;
+const STRIDE_Y: usize = PADDED as usize;
+const STRIDE_Z: usize = (PADDED * PADDED) as usize;
+/// Stored coordinates are `ijk + SHIFT`, so base voxels from `−SHIFT` on are served:
+/// a ray clipped to the sampled bounds has base voxels in `[−1, dims]`, and one more on
+/// each side absorbs the rounding of positions at the bounds.
+const SHIFT: i32 = 2;
+
+/// One stored voxel: density, then the world-space central-difference gradient
+/// `((v[i+1] − v[i−1]) / 2hx, …)`, as `[v, gx, gy, gz]`.
+pub type PackedVoxel = [f32; 4];
+
+/// A voxel source's densities and central-difference gradients, packed for ray
+/// sampling (see the [module docs](self)). Built by
+/// [`Field::packed`](crate::Field::packed) of a trilinear, central-difference
+/// [`Sampled`](crate::Sampled) field; read-only.
+///
+/// Densities are the source's own `f32` (the same bits), so [`PackedVolume::value`]
+/// equals the trilinear [`Sampled`](crate::Sampled)'s value bit for bit; gradients are
+/// the same formula rounded to `f32` per voxel (relative error ~1e-7).
+pub struct PackedVolume {
+    grid: Grid,
+    background: f32,
+    /// Tiles per axis: `ceil((dims + 2·SHIFT) / 16)`.
+    tiles: IVec3,
+    /// `tiles · 16` as `u32`: a stored base coordinate in `[0, extent)` is served.
+    extent: [u32; 3],
+    /// Tile (x fastest) → first voxel of its padded block in `voxels`.
+    table: Vec<u32>,
+    voxels: Vec<PackedVoxel>,
+}
+
+/// Where a trilinear sample reads: the offset of its base voxel's entry (or `None`
+/// outside the stored region, where every corner is the background with a zero
+/// gradient) and the fractions.
+#[derive(Clone, Copy, Debug)]
+pub struct PackedCell {
+    pub offset: Option<usize>,
+    pub fraction: DVec3,
+}
+
+impl PackedVolume {
+    /// Packs `source`, or `None` if the copy would take more than
+    /// [`MAX_ATLAS_BYTES`] (checked before allocating). Tiles whose voxels and
+    /// neighbours are one finite value share one stored tile. Filled in parallel; the
+    /// result does not depend on the thread count.
+    pub fn build<S: VoxelSource>(source: &S) -> Option<Self> {
+        let grid = *source.grid();
+        let dims = grid.dims().as_ivec3();
+        let tiles = (dims + IVec3::splat(2 * SHIFT + TILE - 1)) >> TILE_LOG2;
+        let n = tiles.as_uvec3().as_u64vec3().element_product();
+        if n >= u32::MAX as u64 {
+            return None;
+        }
+        let bg = source.background();
+        // Per tile: its value if every voxel it stores and their six neighbours are
+        // one finite value (gradients then all exactly zero).
+        let uniform: Vec<Option<f32>> = (0..n as usize)
+            .into_par_iter()
+            .map(|tile| {
+                let first = delinearize(tile, tiles) * TILE - IVec3::splat(SHIFT) - IVec3::ONE;
+                let needed = IndexBox::new(first, first + IVec3::splat(PADDED + 2));
+                let inside = needed.intersection(&grid.index_box());
+                let (mut lo, mut hi) = if inside.is_empty() {
+                    (bg, bg)
+                } else {
+                    source.density_range(&inside)
+                };
+                if inside != needed {
+                    lo = lo.min(bg);
+                    hi = hi.max(bg);
+                }
+                (lo.to_bits() == hi.to_bits() && lo.is_finite()).then_some(lo)
+            })
+            .collect();
+        let mut slot_of_value: HashMap<u32, u32> = HashMap::new();
+        let mut fills: Vec<(Option<f32>, usize)> = Vec::new(); // per slot: uniform value or the tile to copy
+        let mut table = Vec::with_capacity(uniform.len());
+        for (tile, u) in uniform.iter().enumerate() {
+            let slot = match u {
+                Some(v) => *slot_of_value.entry(v.to_bits()).or_insert_with(|| {
+                    fills.push((Some(*v), tile));
+                    (fills.len() - 1) as u32
+                }),
+                None => {
+                    fills.push((None, tile));
+                    (fills.len() - 1) as u32
+                }
+            };
+            table.push(slot);
+        }
+        let bytes = fills.len() as u64 * (PADDED_VOXELS * 16) as u64 + table.len() as u64 * 4;
+        if bytes > MAX_ATLAS_BYTES || (fills.len() as u64) * (PADDED_VOXELS as u64) >= u32::MAX as u64 {
+            return None;
+        }
+        let table = table.into_iter().map(|s| s * PADDED_VOXELS as u32).collect();
+        let inv_two_h = (2.0 * grid.transform.spacing()).recip();
+        let mut voxels = vec![[0.0f32; 4]; fills.len() * PADDED_VOXELS];
+        voxels
+            .par_chunks_mut(PADDED_VOXELS)
+            .zip(fills.par_iter())
+            .for_each(|(block, &(fill, tile))| match fill {
+                Some(v) => block.fill([v, 0.0, 0.0, 0.0]),
+                None => {
+                    // The densities the block needs: one voxel beyond it on every side.
+                    const E: usize = (PADDED + 2) as usize;
+                    let first = delinearize(tile, tiles) * TILE - IVec3::splat(SHIFT);
+                    let mut reader = source.reader();
+                    let mut d = vec![0.0f32; E * E * E];
+                    for (o, out) in d.iter_mut().enumerate() {
+                        let local = IVec3::new((o % E) as i32, ((o / E) % E) as i32, (o / (E * E)) as i32);
+                        *out = crate::VoxelReader::density(&mut reader, first - IVec3::ONE + local);
+                    }
+                    let at = |x: usize, y: usize, z: usize| d[x + E * (y + E * z)] as f64;
+                    for (o, out) in block.iter_mut().enumerate() {
+                        let (x, y, z) = (o % STRIDE_Y + 1, (o / STRIDE_Y) % STRIDE_Y + 1, o / STRIDE_Z + 1);
+                        *out = [
+                            at(x, y, z) as f32,
+                            ((at(x + 1, y, z) - at(x - 1, y, z)) * inv_two_h.x) as f32,
+                            ((at(x, y + 1, z) - at(x, y - 1, z)) * inv_two_h.y) as f32,
+                            ((at(x, y, z + 1) - at(x, y, z - 1)) * inv_two_h.z) as f32,
+                        ];
+                    }
+                }
+            });
+        Some(PackedVolume {
+            grid,
+            background: bg,
+            tiles,
+            extent: (tiles * TILE).as_uvec3().to_array(),
+            table,
+            voxels,
+        })
+    }
+
+    /// The grid of the packed source.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The source's background density.
+    pub fn background(&self) -> f32 {
+        self.background
+    }
+
+    /// Bytes held (table and stored tiles).
+    pub fn memory_bytes(&self) -> u64 {
+        (self.table.len() * 4 + self.voxels.len() * 16) as u64
+    }
+
+    /// Offset of base voxel `base`'s entry; its cell's eight corners are at
+    /// `offset + {0, 1} + {0, STRIDE_Y} + {0, STRIDE_Z}`. `None` outside the stored
+    /// region, where all eight corners are background voxels whose neighbours are
+    /// background too.
+    #[inline(always)]
+    pub fn offset(&self, base: IVec3) -> Option<usize> {
+        let s = (base + IVec3::splat(SHIFT)).as_uvec3();
+        if !(s.x < self.extent[0] && s.y < self.extent[1] && s.z < self.extent[2]) {
+            return None;
+        }
+        let t = s >> TILE_LOG2 as u32;
+        let tile = t.x as usize + self.tiles.x as usize * (t.y as usize + self.tiles.y as usize * t.z as usize);
+        let local = s & glam::UVec3::splat(TILE as u32 - 1);
+        Some(self.table[tile] as usize + local.x as usize + STRIDE_Y * local.y as usize + STRIDE_Z * local.z as usize)
+    }
+
+    /// The base voxel and fractions of continuous index coordinates (as
+    /// [`Sampled`](crate::Sampled) computes them).
+    ///
+    /// The floor is taken through one `i32` conversion per axis (on coordinates clamped
+    /// to ±10⁹, far outside any grid): the same base voxel and fractions as
+    /// [`fast_floor`](crate::fast_floor) inside that range, and the background beyond it either way.
+    #[inline(always)]
+    pub fn cell_at_index(&self, index_pos: DVec3) -> PackedCell {
+        const LIM: f64 = 1e9;
+        let c = index_pos.clamp(DVec3::splat(-LIM), DVec3::splat(LIM));
+        let floor = |x: f64| {
+            let t = x as i32; // NaN → 0, like `fast_floor`
+            t - ((t as f64) > x) as i32
+        };
+        let base = IVec3::new(floor(c.x), floor(c.y), floor(c.z));
+        PackedCell {
+            offset: self.offset(base),
+            fraction: index_pos - base.as_dvec3(),
+        }
+    }
+
+    /// The eight corner entries of the cell at `offset` (x fastest).
+    #[inline(always)]
+    pub fn corners(&self, offset: usize) -> [Vec4; 8] {
+        let v = &self.voxels[offset..offset + STRIDE_Z + STRIDE_Y + 2];
+        let l = |i: usize| Vec4::from_array(v[i]);
+        [
+            l(0),
+            l(1),
+            l(STRIDE_Y),
+            l(STRIDE_Y + 1),
+            l(STRIDE_Z),
+            l(STRIDE_Z + 1),
+            l(STRIDE_Z + STRIDE_Y),
+            l(STRIDE_Z + STRIDE_Y + 1),
+        ]
+    }
+
+    /// Density and gradient `[v, gx, gy, gz]` interpolated trilinearly in `f32` (one
+    /// 4-wide lerp per pair of corners: seven in all).
+    #[inline(always)]
+    pub fn sample4(&self, cell: &PackedCell) -> Vec4 {
+        match cell.offset {
+            None => Vec4::new(self.background, 0.0, 0.0, 0.0),
+            Some(o) => {
+                let c = self.corners(o);
+                let f = cell.fraction.as_vec3();
+                let (fx, fy, fz) = (Vec4::splat(f.x), Vec4::splat(f.y), Vec4::splat(f.z));
+                let x00 = c[0] + (c[1] - c[0]) * fx;
+                let x10 = c[2] + (c[3] - c[2]) * fx;
+                let x01 = c[4] + (c[5] - c[4]) * fx;
+                let x11 = c[6] + (c[7] - c[6]) * fx;
+                let y0 = x00 + (x10 - x00) * fy;
+                let y1 = x01 + (x11 - x01) * fy;
+                y0 + (y1 - y0) * fz
+            }
+        }
+    }
+
+    /// The trilinear value at continuous index coordinates, in `f64` exactly as
+    /// [`Sampled`](crate::Sampled) computes it (the same bits).
+    #[inline(always)]
+    pub fn value_at_index(&self, index_pos: DVec3) -> f64 {
+        let cell = self.cell_at_index(index_pos);
+        let c = match cell.offset {
+            None => [self.background as f64; 8],
+            Some(o) => self.corners(o).map(|c| c.x as f64),
+        };
+        let f = cell.fraction;
+        let x00 = c[0] + (c[1] - c[0]) * f.x;
+        let x10 = c[2] + (c[3] - c[2]) * f.x;
+        let x01 = c[4] + (c[5] - c[4]) * f.x;
+        let x11 = c[6] + (c[7] - c[6]) * f.x;
+        let y0 = x00 + (x10 - x00) * f.y;
+        let y1 = x01 + (x11 - x01) * f.y;
+        y0 + (y1 - y0) * f.z
+    }
+
+    /// The trilinear value at a world position (the same bits as the trilinear
+    /// [`Sampled::value`](crate::Field::value)).
+    #[inline(always)]
+    pub fn value(&self, world_pos: DVec3) -> f64 {
+        self.value_at_index(self.grid.transform.world_to_index(world_pos))
+    }
+
+    /// The central-difference gradient of the trilinear reconstruction at a world
+    /// position, from the per-voxel gradients (within `f32` rounding of
+    /// [`Sampled::gradient`](crate::Field::gradient)).
+    #[inline(always)]
+    pub fn gradient(&self, world_pos: DVec3) -> DVec3 {
+        let g = self.sample4(&self.cell_at_index(self.grid.transform.world_to_index(world_pos)));
+        Vec3::new(g.y, g.z, g.w).as_dvec3()
+    }
+}
+
+#[inline]
+fn delinearize(tile: usize, tiles: IVec3) -> IVec3 {
+    let (nx, ny) = (tiles.x as usize, tiles.y as usize);
+    IVec3::new((tile % nx) as i32, ((tile / nx) % ny) as i32, (tile / (nx * ny)) as i32)
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::UVec3;
+
+    use super::*;
+    use crate::{DenseVolume, Field, Filter, GradientMethod, Sampled, SparseVolume, Transform};
+
+    fn volume(dims: UVec3, background: f32) -> SparseVolume {
+        let grid = Grid::new(
+            Transform::new(DVec3::new(-3.0, 1e3, 2.0), DVec3::new(0.5, 0.25, 0.75)).unwrap(),
+            dims,
+        )
+        .unwrap();
+        let mut dense = DenseVolume::new(grid, background, false).unwrap();
+        for ijk in grid.index_box().iter() {
+            let h = ijk.x.wrapping_mul(73_856_093) ^ ijk.y.wrapping_mul(19_349_663) ^ ijk.z.wrapping_mul(83_492_791);
+            // Noise plus a uniform slab (z < 20) to exercise shared tiles.
+            let v = if ijk.z < 20 { 0.75 } else { (h & 1023) as f32 / 1023.0 };
+            dense.density.set(ijk, v);
+        }
+        SparseVolume::from_dense(&dense)
+    }
+
+    /// Values equal the trilinear `Sampled` bit for bit and gradients its central
+    /// differences within f32 rounding, everywhere around and inside the grid
+    /// (including the stored region's edges and beyond it).
+    #[test]
+    fn values_and_gradients_match_the_sampled_field() {
+        for (dims, bg) in [
+            (UVec3::new(37, 20, 45), 0.0),
+            (UVec3::ONE, 0.5),
+            (UVec3::new(16, 3, 30), -1.0),
+        ] {
+            let v = volume(dims, bg);
+            let field = Sampled::new(&v, Filter::Trilinear).with_gradient(GradientMethod::CentralDifference);
+            let packed = PackedVolume::build(&v).expect("small volume");
+            let t = &v.grid.transform;
+            let mut state = 12345u64;
+            let mut next = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (state >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let lo = DVec3::splat(-4.0);
+            let hi = dims.as_dvec3() + 4.0;
+            for _ in 0..20_000 {
+                let index = lo + (hi - lo) * DVec3::new(next(), next(), next());
+                let p = t.index_to_world(index);
+                assert_eq!(packed.value(p).to_bits(), field.value(p).to_bits(), "{index}");
+                let (a, b) = (packed.gradient(p), field.gradient(p));
+                let scale = 1.0 + b.abs().max_element();
+                assert!((a - b).abs().max_element() <= 1e-6 * scale, "{index}: {a} vs {b}");
+            }
+            // Whole-voxel positions hit the tile borders exactly.
+            for ijk in IndexBox::new(IVec3::splat(-3), dims.as_ivec3() + 3).iter() {
+                let p = t.voxel_center(ijk);
+                assert_eq!(packed.value(p).to_bits(), field.value(p).to_bits(), "{ijk}");
+                let (a, b) = (packed.gradient(p), field.gradient(p));
+                assert!(
+                    (a - b).abs().max_element() <= 1e-6 * (1.0 + b.abs().max_element()),
+                    "{ijk}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn uniform_tiles_share_storage() {
+        let grid = Grid::new(Transform::new(DVec3::ZERO, DVec3::ONE).unwrap(), UVec3::splat(60)).unwrap();
+        let v = SparseVolume::new(grid, 0.0, false);
+        let packed = PackedVolume::build(&v).unwrap();
+        assert_eq!(packed.voxels.len(), PADDED_VOXELS);
+        assert_eq!(packed.table.len(), 4 * 4 * 4);
+        assert_eq!(packed.value(DVec3::splat(30.5)), 0.0);
+    }
+}

@@ -1,0 +1,491 @@
+//! The packed fast path of volume rendering: a [`PackedVolume`] (per voxel the density
+//! and its central-difference gradient, four `f32` side by side), so one trilinear fetch
+//! of eight 16-byte corners gives a sample's value **and** gradient; the samples of a
+//! ray are taken eight at a time and classified, opacity-corrected and shaded
+//! (Blinn-Phong, per-ray constants) in 8 `f32` lanes, then composited in order.
+//!
+//! Chosen automatically by [`Renderer::new`](crate::Renderer::new) when
+//! [`packet_path_allowed`] holds for the integrator and settings (today: shaded or unlit
+//! DVR with a 1D transfer function taking its colour from it) and the field packs itself
+//! ([`Field::pack`]: trilinear, central-difference sampled volumes); every other field
+//! (analytic fields, CVG trees, octrees, ADFs, cubic filters, analytic gradients) and
+//! mode (iso-surfaces included) renders through the general path.
+//! [`Sampling::packed_path`](crate::Sampling::packed_path) turns it off.
+//!
+//! **What it changes in the image**: the lattice, skipping and early termination are the
+//! general loop's; values are the same trilinear reconstruction of the same `f32`
+//! densities (in `f32`), gradients the same central differences rounded to `f32` once
+//! per voxel and interpolated in `f32`, and classification, opacity correction and
+//! shading run in `f32`. The tests bound the difference at ≤ 1/255 per channel over many
+//! random views (`tests/packed.rs`).
+
+use glam::{DVec3, Vec3, Vec4};
+use volga_core::{Aabb, Field, FieldKind, Line, PackedVolume};
+
+use crate::integrators::March;
+use crate::march::{index_after, midpoint_lattice_len, BATCH};
+use crate::{CellClass, Integrator, Ray, RenderSettings, RenderStats, Shader};
+
+/// Lights the `f32` shading handles per ray (more fall back to the general path).
+pub(crate) const MAX_PACKET_LIGHTS: usize = 8;
+
+/// The one predicate of the packed path (besides the field packing itself): the
+/// settings allow it ([`Sampling::packed_path`](crate::Sampling::packed_path)), the
+/// mode can use it ([`Integrator::packed_path`]), it casts no shadow rays, and at most
+/// [`MAX_PACKET_LIGHTS`] lights shine (all directional: the only kind today). An effect
+/// the packed loops do not implement must make this false, so such images take the
+/// general path.
+pub(crate) fn packet_path_allowed<I: Integrator + ?Sized>(integrator: &I, settings: &RenderSettings) -> bool {
+    settings.sampling.packed_path
+        && integrator.packed_path()
+        && !integrator.effects(settings).shadows.enabled
+        && settings.lighting.lights.len() <= MAX_PACKET_LIGHTS
+}
+
+/// A field sampled through its [`PackedVolume`]: values (the same bits as the field's
+/// trilinear reconstruction) and gradients from the packed copy, everything else from
+/// the field. What the renderer renders when the packed path is taken.
+pub(crate) struct PackedField<'a, F: ?Sized> {
+    pub(crate) field: &'a F,
+    pub(crate) packed: &'a PackedVolume,
+}
+
+impl<F: Field + ?Sized> Field for PackedField<'_, F> {
+    fn bounds(&self) -> Aabb {
+        self.field.bounds()
+    }
+    fn kind(&self) -> FieldKind {
+        self.field.kind()
+    }
+    fn background(&self) -> f64 {
+        self.field.background()
+    }
+    #[inline]
+    fn value(&self, world_pos: DVec3) -> f64 {
+        self.packed.value(world_pos)
+    }
+    /// In index space like [`volga_core::Sampled::values_along`]: the same bits.
+    #[inline]
+    fn values_along(&self, line: &Line, first: u64, out: &mut [f64]) {
+        let transform = &self.packed.grid().transform;
+        let index_origin = transform.world_to_index(line.origin);
+        let index_step = line.step / transform.spacing();
+        for (k, v) in out.iter_mut().enumerate() {
+            *v = self
+                .packed
+                .value_at_index(index_origin + index_step * (first + k as u64) as f64);
+        }
+    }
+    #[inline]
+    fn gradient(&self, world_pos: DVec3) -> DVec3 {
+        self.packed.gradient(world_pos)
+    }
+    fn gradients_at(&self, world_pos: &[DVec3], out: &mut [DVec3]) {
+        for (g, p) in out.iter_mut().zip(world_pos) {
+            *g = self.packed.gradient(*p);
+        }
+    }
+    fn gradient_step(&self) -> DVec3 {
+        self.field.gradient_step()
+    }
+    fn packed(&self) -> Option<&PackedVolume> {
+        Some(self.packed)
+    }
+    fn value_range(&self, world_box: &Aabb) -> (f64, f64) {
+        self.field.value_range(world_box)
+    }
+    fn has_colour(&self) -> bool {
+        self.field.has_colour()
+    }
+    fn colour(&self, world_pos: DVec3) -> Option<Vec3> {
+        self.field.colour(world_pos)
+    }
+    fn sample_spacing(&self) -> f64 {
+        self.field.sample_spacing()
+    }
+}
+
+/// Most control points [`TransferLanes`] takes (more classify on the general path).
+const MAX_LANE_POINTS: usize = 8;
+
+/// A 1D transfer function in `f32` for the packed loop: `n + 1` segments, the first and
+/// last constant (below the first and from the last control value on), so a value's
+/// segment is the number of control values `≤` it (selects over the control values in
+/// the packet's lanes) and its RGBA one lerp.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct TransferLanes {
+    /// The control values, padded with +∞ (never `≤` a value).
+    values: [Vec4; 2],
+    /// Per segment: start value, 1 / width, RGBA at the start, RGBA change over it.
+    start: [f32; MAX_LANE_POINTS + 1],
+    inv_width: [f32; MAX_LANE_POINTS + 1],
+    rgba: [Vec4; MAX_LANE_POINTS + 1],
+    delta: [Vec4; MAX_LANE_POINTS + 1],
+}
+
+impl TransferLanes {
+    /// The `f32` form of sorted control points, or `None` if there are more than
+    /// [`MAX_LANE_POINTS`] or a value or a segment's inverse width is not finite in
+    /// `f32` (the general path then classifies).
+    pub(crate) fn new(values: &[f64], rgba: &[Vec4]) -> Option<TransferLanes> {
+        let n = values.len();
+        if n == 0 || n > MAX_LANE_POINTS || values.iter().any(|v| !(*v as f32).is_finite()) {
+            return None;
+        }
+        let mut padded = [f32::INFINITY; 8];
+        for (p, v) in padded.iter_mut().zip(values) {
+            *p = *v as f32;
+        }
+        let mut lanes = TransferLanes {
+            values: [Vec4::from_slice(&padded[..4]), Vec4::from_slice(&padded[4..])],
+            start: [0.0; MAX_LANE_POINTS + 1],
+            inv_width: [0.0; MAX_LANE_POINTS + 1],
+            rgba: [rgba[n - 1]; MAX_LANE_POINTS + 1],
+            delta: [Vec4::ZERO; MAX_LANE_POINTS + 1],
+        };
+        lanes.rgba[0] = rgba[0];
+        for k in 1..n {
+            let inv = (1.0 / (values[k] - values[k - 1])) as f32;
+            if !inv.is_finite() {
+                return None;
+            }
+            lanes.start[k] = values[k - 1] as f32;
+            lanes.inv_width[k] = inv;
+            lanes.rgba[k] = rgba[k - 1];
+            lanes.delta[k] = rgba[k] - rgba[k - 1];
+        }
+        Some(lanes)
+    }
+}
+
+/// Samples per packet: eight consecutive samples of one ray, in `f32` lanes.
+const LANES: usize = 8;
+
+/// Blinn-Phong (survey eq. 9) in `f32` for one ray: the light directions, half vectors
+/// and coefficients of the image's [`Shader`] with the view of the ray, as per-ray
+/// constants of the packet loop. The same formula as [`Shader::shade`] term by term.
+struct RayShader32 {
+    count: usize,
+    light: [Vec3; MAX_PACKET_LIGHTS],
+    light_colour: [Vec3; MAX_PACKET_LIGHTS],
+    half: [Vec3; MAX_PACKET_LIGHTS],
+    view: Vec3,
+    ambient: Vec3,
+    diffuse: f32,
+    specular: f32,
+    shininess: f32,
+    integer_shininess: Option<i32>,
+    min_gradient: f32,
+    /// Multiplies the gradient into the outward direction (`−1` for densities).
+    outward_sign: f32,
+}
+
+impl RayShader32 {
+    fn new(shader: &Shader, ray_dir: DVec3, kind: FieldKind) -> RayShader32 {
+        let p = shader.parts();
+        let view = -ray_dir;
+        let mut s = RayShader32 {
+            count: p.lights.len().min(MAX_PACKET_LIGHTS),
+            light: [Vec3::ZERO; MAX_PACKET_LIGHTS],
+            light_colour: [Vec3::ZERO; MAX_PACKET_LIGHTS],
+            half: [Vec3::ZERO; MAX_PACKET_LIGHTS],
+            view: view.as_vec3(),
+            ambient: p.ambient,
+            diffuse: p.material.diffuse,
+            specular: p.material.specular,
+            shininess: p.material.shininess,
+            integer_shininess: p.integer_shininess,
+            min_gradient: p.min_gradient as f32,
+            outward_sign: kind.outward(DVec3::ONE).x as f32,
+        };
+        for (k, (l, cl)) in p.lights.iter().take(MAX_PACKET_LIGHTS).enumerate() {
+            s.light[k] = l.as_vec3();
+            s.light_colour[k] = *cl;
+            s.half[k] = crate::camera::safe_normalize(*l + view).as_vec3();
+        }
+        s
+    }
+}
+
+/// `x^n` per lane by repeated squaring (the exponent is the same in every lane, so
+/// the loop is uniform and the lanes vectorize); the algorithm of
+/// [`powi`](crate::shading::powi).
+#[inline(always)]
+fn powi_lanes(mut x: [f32; LANES], mut n: i32) -> [f32; LANES] {
+    let mut r = [1.0f32; LANES];
+    loop {
+        if n & 1 != 0 {
+            for l in 0..LANES {
+                r[l] *= x[l];
+            }
+        }
+        n /= 2;
+        if n == 0 {
+            return r;
+        }
+        for v in x.iter_mut() {
+            *v *= *v;
+        }
+    }
+}
+
+/// One packet's classified and shaded samples: opacity (0 where invisible) and RGB.
+struct Shaded {
+    alpha: [f32; LANES],
+    rgb: [[f32; LANES]; 3],
+}
+
+/// The per-ray constants of the packet loop.
+struct RayPackets<'a> {
+    packed: &'a PackedVolume,
+    tf: &'a TransferLanes,
+    shader: RayShader32,
+    lit: bool,
+    /// Opacity correction `1 − (1 − α)^e` in the lanes: `e = ½` (the default step) as
+    /// `α / (1 + √(1 − α))`, `e = 1` as is; other exponents are corrected per sample
+    /// afterwards.
+    half_step: bool,
+    index_origin: DVec3,
+    index_step: DVec3,
+}
+
+impl RayPackets<'_> {
+    /// Samples `j .. j + 8`: values and gradients from one packed fetch each (4-wide
+    /// over `[v, gx, gy, gz]`), then classification, opacity correction and shading
+    /// 8-wide across the samples, every lane a function of its sample index alone.
+    // Index loops over the lanes on purpose: they are what the compiler vectorizes.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn shade(&self, j: u64) -> Shaded {
+        let mut v = [0.0f32; LANES];
+        let mut g = [[0.0f32; LANES]; 3];
+        for l in 0..LANES {
+            let index_pos = self.index_origin + self.index_step * (j + l as u64) as f64;
+            let s = self.packed.sample4(&self.packed.cell_at_index(index_pos));
+            v[l] = s.x;
+            g[0][l] = s.y;
+            g[1][l] = s.z;
+            g[2][l] = s.w;
+        }
+        // Classification: the segment of each lane by selects over the control values.
+        let tf = self.tf;
+        let mut start = [tf.start[0]; LANES];
+        let mut inv = [tf.inv_width[0]; LANES];
+        let mut base = [tf.rgba[0].to_array(); LANES];
+        let mut delta = [tf.delta[0].to_array(); LANES];
+        let values = [tf.values[0].to_array(), tf.values[1].to_array()];
+        for m in 0..MAX_LANE_POINTS {
+            let c = values[m / 4][m % 4];
+            if c == f32::INFINITY {
+                break;
+            }
+            for l in 0..LANES {
+                if v[l] >= c {
+                    start[l] = tf.start[m + 1];
+                    inv[l] = tf.inv_width[m + 1];
+                    base[l] = tf.rgba[m + 1].to_array();
+                    delta[l] = tf.delta[m + 1].to_array();
+                }
+            }
+        }
+        let mut out = Shaded {
+            alpha: [0.0; LANES],
+            rgb: [[0.0; LANES]; 3],
+        };
+        let mut colour = [[0.0f32; LANES]; 3];
+        for l in 0..LANES {
+            let f = ((v[l] - start[l]) * inv[l]).clamp(0.0, 1.0);
+            for ch in 0..3 {
+                colour[ch][l] = (base[l][ch] + delta[l][ch] * f).clamp(0.0, 1.0);
+            }
+            let a = (base[l][3] + delta[l][3] * f).clamp(0.0, 1.0);
+            // NaN values are invisible.
+            let a = if v[l].is_nan() { 0.0 } else { a };
+            out.alpha[l] = if self.half_step && a < 1.0 {
+                a / (1.0 + (1.0 - a).sqrt())
+            } else {
+                a
+            };
+        }
+        if !self.lit {
+            out.rgb = colour;
+            return out;
+        }
+        // Blinn-Phong with the outward normal flipped towards the viewer (two-sided).
+        let sh = &self.shader;
+        let mut n = [[0.0f32; LANES]; 3];
+        for l in 0..LANES {
+            let o = [
+                g[0][l] * sh.outward_sign,
+                g[1][l] * sh.outward_sign,
+                g[2][l] * sh.outward_sign,
+            ];
+            let len = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
+            let ok = len.is_finite() && len > sh.min_gradient;
+            let r = 1.0 / len;
+            let mut q = if ok {
+                [o[0] * r, o[1] * r, o[2] * r]
+            } else {
+                sh.view.to_array()
+            };
+            if q[0] * sh.view.x + q[1] * sh.view.y + q[2] * sh.view.z < 0.0 {
+                q = [-q[0], -q[1], -q[2]];
+            }
+            for a in 0..3 {
+                n[a][l] = q[a];
+            }
+        }
+        for ch in 0..3 {
+            for l in 0..LANES {
+                out.rgb[ch][l] = sh.ambient[ch] * colour[ch][l];
+            }
+        }
+        for k in 0..sh.count {
+            let (ld, hd, cl) = (sh.light[k], sh.half[k], sh.light_colour[k]);
+            let mut n_dot_l = [0.0f32; LANES];
+            let mut n_dot_h = [0.0f32; LANES];
+            for l in 0..LANES {
+                n_dot_l[l] = (n[0][l] * ld.x + n[1][l] * ld.y + n[2][l] * ld.z).max(0.0);
+                n_dot_h[l] = (n[0][l] * hd.x + n[1][l] * hd.y + n[2][l] * hd.z).max(0.0);
+            }
+            let highlight = match sh.integer_shininess {
+                Some(ns) => powi_lanes(n_dot_h, ns),
+                None => n_dot_h.map(|x| x.powf(sh.shininess)),
+            };
+            for ch in 0..3 {
+                for l in 0..LANES {
+                    out.rgb[ch][l] +=
+                        cl[ch] * colour[ch][l] * (sh.diffuse * n_dot_l[l]) + cl[ch] * (sh.specular * highlight[l]);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Front-to-back compositing (survey eq. 13) of the packed path: the general
+/// [`Volume`](crate::Volume) loop's lattice, skipping and early termination, the
+/// samples of each active cell taken eight at a time ([`RayPackets::shade`], the last
+/// packet running on past the cell) and composited in order. Counters: every sample
+/// read (a few more than the general loop, which stops each run at its cell's end), a
+/// gradient per composited visible sample.
+///
+/// On x86-64 CPUs with AVX2 and FMA the loop is compiled for them (8-wide `f32` lanes);
+/// elsewhere the same code runs with the baseline instructions. Both evaluate the same
+/// operations in the same order (no fused multiply-adds are written), so the image
+/// does not depend on which runs.
+pub(crate) fn composite<F: Field + ?Sized>(
+    m: &March<'_, F>,
+    packed: &PackedVolume,
+    tf: &TransferLanes,
+    ray: &Ray,
+    interval: (f64, f64),
+    stats: &mut RenderStats,
+) -> (Vec3, f32) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU supports AVX2 and FMA (checked just above), the one
+        // requirement for calling a function compiled with those features.
+        // Measured reason: see docs/BENCHMARKS.md (the packed path's AVX2 row).
+        return unsafe { composite_avx2(m, packed, tf, ray, interval, stats) };
+    }
+    composite_lanes(m, packed, tf, ray, interval, stats)
+}
+
+/// [`composite_lanes`] compiled for AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn composite_avx2<F: Field + ?Sized>(
+    m: &March<'_, F>,
+    packed: &PackedVolume,
+    tf: &TransferLanes,
+    ray: &Ray,
+    interval: (f64, f64),
+    stats: &mut RenderStats,
+) -> (Vec3, f32) {
+    composite_lanes(m, packed, tf, ray, interval, stats)
+}
+
+#[inline(always)]
+fn composite_lanes<F: Field + ?Sized>(
+    m: &March<'_, F>,
+    packed: &PackedVolume,
+    tf: &TransferLanes,
+    ray: &Ray,
+    (t0, t1): (f64, f64),
+    stats: &mut RenderStats,
+) -> (Vec3, f32) {
+    let n = midpoint_lattice_len(t0, t1, m.step);
+    let transform = packed.grid().transform;
+    let lit = m.shader.is_lit();
+    let half_step = m.alpha_exponent == 0.5;
+    let per_sample_correction = !(half_step || m.alpha_exponent == 1.0);
+    let packets = RayPackets {
+        packed,
+        tf,
+        shader: RayShader32::new(m.shader, ray.dir, m.kind),
+        lit,
+        half_step,
+        index_origin: transform.world_to_index(ray.at(t0 + 0.5 * m.step)),
+        index_step: (ray.dir * m.step) / transform.spacing(),
+    };
+    let eta = m.early_termination_alpha;
+    let mut c = Vec3::ZERO;
+    let mut a = 0.0f32;
+    let mut visible = 0u64;
+    // The last opacity corrected by `powf` and its correction (uniform regions repeat it).
+    let mut corrected = (f32::NAN, f32::NAN);
+    let mut walk = m.grid.map(|g| g.walk(ray, t0 + 0.5 * m.step));
+    let mut i = 0u64;
+    while i < n {
+        let mut end = n;
+        if let Some(w) = &mut walk {
+            let t = t0 + (i as f64 + 0.5) * m.step;
+            let (class, t_exit) = w.class_at(t);
+            let next = index_after(t_exit, t0, m.step, 0.5, i, n);
+            if class != CellClass::Active {
+                stats.cells_skipped += 1;
+                i = next;
+                continue;
+            }
+            end = next;
+        }
+        // Whole packets from `i`, past the cell's end if it ends inside one: the
+        // samples beyond it are read and composited like any other (a sample of a
+        // transparent cell adds nothing), so no lane is wasted.
+        let run_end = end.max(i + LANES as u64).min(n).min(i + BATCH as u64);
+        stats.samples += run_end - i;
+        let mut j = i;
+        while j < run_end {
+            let lanes = ((n - j) as usize).min(LANES);
+            let shaded = packets.shade(j);
+            for l in 0..lanes {
+                let mut alpha = shaded.alpha[l];
+                if alpha.is_nan() || alpha <= 0.0 {
+                    continue;
+                }
+                if per_sample_correction && alpha < 1.0 {
+                    if corrected.0 != alpha {
+                        corrected = (alpha, m.correct_alpha(alpha));
+                    }
+                    alpha = corrected.1;
+                }
+                visible += lit as u64;
+                let rgb = Vec3::new(shaded.rgb[0][l], shaded.rgb[1][l], shaded.rgb[2][l]);
+                let w = (1.0 - a) * alpha;
+                c += rgb * w;
+                a += w;
+                if a >= eta {
+                    stats.rays_terminated_early += 1;
+                    stats.gradient_evaluations += visible;
+                    return (c, a);
+                }
+            }
+            j += lanes as u64;
+        }
+        stats.samples += j - run_end;
+        i = j;
+    }
+    stats.gradient_evaluations += visible;
+    (c, a)
+}
