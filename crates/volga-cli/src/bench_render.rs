@@ -502,6 +502,7 @@ impl<'a> PlainDvr<'a> {
             lights,
             ambient_colour,
             material,
+            ..
         } = &s.lighting;
         Ok(PlainDvr {
             data,

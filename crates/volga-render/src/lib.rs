@@ -120,9 +120,11 @@ mod classify;
 mod error;
 mod integrators;
 mod march;
+mod preint;
 mod render;
 mod settings;
 mod shading;
+mod shadow;
 mod transfer;
 
 pub use camera::{Camera, Projection, Ray};
@@ -131,10 +133,12 @@ pub use error::RenderError;
 // The integrators and every registered mode's types (`Iso`, `SurfaceColour`, `Volume`, `Mip`, `XRay`).
 pub use integrators::*;
 pub use march::{first_hit, CellClass, Hit};
+pub use preint::{PreIntegrated, PRE_INTEGRATION_TABLE_SIZE};
 pub use render::{render, render_with, Image, RenderStats, Renderer};
 pub use settings::{
-    ImageSettings, Lighting, RenderSettings, Sampling, MAX_PIXELS, MAX_SAMPLES_PER_RAY, MAX_SUPERSAMPLING,
+    ImageSettings, Lighting, RenderSettings, Sampling, ShadowSettings, MAX_PIXELS, MAX_SAMPLES_PER_RAY,
+    MAX_SUPERSAMPLING,
 };
 pub(crate) use shading::Shader;
-pub use shading::{Light, Material};
+pub use shading::{Attenuation, Light, LightId, Material, PointLight};
 pub use transfer::TransferFunction;

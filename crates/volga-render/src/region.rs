@@ -29,7 +29,9 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         let same = field.bounds() == self.bounds
             && field.sample_spacing() == self.field.sample_spacing()
             && field.kind() == self.constants.kind
-            && self.prepared.is_none();
+            && self.prepared.is_none()
+            // A pre-integration table spans the old field's value range: build afresh.
+            && self.preint.is_none();
         if !same {
             return Renderer::new(field, self.integrator, self.settings);
         }
@@ -43,9 +45,9 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         }
         let mut grid = self.grid;
         if let Some(g) = grid.as_mut() {
-            let (integrator, kind) = (self.integrator, self.constants.kind);
+            let (integrator, kind, preint) = (self.integrator, self.constants.kind, self.preint.as_ref());
             g.update(field, field.sample_spacing(), changed, |lo, hi| {
-                integrator.classify_cell(lo, hi, kind)
+                super::classify_cell(integrator, preint, lo, hi, kind)
             });
         }
         Ok(Renderer {
@@ -57,6 +59,8 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             constants: self.constants,
             shader: self.shader,
             grid,
+            shadow: self.shadow,
+            preint: self.preint,
         })
     }
 

@@ -4,7 +4,8 @@ use volga_core::{Aabb, Field, FieldKind, Progress};
 
 use crate::integrators::{clip, over_background, March, ModeJob};
 use crate::march::MacroGrid;
-use crate::{Camera, Integrator, Mode, RenderError, RenderSettings, Shader};
+use crate::shadow::ShadowParams;
+use crate::{Camera, Integrator, Mode, PreIntegrated, RenderError, RenderSettings, Shader};
 
 /// A rendered image: row-major, `y` down, straight (not premultiplied) linear RGBA
 /// in \[0, 1\].
@@ -69,6 +70,11 @@ pub struct RenderStats {
     pub rays_terminated_early: u64,
     /// Macro cells crossed without sampling by empty-space skipping.
     pub cells_skipped: u64,
+    /// Shadow rays cast (one per shaded sample and light that casts shadows; 0 when
+    /// no light does).
+    pub shadow_rays: u64,
+    /// Field values read along shadow rays.
+    pub shadow_samples: u64,
 }
 
 impl std::ops::AddAssign for RenderStats {
@@ -78,6 +84,8 @@ impl std::ops::AddAssign for RenderStats {
         self.gradient_evaluations += o.gradient_evaluations;
         self.rays_terminated_early += o.rays_terminated_early;
         self.cells_skipped += o.cells_skipped;
+        self.shadow_rays += o.shadow_rays;
+        self.shadow_samples += o.shadow_samples;
     }
 }
 
@@ -139,6 +147,8 @@ pub struct Renderer<'a, F: ?Sized, I> {
     constants: MarchConstants,
     shader: Shader,
     grid: Option<MacroGrid>,
+    shadow: ShadowParams,
+    preint: Option<PreIntegrated>,
 }
 
 /// The scalar per-image constants of a [`March`].
@@ -169,13 +179,20 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         let step = settings.sampling.world_step(&bounds, spacing)?;
         let kind = field.kind();
 
+        let shadow = ShadowParams::new(settings, &bounds, spacing)?;
+        let preint = settings
+            .sampling
+            .pre_integration
+            .then(|| integrator.pre_integrate(settings, field.value_range(&bounds)))
+            .flatten();
+
         let prepared = if settings.sampling.prepare_field {
             field.prepare()
         } else {
             None
         };
         let grid = (settings.sampling.empty_space_skipping && integrator.skips_cells()).then(|| {
-            let classify = |lo, hi| integrator.classify_cell(lo, hi, kind);
+            let classify = |lo, hi| classify_cell(integrator, preint.as_ref(), lo, hi, kind);
             match &prepared {
                 Some(p) => MacroGrid::build(&**p, bounds, spacing, classify),
                 None => MacroGrid::build(field, bounds, spacing, classify),
@@ -199,8 +216,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 alpha_exponent: sampling.step_voxels / sampling.reference_step_voxels,
                 early_termination_alpha: sampling.early_termination_alpha,
             },
-            shader: Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing),
+            shader: Shader::from_lighting(lighting, spacing),
             grid,
+            shadow,
+            preint,
         })
     }
 
@@ -209,7 +228,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         self.prepared.is_some()
     }
 
-    fn march<'r, G: Field + ?Sized>(&'r self, field: &'r G) -> March<'r, G> {
+    pub(crate) fn march<'r, G: Field + ?Sized>(&'r self, field: &'r G) -> March<'r, G> {
         let c = self.constants;
         March {
             field,
@@ -221,6 +240,9 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             early_termination_alpha: c.early_termination_alpha,
             shader: &self.shader,
             grid: self.grid.as_ref(),
+            bounds: self.bounds,
+            shadow: self.shadow,
+            preint: self.preint.as_ref(),
         }
     }
 
@@ -334,6 +356,22 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             stats += s;
         }
         (image, stats)
+    }
+}
+
+/// The skip class of a macro cell: the integrator's, made `Active` where a
+/// pre-integrated segment between values of the cell's range may be visible.
+pub(crate) fn classify_cell<I: Integrator>(
+    integrator: &I,
+    preint: Option<&PreIntegrated>,
+    lo: f64,
+    hi: f64,
+    kind: FieldKind,
+) -> crate::CellClass {
+    let class = integrator.classify_cell(lo, hi, kind);
+    match preint {
+        Some(t) if class == crate::CellClass::Outside && t.max_alpha(lo, hi) > 0.0 => crate::CellClass::Active,
+        _ => class,
     }
 }
 
