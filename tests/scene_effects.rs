@@ -60,7 +60,13 @@ fn a_turntable_writes_numbered_frames_atomically() {
     names.sort();
     assert_eq!(
         names,
-        ["report.json", "spin_0000.png", "spin_0001.png", "spin_0002.png", "spin_0003.png"]
+        [
+            "report.json",
+            "spin_0000.png",
+            "spin_0001.png",
+            "spin_0002.png",
+            "spin_0003.png"
+        ]
     );
     assert_eq!(report.images.len(), 4);
     assert_eq!(report.images[2].name, "spin_0002");
@@ -104,7 +110,10 @@ fn bad_lights_and_effect_settings_name_their_field() {
     let image = r#"(name: "a", camera: "c", mode: Iso(value: 0.5), width: 8, height: 8)"#;
     let cases = [
         (
-            SCENE.replace("(position: (0.9, 1.5, 0.6),", "(position: (0.9, 1.5, 0.6), direction: (1.0, 0.0, 0.0),"),
+            SCENE.replace(
+                "(position: (0.9, 1.5, 0.6),",
+                "(position: (0.9, 1.5, 0.6), direction: (1.0, 0.0, 0.0),",
+            ),
             "lights[0]",
         ),
         (
@@ -112,14 +121,22 @@ fn bad_lights_and_effect_settings_name_their_field() {
             "lights[0].attenuation",
         ),
         (
-            SCENE.replace("colour: (0.2, 0.3, 1.0))", "colour: (0.2, 0.3, 1.0), attenuation: (1.0, 0.0, 0.0))"),
+            SCENE.replace(
+                "colour: (0.2, 0.3, 1.0))",
+                "colour: (0.2, 0.3, 1.0), attenuation: (1.0, 0.0, 0.0))",
+            ),
             "lights[1].attenuation",
         ),
-        (SCENE.replace("position: (0.9, 1.5, 0.6)", "position: (0.9, inf, 0.6)"), "lights[0].position"),
+        (
+            SCENE.replace("position: (0.9, 1.5, 0.6)", "position: (0.9, inf, 0.6)"),
+            "lights[0].position",
+        ),
     ];
     for (text, path) in cases {
         let dir = tempfile::tempdir().unwrap();
-        let err = build_scene(dir.path(), &text.replace("{images}", image)).unwrap_err().to_string();
+        let err = build_scene(dir.path(), &text.replace("{images}", image))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains(path), "{path}: {err}");
     }
     for (image, path) in [

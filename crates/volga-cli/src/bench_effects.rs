@@ -14,7 +14,9 @@
 
 use serde_json::{json, Value};
 use volga_core::{Field, Filter, NoProgress, Sampled, SparseVolume};
-use volga_render::{Camera, Integrator, Iso, LightId, RenderSettings, Renderer, SurfaceColour, TransferFunction, Volume};
+use volga_render::{
+    Camera, Integrator, Iso, LightId, RenderSettings, Renderer, SurfaceColour, TransferFunction, Volume,
+};
 
 use super::{median, timed, timed_cpu};
 use crate::failure::{failed, Failure};

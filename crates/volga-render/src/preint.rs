@@ -60,14 +60,14 @@ impl PreIntegrated {
     /// built in parallel; every entry is a function of its indices alone.
     pub fn new(tf: &TransferFunction, domain: (f64, f64), step_over_reference: f64, size: usize) -> Self {
         let n = size.max(2);
-        let (mut lo, mut hi) = tf
-            .points()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (v, _)| (a.min(v), b.max(v)));
+        let (mut lo, mut hi) = tf.points().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (v, _)| {
+            (a.min(v), b.max(v))
+        });
         if domain.0.is_finite() && domain.1.is_finite() {
             lo = lo.min(domain.0);
             hi = hi.max(domain.1);
         }
-        if !(hi > lo) || !(hi - lo).is_finite() {
+        if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) || !(hi - lo).is_finite() {
             lo -= 0.5;
             hi += 0.5;
         }
@@ -240,7 +240,15 @@ mod tests {
         // (cell 1/255 of a peak 0.04 wide) and its two sub-steps per cell.
         let tf = spike();
         let t = PreIntegrated::new(&tf, (0.0, 1.0), 4.0, PRE_INTEGRATION_TABLE_SIZE);
-        for (a, b) in [(0.0, 1.0), (1.0, 0.0), (0.3, 0.7), (0.45, 0.55), (0.2, 0.4), (0.5, 0.53), (0.49, 0.51)] {
+        for (a, b) in [
+            (0.0, 1.0),
+            (1.0, 0.0),
+            (0.3, 0.7),
+            (0.45, 0.55),
+            (0.2, 0.4),
+            (0.5, 0.53),
+            (0.49, 0.51),
+        ] {
             let got = t.lookup(a, b);
             let want = brute(&tf, a, b, 4.0, 20_000);
             assert!((got - want).abs().max_element() < 2e-2, "({a}, {b}): {got} vs {want}");

@@ -211,7 +211,6 @@ impl Shader {
         self.general
     }
 
-
     /// Blinn-Phong reflection, survey eq. 9 with the half vector `H`:
     /// `R = k_a·C_a·C_o + Σ_l [k_d·C_l·C_o·max(N·L, 0) + k_s·C_l·max(N·H, 0)^ns]`.
     ///

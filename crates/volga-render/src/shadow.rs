@@ -231,8 +231,16 @@ mod tests {
             DVec3::splat(0.05)
         }
         fn value_range(&self, b: &Aabb) -> (f64, f64) {
-            let lo = if b.min.x >= self.a && b.max.x <= self.b { 1.0 } else { 0.0 };
-            let hi = if b.max.x >= self.a && b.min.x <= self.b { 1.0 } else { 0.0 };
+            let lo = if b.min.x >= self.a && b.max.x <= self.b {
+                1.0
+            } else {
+                0.0
+            };
+            let hi = if b.max.x >= self.a && b.min.x <= self.b {
+                1.0
+            } else {
+                0.0
+            };
             (lo, hi)
         }
     }
@@ -278,7 +286,10 @@ mod tests {
                 let t = transmittance(&m, &tf, p, DVec3::X, f64::INFINITY, &mut stats);
                 assert_eq!(stats.shadow_rays, 1);
                 assert!(stats.shadow_samples > 0);
-                assert!(((t as f64) - discrete).abs() < 1e-6 * discrete, "{step_voxels}: {t} vs {discrete}");
+                assert!(
+                    ((t as f64) - discrete).abs() < 1e-6 * discrete,
+                    "{step_voxels}: {t} vs {discrete}"
+                );
                 // The discrete sum covers d to within half a step at each end.
                 let tol = (mu * h).exp();
                 assert!(

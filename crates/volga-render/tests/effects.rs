@@ -131,7 +131,11 @@ fn shadows_cost_nothing_unless_a_light_asks_for_them() {
             (only.shadow_rays, only.shadow_samples)
         );
         // Shadows only darken, and they darken something (the floor under the ball).
-        let darker = plain.pixels.iter().zip(&shadowed.pixels).filter(|(a, b)| lum(**b) < lum(**a) - 1e-3);
+        let darker = plain
+            .pixels
+            .iter()
+            .zip(&shadowed.pixels)
+            .filter(|(a, b)| lum(**b) < lum(**a) - 1e-3);
         assert!(darker.count() > 10);
         assert!(plain
             .pixels
@@ -214,7 +218,11 @@ fn effects_are_deterministic_and_independent_of_skipping() {
             let (c, sc) = run(2, false);
             assert_eq!(bits(&a), bits(&b), "1 vs 2 threads");
             assert_eq!(sa, sb);
-            assert_eq!(bits(&a), bits(&c), "skipping on vs off (pre-integration {pre_integration})");
+            assert_eq!(
+                bits(&a),
+                bits(&c),
+                "skipping on vs off (pre-integration {pre_integration})"
+            );
             assert!(sa.cells_skipped > 0 && sc.cells_skipped == 0);
             assert!(sa.shadow_rays > 0);
             assert!(a.pixels.iter().all(|p| p.is_finite()));

@@ -178,7 +178,9 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
         }
         let frame_stems = match &im.turntable {
             None => vec![im.name.clone()],
-            Some(t) => (0..t.frames).map(|k| crate::turntable::frame_stem(&im.name, k)).collect(),
+            Some(t) => (0..t.frames)
+                .map(|k| crate::turntable::frame_stem(&im.name, k))
+                .collect(),
         };
         if !frame_stems.into_iter().all(|stem| stems.insert(stem)) {
             return Err(cx.err(

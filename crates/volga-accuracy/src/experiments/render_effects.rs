@@ -220,12 +220,14 @@ fn measure(
     params: &[(&str, f64)],
 ) -> Setting {
     let field = Clipped(Sampled::new(volume, filter));
-    let ((image, stats), timing) =
-        timed(|| render(&field, &camera(), &mode(), s, &NoProgress).expect("valid render"));
+    let ((image, stats), timing) = timed(|| render(&field, &camera(), &mode(), s, &NoProgress).expect("valid render"));
     let memory = volume.payload_bytes() + image.pixels.len() as u64 * 16;
     Setting::new(label, params, timing, memory)
         .error("image_rms", image_rms(&image, reference))
-        .error("shadow_samples_per_ray", stats.shadow_samples as f64 / stats.rays.max(1) as f64)
+        .error(
+            "shadow_samples_per_ray",
+            stats.shadow_samples as f64 / stats.rays.max(1) as f64,
+        )
 }
 
 fn metrics() -> Vec<Metric> {
@@ -262,7 +264,11 @@ fn run(ctx: &Context) -> KnobResult {
             for &shadow_step in shadow_steps {
                 let name = format!(
                     "{filter_name}, {}, shadow step {shadow_step}",
-                    if pre_integration { "pre-integrated" } else { "post-classified" }
+                    if pre_integration {
+                        "pre-integrated"
+                    } else {
+                        "post-classified"
+                    }
                 );
                 let settings = steps
                     .iter()
@@ -306,13 +312,20 @@ fn run_supersampling(ctx: &Context) -> KnobResult {
         .map(|pre_integration| Series {
             name: format!(
                 "trilinear, Δs = 0.5, shadow step 1, {}",
-                if pre_integration { "pre-integrated" } else { "post-classified" }
+                if pre_integration {
+                    "pre-integrated"
+                } else {
+                    "post-classified"
+                }
             ),
             settings: ks
                 .iter()
                 .map(|&k| {
                     let s = settings(size, 0.5, 1.0, pre_integration, k);
-                    let params = [("supersampling", k as f64), ("pre_integration", pre_integration as u8 as f64)];
+                    let params = [
+                        ("supersampling", k as f64),
+                        ("pre_integration", pre_integration as u8 as f64),
+                    ];
                     let setting = measure(&volume, Filter::Trilinear, &s, &reference, format!("k={k}"), &params);
                     ctx.setting_done();
                     setting
@@ -371,7 +384,14 @@ mod tests {
         let mut s = settings(size, REFERENCE_STEP_VOXELS / 2.0, REFERENCE_STEP_VOXELS / 2.0, false, 4);
         s.image.supersampling = REFERENCE_SUPERSAMPLING;
         let (finer, _) = render(&Blobs, &camera(), &mode(), &s, &NoProgress).unwrap();
-        let (coarse, _) = render(&Blobs, &camera(), &mode(), &settings(size, 2.0, 2.0, false, 4), &NoProgress).unwrap();
+        let (coarse, _) = render(
+            &Blobs,
+            &camera(),
+            &mode(),
+            &settings(size, 2.0, 2.0, false, 4),
+            &NoProgress,
+        )
+        .unwrap();
         let converged = image_rms(&reference, &finer);
         let coarse = image_rms(&reference, &coarse);
         assert!(converged * 5.0 < coarse, "{converged} vs {coarse}");
