@@ -138,6 +138,7 @@ mod camera;
 mod classify;
 mod error;
 mod integrators;
+mod light_volume;
 mod march;
 mod preint;
 mod render;

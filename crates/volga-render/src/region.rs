@@ -31,7 +31,8 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             && field.kind() == self.constants.kind
             && self.prepared.is_none()
             // A pre-integration table spans the old field's value range: build afresh.
-            && self.preint.is_none();
+            && self.preint.is_none()
+            && self.light_volumes.iter().all(Option::is_none);
         if !same {
             return Renderer::new(field, self.integrator, self.settings);
         }
@@ -61,6 +62,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             grid,
             shadow: self.shadow,
             preint: self.preint,
+            light_volumes: self.light_volumes,
         })
     }
 

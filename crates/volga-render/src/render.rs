@@ -4,6 +4,7 @@ use volga_core::{Aabb, Field, FieldKind, Progress};
 
 use crate::integrators::{clip, over_background, March, ModeJob};
 use crate::march::MacroGrid;
+use crate::light_volume::LightVolume;
 use crate::shadow::ShadowParams;
 use crate::{Camera, Integrator, Mode, PreIntegrated, RenderError, RenderSettings, Shader};
 
@@ -75,6 +76,9 @@ pub struct RenderStats {
     pub shadow_rays: u64,
     /// Field values read along shadow rays.
     pub shadow_samples: u64,
+    /// Transmittances read from light-space pre-pass grids instead of shadow rays
+    /// ([`ShadowSettings::light_space`](crate::ShadowSettings::light_space)).
+    pub shadow_lookups: u64,
 }
 
 impl std::ops::AddAssign for RenderStats {
@@ -86,6 +90,7 @@ impl std::ops::AddAssign for RenderStats {
         self.cells_skipped += o.cells_skipped;
         self.shadow_rays += o.shadow_rays;
         self.shadow_samples += o.shadow_samples;
+        self.shadow_lookups += o.shadow_lookups;
     }
 }
 
@@ -149,6 +154,7 @@ pub struct Renderer<'a, F: ?Sized, I> {
     grid: Option<MacroGrid>,
     shadow: ShadowParams,
     preint: Option<PreIntegrated>,
+    light_volumes: Vec<Option<LightVolume>>,
 }
 
 /// The scalar per-image constants of a [`March`].
@@ -199,6 +205,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             }
         });
         debug_assert!(grid.as_ref().is_none_or(|g| g.len() <= 64 * 64 * 64));
+        let light_volumes = match &prepared {
+            Some(p) => light_volumes(&**p, integrator, settings, &bounds, shadow, spacing),
+            None => light_volumes(field, integrator, settings, &bounds, shadow, spacing),
+        };
 
         let sampling = &settings.sampling;
         let lighting = &settings.lighting;
@@ -220,6 +230,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             grid,
             shadow,
             preint,
+            light_volumes,
         })
     }
 
@@ -243,7 +254,13 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             bounds: self.bounds,
             shadow: self.shadow,
             preint: self.preint.as_ref(),
+            light_volumes: &self.light_volumes,
         }
+    }
+
+    /// Field values read by the light-space shadow pre-pass when it was built (0 without).
+    pub fn light_space_samples(&self) -> u64 {
+        self.light_volumes.iter().flatten().map(|v| v.samples).sum()
     }
 
     /// Renders the view of `camera`.
@@ -357,6 +374,39 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         }
         (image, stats)
     }
+}
+
+/// The light-space transmittance grids of `settings`' shadow-casting directional lights
+/// (per light, directional first then point: `None` where a light has none), built only
+/// when [`ShadowSettings::light_space`](crate::ShadowSettings::light_space) is on and the
+/// integrator's shadows are its classification's transmittance.
+fn light_volumes<G: Field + ?Sized, I: Integrator>(
+    field: &G,
+    integrator: &I,
+    settings: &RenderSettings,
+    bounds: &Aabb,
+    shadow: ShadowParams,
+    spacing: f64,
+) -> Vec<Option<LightVolume>> {
+    let l = &settings.lighting;
+    let n = l.lights.len() + l.point_lights.len();
+    let mut out: Vec<Option<LightVolume>> = (0..n).map(|_| None).collect();
+    if !l.shadows.light_space || integrator.shadow_opacity(0.0).is_none() {
+        return out;
+    }
+    let reference = settings.sampling.reference_step_voxels * spacing;
+    for c in &l.shadows.casters {
+        if let crate::LightId::Directional(i) = *c {
+            if let Some(light) = l.lights.get(i) {
+                let dir = light.direction.normalize_or_zero();
+                if dir != glam::DVec3::ZERO && out[i].is_none() {
+                    let alpha = |v: f64| integrator.shadow_opacity(v).unwrap_or(0.0);
+                    out[i] = Some(LightVolume::build(field, bounds, dir, shadow.step, reference, alpha));
+                }
+            }
+        }
+    }
+    out
 }
 
 /// The skip class of a macro cell: the integrator's, made `Active` where a

@@ -174,6 +174,11 @@ pub struct ShadowSettings {
     /// Shadow rays stop once the transmittance falls below this (the light is then
     /// taken as fully blocked); default 1/256, 0 disables the cut-off.
     pub min_transmittance: f32,
+    /// Directional lights' shadows in volume rendering from a light-space pre-pass
+    /// (one transmittance grid per light, swept once per image at the shadow step and
+    /// read trilinearly) instead of a shadow ray per shaded sample; default off.
+    /// Point lights and iso-surfaces always cast shadow rays.
+    pub light_space: bool,
 }
 
 impl Default for ShadowSettings {
@@ -182,6 +187,7 @@ impl Default for ShadowSettings {
             casters: Vec::new(),
             step_voxels: 1.0,
             min_transmittance: 1.0 / 256.0,
+            light_space: false,
         }
     }
 }

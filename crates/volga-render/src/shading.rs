@@ -308,9 +308,10 @@ impl RayShader<'_> {
 
     /// Survey eq. 9 with the light colours of eq. 10: like [`RayShader::shade`], over
     /// the directional and the point lights, each light's colour scaled by its
-    /// attenuation and, for a light that casts shadows, by `visibility(L, distance)`
-    /// (the transmittance towards the light along unit `L`, over the world distance to
-    /// the light, ∞ for a directional one). `visibility` is called only for shadowed
+    /// attenuation and, for a light that casts shadows, by `visibility(k, L, distance)`
+    /// (the transmittance towards light `k` — directional lights first, then point
+    /// lights — along unit `L`, over the world distance to the light, ∞ for a
+    /// directional one). `visibility` is called only for shadowed
     /// lights that would add light (`N·L > 0` or a highlight), and for `opaque_surface`
     /// (an iso-surface) not at all when `N·L ≤ 0`: the light is then behind the
     /// surface, which shadows itself.
@@ -321,7 +322,7 @@ impl RayShader<'_> {
         outward: DVec3,
         p: DVec3,
         opaque_surface: bool,
-        mut visibility: impl FnMut(DVec3, f64) -> f32,
+        mut visibility: impl FnMut(usize, DVec3, f64) -> f32,
     ) -> Vec3 {
         let s = self.shader;
         let view = self.view;
@@ -364,7 +365,7 @@ impl RayShader<'_> {
                 if diffuse == 0.0 && highlight == 0.0 {
                     continue;
                 }
-                cl *= visibility(l, dist);
+                cl *= visibility(i, l, dist);
             }
             r += cl * colour * (m.diffuse * diffuse) + cl * (m.specular * highlight);
         }

@@ -151,6 +151,28 @@ fn shadows_cost_nothing_unless_a_light_asks_for_them() {
 }
 
 #[test]
+fn the_light_space_pre_pass_replaces_shadow_rays_and_draws_close_to_them() {
+    let mut s = lit(24);
+    s.lighting.point_lights.clear();
+    s.lighting.shadows.casters = vec![LightId::Directional(0)];
+    let (rays, ray_stats) = go(&volume(), &s);
+    s.lighting.shadows.light_space = true;
+    let (grid, grid_stats) = go(&volume(), &s);
+    assert!(ray_stats.shadow_rays > 0 && ray_stats.shadow_lookups == 0);
+    assert_eq!((grid_stats.shadow_rays, grid_stats.shadow_samples), (0, 0));
+    assert_eq!(grid_stats.shadow_lookups, ray_stats.shadow_rays);
+    // The same shadows up to interpolation: mean channel difference below 2 %.
+    let mean: f32 = rays
+        .pixels
+        .iter()
+        .zip(&grid.pixels)
+        .map(|(a, b)| (*a - *b).abs().truncate().element_sum() / 3.0)
+        .sum::<f32>()
+        / rays.pixels.len() as f32;
+    assert!(mean < 0.02, "{mean}");
+}
+
+#[test]
 fn point_lights_colour_and_attenuate() {
     let mut s = RenderSettings::new(32, 32);
     s.lighting = Lighting {
@@ -201,9 +223,10 @@ fn effects_are_deterministic_and_independent_of_skipping() {
     s.lighting.shadows.casters = vec![LightId::Directional(0), LightId::Point(0)];
     s.sampling.step_voxels = 1.5;
     for mode in [iso(), volume()] {
-        for pre_integration in [false, true] {
+        for (pre_integration, light_space) in [(false, false), (true, false), (true, true)] {
             let mut s = s.clone();
             s.sampling.pre_integration = pre_integration && matches!(mode, Mode::Volume(_));
+            s.lighting.shadows.light_space = light_space;
             let run = |threads: usize, skipping: bool| {
                 let mut s = s.clone();
                 s.sampling.empty_space_skipping = skipping;
@@ -225,6 +248,9 @@ fn effects_are_deterministic_and_independent_of_skipping() {
             );
             assert!(sa.cells_skipped > 0 && sc.cells_skipped == 0);
             assert!(sa.shadow_rays > 0);
+            // The light-space pre-pass serves the directional light of volume images.
+            let volume_mode = matches!(mode, Mode::Volume(_));
+            assert_eq!(sa.shadow_lookups > 0, light_space && volume_mode);
             assert!(a.pixels.iter().all(|p| p.is_finite()));
         }
     }

@@ -107,7 +107,7 @@ impl Integrator for Iso {
                     stats.gradient_evaluations += 1;
                     let outward = m.kind.outward(m.field.gradient(p));
                     let shader = m.shader.for_ray(ray.dir);
-                    let rgb = shader.shade_general(co, outward, p, true, |l, d| {
+                    let rgb = shader.shade_general(co, outward, p, true, |_, l, d| {
                         shadow::iso_visibility(m, self.value, p, l, d, stats)
                     });
                     return (rgb, 1.0);

@@ -50,6 +50,16 @@ pub trait Integrator: Sync + std::fmt::Debug {
         None
     }
 
+    /// The opacity (per reference step) a sample of `value` has for shadows, for modes
+    /// whose shadows are the transmittance of their classification (volume rendering):
+    /// what the light-space pre-pass
+    /// ([`ShadowSettings::light_space`](crate::ShadowSettings::light_space)) sweeps.
+    /// `None` (the default) for modes that shadow otherwise.
+    fn shadow_opacity(&self, value: f64) -> Option<f32> {
+        let _ = value;
+        None
+    }
+
     /// Premultiplied colour and alpha of one ray over `[t0, t1]` (the ray clipped to
     /// the field's bounds, finite), before the background is composited.
     fn integrate<F: Field + ?Sized>(
@@ -171,6 +181,9 @@ pub struct March<'a, F: ?Sized> {
     pub(crate) shadow: ShadowParams,
     /// The pre-integrated table when pre-integration is on (volume rendering).
     pub(crate) preint: Option<&'a PreIntegrated>,
+    /// Per light (directional first, then point): its light-space transmittance grid,
+    /// when the pre-pass is on and the light has one.
+    pub(crate) light_volumes: &'a [Option<crate::light_volume::LightVolume>],
 }
 
 impl<F: Field + ?Sized> March<'_, F> {

@@ -84,6 +84,13 @@ impl Integrator for Volume {
         }
     }
 
+    /// The transfer function's opacity at `value` (post-classified).
+    fn shadow_opacity(&self, value: f64) -> Option<f32> {
+        match &self.classifier {
+            Classifier::Transfer(tf) => Some(tf.eval(value).w),
+        }
+    }
+
     fn integrate<F: Field + ?Sized>(
         &self,
         m: &March<'_, F>,
@@ -270,8 +277,14 @@ fn composite<F: Field + ?Sized, S: Segment, C: Classify>(
                 co
             } else if general {
                 let p = visible_pos[k];
-                shader.shade_general(co, m.kind.outward(gradients[k]), p, false, |l, d| {
-                    shadow::transmittance(m, shadow_classifier, p, l, d, stats)
+                shader.shade_general(co, m.kind.outward(gradients[k]), p, false, |light, l, d| {
+                    match m.light_volumes.get(light) {
+                        Some(Some(volume)) => {
+                            stats.shadow_lookups += 1;
+                            volume.at(p)
+                        }
+                        _ => shadow::transmittance(m, shadow_classifier, p, l, d, stats),
+                    }
                 })
             } else {
                 shader.shade(co, m.kind.outward(gradients[k]))
