@@ -149,6 +149,10 @@ fn bad_lights_and_effect_settings_name_their_field() {
             "outputs.images[0].pre_integration",
         ),
         (
+            r#"(name: "a", camera: "c", mode: Mip, width: 8, height: 8, light_space_shadows: true)"#,
+            "outputs.images[0].light_space_shadows",
+        ),
+        (
             r#"(name: "a", camera: "c", mode: Iso(value: 0.5), width: 8, height: 8, turntable: (frames: 2, axis: (0.0, 0.0, 0.0)))"#,
             "outputs.images[0].turntable.axis",
         ),

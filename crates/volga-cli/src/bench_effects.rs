@@ -9,6 +9,8 @@
 //!   termination on (the image a user renders), one directional light;
 //! * plain iso: the shaded iso-surface at 0.5, trilinear;
 //! * `shadow_*`: the same with the light casting shadows, shadow step 1 voxel;
+//! * `shadow_light_space`: DVR shadows from the light-space pre-pass (step 1 voxel;
+//!   the pre-pass is part of the preparation, `prepare_s`);
 //! * `preint`: DVR with the pre-integrated transfer function;
 //! * `cubic_*`: the same with Catmull–Rom reconstruction (and its gradients).
 
@@ -58,11 +60,14 @@ pub(super) fn effects(
     let mut shadowed = lit.clone();
     shadowed.lighting.shadows.casters = vec![LightId::Directional(0)];
     shadowed.lighting.shadows.step_voxels = 1.0;
+    let mut light_space = shadowed.clone();
+    light_space.lighting.shadows.light_space = true;
     let mut preint = lit.clone();
     preint.sampling.pre_integration = true;
 
     let plain_dvr = frame_cost(&trilinear, &dvr, lit, camera, repeat)?;
     let shadow_dvr = frame_cost(&trilinear, &dvr, &shadowed, camera, repeat)?;
+    let light_space_dvr = frame_cost(&trilinear, &dvr, &light_space, camera, repeat)?;
     let preint_dvr = frame_cost(&trilinear, &dvr, &preint, camera, repeat)?;
     let cubic_dvr = frame_cost(&cubic, &dvr, lit, camera, repeat)?;
     let plain_iso = frame_cost(&trilinear, &iso, lit, camera, repeat)?;
@@ -72,6 +77,7 @@ pub(super) fn effects(
     let entry = |c: (f64, f64, f64)| json!({ "wall_s": c.0, "cpu_s": c.1, "prepare_s": c.2 });
     Ok(json!({
         "shadow_cost_ratio": ratio(shadow_dvr, plain_dvr),
+        "shadow_light_space_cost_ratio": ratio(light_space_dvr, plain_dvr),
         "preint_cost_ratio": ratio(preint_dvr, plain_dvr),
         "cubic_cost_ratio": ratio(cubic_dvr, plain_dvr),
         "iso_shadow_cost_ratio": ratio(shadow_iso, plain_iso),
@@ -81,6 +87,7 @@ pub(super) fn effects(
         "repeat": repeat.max(1),
         "plain_dvr": entry(plain_dvr),
         "shadow_dvr": entry(shadow_dvr),
+        "shadow_light_space_dvr": entry(light_space_dvr),
         "preint_dvr": entry(preint_dvr),
         "cubic_dvr": entry(cubic_dvr),
         "plain_iso": entry(plain_iso),

@@ -182,7 +182,10 @@ fn bilinear(slice: &[f32], nb: usize, nc: usize, qb: f64, qc: f64) -> f32 {
         return 1.0;
     }
     let (qb, qc) = (qb.clamp(0.0, (nb - 1) as f64), qc.clamp(0.0, (nc - 1) as f64));
-    let (ib, ic) = ((qb as usize).min(nb.saturating_sub(2)), (qc as usize).min(nc.saturating_sub(2)));
+    let (ib, ic) = (
+        (qb as usize).min(nb.saturating_sub(2)),
+        (qc as usize).min(nc.saturating_sub(2)),
+    );
     let (wb, wc) = ((qb - ib as f64) as f32, (qc - ic as f64) as f32);
     let at = |x: usize, y: usize| slice[x.min(nb - 1) + nb * y.min(nc - 1)];
     let top = at(ib, ic) + (at(ib + 1, ic) - at(ib, ic)) * wb;
@@ -246,7 +249,11 @@ mod tests {
             let mut stats = RenderStats::default();
             let ray = crate::shadow::transmittance(&m, &tf, p, DVec3::X, f64::INFINITY, &mut stats);
             let grid = lv.at(p);
-            assert!((ray - grid).abs() <= 1e-5 * ray.max(1e-3), "x = {}: ray {ray}, grid {grid}", p.x);
+            assert!(
+                (ray - grid).abs() <= 1e-5 * ray.max(1e-3),
+                "x = {}: ray {ray}, grid {grid}",
+                p.x
+            );
         }
         // No pre-pass without light_space, nor for a light that casts no shadows.
         let off = settings(DVec3::X, false);

@@ -3,8 +3,8 @@ use rayon::prelude::*;
 use volga_core::{Aabb, Field, FieldKind, Progress};
 
 use crate::integrators::{clip, over_background, March, ModeJob};
-use crate::march::MacroGrid;
 use crate::light_volume::LightVolume;
+use crate::march::MacroGrid;
 use crate::shadow::ShadowParams;
 use crate::{Camera, Integrator, Mode, PreIntegrated, RenderError, RenderSettings, Shader};
 

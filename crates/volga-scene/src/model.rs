@@ -316,6 +316,10 @@ pub struct ImageSpec {
     /// Shadow ray step in voxels for the lights with `shadows: true` (default 1).
     #[serde(default)]
     pub shadow_step_voxels: Option<f64>,
+    /// `Volume` images: directional lights' shadows from a light-space pre-pass
+    /// (one transmittance grid per light) instead of a shadow ray per sample (default false).
+    #[serde(default)]
+    pub light_space_shadows: Option<bool>,
     /// Pre-integrated transfer function for `Volume` images (default false).
     #[serde(default)]
     pub pre_integration: Option<bool>,

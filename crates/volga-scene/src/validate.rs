@@ -407,6 +407,15 @@ fn validate_image(
         }
         settings.lighting.shadows.step_voxels = step;
     }
+    if im.light_space_shadows.unwrap_or(false) {
+        if !matches!(mode, Mode::Volume(_)) {
+            return Err(cx.err(
+                format!("{f}.light_space_shadows"),
+                "the light-space pre-pass shadows volume rendering: it needs `mode: Volume`",
+            ));
+        }
+        settings.lighting.shadows.light_space = true;
+    }
     if im.pre_integration.unwrap_or(false) {
         if !matches!(mode, Mode::Volume(_)) {
             return Err(cx.err(

@@ -163,6 +163,10 @@ fn camera() -> Camera {
 }
 
 /// The image settings of every render: one white light from above casting shadows.
+/// A shadow step in voxels: shadow rays, or the light-space pre-pass at that step.
+#[derive(Clone, Copy)]
+struct ShadowQuality(f64, bool);
+
 fn settings(size: u32, step_voxels: f64, shadow_step_voxels: f64, pre_integration: bool, k: u32) -> RenderSettings {
     let mut s = RenderSettings::new(size, size);
     s.sampling.step_voxels = step_voxels;
@@ -252,7 +256,15 @@ fn run(ctx: &Context) -> KnobResult {
         &[(Filter::Trilinear, "trilinear")],
         &[(Filter::Trilinear, "trilinear"), (Filter::CatmullRom, "Catmull–Rom")],
     );
-    let shadow_steps: &[f64] = ctx.size.pick(&[1.0], &[2.0, 1.0, 0.5]);
+    let shadow_steps: &[ShadowQuality] = ctx.size.pick(
+        &[ShadowQuality(1.0, false), ShadowQuality(1.0, true)],
+        &[
+            ShadowQuality(2.0, false),
+            ShadowQuality(1.0, false),
+            ShadowQuality(0.5, false),
+            ShadowQuality(1.0, true),
+        ],
+    );
     let runs = steps.len() * filters.len() * 2 * shadow_steps.len();
     ctx.start("render effects", runs + 1);
     let volume = blobs_volume();
@@ -261,23 +273,30 @@ fn run(ctx: &Context) -> KnobResult {
     let mut series = Vec::new();
     for &(filter, filter_name) in filters {
         for pre_integration in [false, true] {
-            for &shadow_step in shadow_steps {
+            for &ShadowQuality(shadow_step, light_space) in shadow_steps {
                 let name = format!(
-                    "{filter_name}, {}, shadow step {shadow_step}",
+                    "{filter_name}, {}, {} {shadow_step}",
                     if pre_integration {
                         "pre-integrated"
                     } else {
                         "post-classified"
+                    },
+                    if light_space {
+                        "light-space pre-pass, step"
+                    } else {
+                        "shadow rays, step"
                     }
                 );
                 let settings = steps
                     .iter()
                     .map(|&step| {
-                        let s = settings(size, step, shadow_step, pre_integration, 1);
+                        let mut s = settings(size, step, shadow_step, pre_integration, 1);
+                        s.lighting.shadows.light_space = light_space;
                         let params = [
                             ("step_voxels", step),
                             ("shadow_step_voxels", shadow_step),
                             ("pre_integration", pre_integration as u8 as f64),
+                            ("light_space", light_space as u8 as f64),
                         ];
                         let setting = measure(&volume, filter, &s, &reference, format!("Δs={step}"), &params);
                         ctx.setting_done();
@@ -292,9 +311,9 @@ fn run(ctx: &Context) -> KnobResult {
     KnobResult {
         id: "render_effects",
         title: "Ray step × filter × pre-integration × shadow step (shadowed volume rendering)",
-        knob: "ray step Δs in voxels (labels), reconstruction filter, pre-integrated or post-classified transfer function, and shadow ray step in voxels (series), for three Gaussian blobs sampled on 33³ voxels, a sharp opaque shell and a faint haze, one directional light casting volumetric shadows (eq. 10)",
+        knob: "ray step Δs in voxels (labels), reconstruction filter, pre-integrated or post-classified transfer function, and shadow quality (series): shadow rays at a step in voxels, or the light-space pre-pass (one transmittance grid per light at that step), for three Gaussian blobs sampled on 33³ voxels, a sharp opaque shell and a faint haze, one directional light casting volumetric shadows (eq. 10)",
         reference: REFERENCE_TEXT,
-        timed: "render (volume mode with shadows, 48² pixels in the full run, table build included), all threads",
+        timed: "render (volume mode with shadows, 48² pixels in the full run, table build and light-space pre-pass included), all threads",
         metrics: metrics(),
         series,
     }
