@@ -41,7 +41,10 @@
 //! * **Which effects run** — only those the settings ask for: point lights
 //!   ([`PointLight`], optionally attenuated) beside directional ones, and volumetric
 //!   shadows (survey eq. 10, `src/shadow.rs`) only for the lights
-//!   [`ShadowSettings::casters`] names, with a shadow step as the quality knob. With
+//!   [`ShadowSettings::casters`] names, with a shadow step as the quality knob, and
+//!   for directional lights in volume rendering a light-space pre-pass
+//!   ([`ShadowSettings::light_space`], `src/light_volume.rs`: one transmittance grid per
+//!   light swept once per image, read trilinearly per sample). With
 //!   directional lights only and no shadows, samples take the plain shading path
 //!   ([`Lighting::is_plain`]); [`RenderStats::shadow_rays`] and
 //!   [`RenderStats::shadow_samples`] count what shadows cost (0 when no light casts them).
