@@ -93,7 +93,17 @@ pub struct RenderBenchArgs {
     /// Write each volume's iso, DVR and baseline images here as PNG (to look at them).
     #[arg(long)]
     images: Option<PathBuf>,
+    /// Also time each effect against the plain shaded render (`effects` per volume:
+    /// shadows, pre-integration, cubic filter; see `bench_effects.rs`).
+    #[arg(long)]
+    effects: bool,
+    /// Timed frames per effect configuration (medians are reported).
+    #[arg(long, default_value_t = 1)]
+    effects_repeat: usize,
 }
+
+#[path = "bench_effects.rs"]
+mod bench_effects;
 
 /// One benchmark volume with how it is viewed and classified.
 struct BenchVolume {
@@ -303,7 +313,12 @@ fn bench_volume(v: &BenchVolume, args: &RenderBenchArgs) -> Result<Value, Failur
     let base_samples = last.2.map_or(0, |x| x.1);
     let (iso_t, dvr_t, base_t) = (median(&iso_times), median(&dvr_times), median(&base_times));
     let dims = v.volume.grid.dims();
+    let effects = match args.effects {
+        true => bench_effects::effects(&v.volume, &v.transfer, &v.camera, &lit, args.effects_repeat)?,
+        false => Value::Null,
+    };
     Ok(json!({
+        "effects": effects,
         "name": v.name,
         "dims": [dims.x, dims.y, dims.z],
         "iso_fps": 1.0 / iso_t,
@@ -516,6 +531,7 @@ impl<'a> PlainDvr<'a> {
             lights,
             ambient_colour,
             material,
+            ..
         } = &s.lighting;
         Ok(PlainDvr {
             data,

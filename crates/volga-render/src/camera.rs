@@ -157,6 +157,25 @@ impl Camera {
     pub fn projection(&self) -> Projection {
         self.projection
     }
+
+    /// This camera turned rigidly (eye, view direction and up) by `angle_rad` about the
+    /// line through `center` along `axis`, counter-clockwise seen from the axis' tip:
+    /// one frame of a turntable. `None` when `axis` is zero or any input is not finite.
+    pub fn orbit(&self, center: DVec3, axis: DVec3, angle_rad: f64) -> Option<Camera> {
+        let axis = safe_normalize(axis);
+        if axis == DVec3::ZERO || !center.is_finite() || !angle_rad.is_finite() {
+            return None;
+        }
+        let q = glam::DQuat::from_axis_angle(axis, angle_rad);
+        let eye = center + q * (self.eye - center);
+        eye.is_finite().then(|| Camera {
+            eye,
+            forward: (q * self.forward).normalize(),
+            right: (q * self.right).normalize(),
+            up: (q * self.up).normalize(),
+            ..*self
+        })
+    }
 }
 
 #[cfg(test)]

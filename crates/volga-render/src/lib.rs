@@ -33,9 +33,21 @@
 //!   [`render_with`] takes any integrator directly; a [`Renderer`] prepares a field
 //!   and an integrator once (validation, the skipping grid) for many views.
 //! * **How samples become colour** (volume rendering) — a [`Classifier`] slot: today
-//!   the 1D [`TransferFunction`], post-classified; any [`Classify`] implementation
-//!   (2D or pre-integrated transfer functions) plugs in without touching the
-//!   compositing loop.
+//!   the 1D [`TransferFunction`], post-classified, or, with
+//!   [`Sampling::pre_integration`], pre-integrated ([`PreIntegrated`]: a 2D table over
+//!   the values at both ends of a ray segment, built once per image for its step by
+//!   [`Integrator::pre_integrate`]); any [`Classify`] implementation plugs in without
+//!   touching the compositing loop.
+//! * **Which effects run** — only those the settings ask for: point lights
+//!   ([`PointLight`], optionally attenuated) beside directional ones, and volumetric
+//!   shadows (survey eq. 10, `src/shadow.rs`) only for the lights
+//!   [`ShadowSettings::casters`] names, with a shadow step as the quality knob, and
+//!   for directional lights in volume rendering a light-space pre-pass
+//!   ([`ShadowSettings::light_space`], `src/light_volume.rs`: one transmittance grid per
+//!   light swept once per image, read trilinearly per sample). With
+//!   directional lights only and no shadows, samples take the plain shading path
+//!   ([`Lighting::is_plain`]); [`RenderStats::shadow_rays`] and
+//!   [`RenderStats::shadow_samples`] count what shadows cost (0 when no light casts them).
 //! * **Settings** — [`RenderSettings`] groups [`ImageSettings`] (size, background,
 //!   tiles), [`Sampling`] (step, reference step, early termination, skipping) and
 //!   [`Lighting`] (lights, ambient colour, material), validated in one place
@@ -46,7 +58,17 @@
 //! ## Algorithms (survey references are to the volume graphics survey in
 //! `shared/reference`)
 //! * Shading: Blinn-Phong with the half vector, survey eq. 9, normals from the
-//!   field gradient oriented outwards by the field's kind, two-sided.
+//!   field gradient oriented outwards by the field's kind, two-sided; a point light's
+//!   direction and attenuation are taken per sample.
+//! * Shadows (survey eq. 10): volume rendering multiplies a light's colour by the
+//!   transmittance along the shadow ray, the product of `(1 − α)^(h/Δs_ref)` of the
+//!   same classification at shadow step `h`; an iso-surface is shadowed where the
+//!   shadow ray meets its inside. Shadow rays walk the same macro-cell grid (so
+//!   skipping never changes a shadow) and stop below
+//!   [`ShadowSettings::min_transmittance`].
+//! * Pre-integration (Engel et al.; survey §7): with [`Sampling::pre_integration`] each
+//!   sample composites the segment from the previous sample, looked up bilinearly in
+//!   the table; skipped runs keep their end samples so skipping stays exact.
 //! * Volume rendering: post-classification (survey eq. 15) and front-to-back
 //!   compositing (survey eq. 13) with early ray termination and opacity correction
 //!   for the ray step.
@@ -137,11 +159,14 @@ mod camera;
 mod classify;
 mod error;
 mod integrators;
+mod light_volume;
 mod march;
 mod packet;
+mod preint;
 mod render;
 mod settings;
 mod shading;
+mod shadow;
 mod transfer;
 
 pub use camera::{Camera, Projection, Ray};
@@ -150,10 +175,12 @@ pub use error::RenderError;
 // The integrators and every registered mode's types (`Iso`, `SurfaceColour`, `Volume`, `Mip`, `XRay`).
 pub use integrators::*;
 pub use march::{first_hit, CellClass, Hit};
+pub use preint::{PreIntegrated, PRE_INTEGRATION_TABLE_SIZE};
 pub use render::{render, render_with, Image, RenderStats, Renderer};
 pub use settings::{
-    ImageSettings, Lighting, RenderSettings, Sampling, MAX_PIXELS, MAX_SAMPLES_PER_RAY, MAX_SUPERSAMPLING,
+    ImageSettings, Lighting, RenderSettings, Sampling, ShadowSettings, MAX_PIXELS, MAX_SAMPLES_PER_RAY,
+    MAX_SUPERSAMPLING,
 };
 pub(crate) use shading::Shader;
-pub use shading::{Light, Material};
+pub use shading::{Attenuation, Light, LightId, Material, PointLight};
 pub use transfer::TransferFunction;

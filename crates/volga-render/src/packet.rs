@@ -31,8 +31,9 @@ pub(crate) const MAX_PACKET_LIGHTS: usize = 8;
 
 /// The one predicate of the packed path (besides the field packing itself): the
 /// settings allow it ([`Sampling::packed_path`](crate::Sampling::packed_path)), the
-/// mode can use it ([`Integrator::packed_path`]), it casts no shadow rays, and at most
-/// [`MAX_PACKET_LIGHTS`] lights shine (all directional: the only kind today). An effect
+/// mode can use it ([`Integrator::packed_path`]), it casts no shadow rays, no point light shines
+/// ([`Lighting::is_plain`](crate::Lighting::is_plain)), pre-integration is off, and at
+/// most [`MAX_PACKET_LIGHTS`] directional lights shine. An effect
 /// the packed loops do not implement must make this false, so such images take the
 /// general path.
 pub(crate) fn packet_path_allowed<I: Integrator + ?Sized>(integrator: &I, settings: &RenderSettings) -> bool {
@@ -40,6 +41,8 @@ pub(crate) fn packet_path_allowed<I: Integrator + ?Sized>(integrator: &I, settin
         && integrator.packed_path()
         && !integrator.effects(settings).shadows.enabled
         && settings.lighting.lights.len() <= MAX_PACKET_LIGHTS
+        && settings.lighting.is_plain()
+        && !settings.sampling.pre_integration
 }
 
 /// A field sampled through its [`PackedVolume`]: values (the same bits as the field's

@@ -30,7 +30,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             && field.sample_spacing() == self.field.sample_spacing()
             && field.kind() == self.constants.kind
             && self.prepared.is_none()
-            && self.packed.is_none();
+            && self.packed.is_none()
+            // A pre-integration table spans the old field's value range: build afresh.
+            && self.preint.is_none()
+            && self.light_volumes.iter().all(Option::is_none);
         if !same {
             return Renderer::new(field, self.integrator, self.settings);
         }
@@ -44,9 +47,9 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         }
         let mut grid = self.grid;
         if let Some(g) = grid.as_mut() {
-            let (integrator, kind) = (self.integrator, self.constants.kind);
+            let (integrator, kind, preint) = (self.integrator, self.constants.kind, self.preint.as_ref());
             g.update(field, field.sample_spacing(), changed, |lo, hi| {
-                integrator.classify_cell(lo, hi, kind)
+                super::classify_cell(integrator, preint, lo, hi, kind)
             });
         }
         Ok(Renderer {
@@ -59,6 +62,9 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             constants: self.constants,
             shader: self.shader,
             grid,
+            shadow: self.shadow,
+            preint: self.preint,
+            light_volumes: self.light_volumes,
         })
     }
 

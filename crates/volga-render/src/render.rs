@@ -3,8 +3,10 @@ use rayon::prelude::*;
 use volga_core::{Aabb, Field, FieldKind, Progress};
 
 use crate::integrators::{clip, over_background, March, ModeJob};
+use crate::light_volume::LightVolume;
 use crate::march::MacroGrid;
-use crate::{Camera, Integrator, Mode, RenderError, RenderSettings, Shader};
+use crate::shadow::ShadowParams;
+use crate::{Camera, Integrator, Mode, PreIntegrated, RenderError, RenderSettings, Shader};
 
 /// A rendered image: row-major, `y` down, straight (not premultiplied) linear RGBA
 /// in \[0, 1\].
@@ -69,6 +71,14 @@ pub struct RenderStats {
     pub rays_terminated_early: u64,
     /// Macro cells crossed without sampling by empty-space skipping.
     pub cells_skipped: u64,
+    /// Shadow rays cast (one per shaded sample and light that casts shadows; 0 when
+    /// no light does).
+    pub shadow_rays: u64,
+    /// Field values read along shadow rays.
+    pub shadow_samples: u64,
+    /// Transmittances read from light-space pre-pass grids instead of shadow rays
+    /// ([`ShadowSettings::light_space`](crate::ShadowSettings::light_space)).
+    pub shadow_lookups: u64,
 }
 
 impl std::ops::AddAssign for RenderStats {
@@ -78,6 +88,9 @@ impl std::ops::AddAssign for RenderStats {
         self.gradient_evaluations += o.gradient_evaluations;
         self.rays_terminated_early += o.rays_terminated_early;
         self.cells_skipped += o.cells_skipped;
+        self.shadow_rays += o.shadow_rays;
+        self.shadow_samples += o.shadow_samples;
+        self.shadow_lookups += o.shadow_lookups;
     }
 }
 
@@ -142,6 +155,9 @@ pub struct Renderer<'a, F: ?Sized, I> {
     constants: MarchConstants,
     shader: Shader,
     grid: Option<MacroGrid>,
+    shadow: ShadowParams,
+    preint: Option<PreIntegrated>,
+    light_volumes: Vec<Option<LightVolume>>,
 }
 
 /// The scalar per-image constants of a [`March`].
@@ -172,6 +188,13 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         let step = settings.sampling.world_step(&bounds, spacing)?;
         let kind = field.kind();
 
+        let shadow = ShadowParams::new(settings, &bounds, spacing)?;
+        let preint = settings
+            .sampling
+            .pre_integration
+            .then(|| integrator.pre_integrate(settings, field.value_range(&bounds)))
+            .flatten();
+
         let packed = crate::packet::packet_path_allowed(integrator, settings)
             .then(|| field.pack())
             .flatten();
@@ -181,13 +204,17 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             None
         };
         let grid = (settings.sampling.empty_space_skipping && integrator.skips_cells()).then(|| {
-            let classify = |lo, hi| integrator.classify_cell(lo, hi, kind);
+            let classify = |lo, hi| classify_cell(integrator, preint.as_ref(), lo, hi, kind);
             match &prepared {
                 Some(p) => MacroGrid::build(&**p, bounds, spacing, classify),
                 None => MacroGrid::build(field, bounds, spacing, classify),
             }
         });
         debug_assert!(grid.as_ref().is_none_or(|g| g.len() <= 64 * 64 * 64));
+        let light_volumes = match &prepared {
+            Some(p) => light_volumes(&**p, integrator, settings, &bounds, shadow, spacing),
+            None => light_volumes(field, integrator, settings, &bounds, shadow, spacing),
+        };
 
         let sampling = &settings.sampling;
         let lighting = &settings.lighting;
@@ -206,8 +233,11 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 alpha_exponent: sampling.step_voxels / sampling.reference_step_voxels,
                 early_termination_alpha: sampling.early_termination_alpha,
             },
-            shader: Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing),
+            shader: Shader::from_lighting(lighting, spacing),
             grid,
+            shadow,
+            preint,
+            light_volumes,
         })
     }
 
@@ -222,7 +252,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         self.packed.is_some()
     }
 
-    fn march<'r, G: Field + ?Sized>(&'r self, field: &'r G) -> March<'r, G> {
+    pub(crate) fn march<'r, G: Field + ?Sized>(&'r self, field: &'r G) -> March<'r, G> {
         let c = self.constants;
         March {
             field,
@@ -234,7 +264,16 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             early_termination_alpha: c.early_termination_alpha,
             shader: &self.shader,
             grid: self.grid.as_ref(),
+            bounds: self.bounds,
+            shadow: self.shadow,
+            preint: self.preint.as_ref(),
+            light_volumes: &self.light_volumes,
         }
+    }
+
+    /// Field values read by the light-space shadow pre-pass when it was built (0 without).
+    pub fn light_space_samples(&self) -> u64 {
+        self.light_volumes.iter().flatten().map(|v| v.samples).sum()
     }
 
     /// Renders the view of `camera`.
@@ -354,6 +393,55 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             stats += s;
         }
         (image, stats)
+    }
+}
+
+/// The light-space transmittance grids of `settings`' shadow-casting directional lights
+/// (per light, directional first then point: `None` where a light has none), built only
+/// when [`ShadowSettings::light_space`](crate::ShadowSettings::light_space) is on and the
+/// integrator's shadows are its classification's transmittance.
+fn light_volumes<G: Field + ?Sized, I: Integrator>(
+    field: &G,
+    integrator: &I,
+    settings: &RenderSettings,
+    bounds: &Aabb,
+    shadow: ShadowParams,
+    spacing: f64,
+) -> Vec<Option<LightVolume>> {
+    let l = &settings.lighting;
+    let n = l.lights.len() + l.point_lights.len();
+    let mut out: Vec<Option<LightVolume>> = (0..n).map(|_| None).collect();
+    if !l.shadows.light_space || integrator.shadow_opacity(0.0).is_none() {
+        return out;
+    }
+    let reference = settings.sampling.reference_step_voxels * spacing;
+    for c in &l.shadows.casters {
+        if let crate::LightId::Directional(i) = *c {
+            if let Some(light) = l.lights.get(i) {
+                let dir = light.direction.normalize_or_zero();
+                if dir != glam::DVec3::ZERO && out[i].is_none() {
+                    let alpha = |v: f64| integrator.shadow_opacity(v).unwrap_or(0.0);
+                    out[i] = Some(LightVolume::build(field, bounds, dir, shadow.step, reference, alpha));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The skip class of a macro cell: the integrator's, made `Active` where a
+/// pre-integrated segment between values of the cell's range may be visible.
+pub(crate) fn classify_cell<I: Integrator>(
+    integrator: &I,
+    preint: Option<&PreIntegrated>,
+    lo: f64,
+    hi: f64,
+    kind: FieldKind,
+) -> crate::CellClass {
+    let class = integrator.classify_cell(lo, hi, kind);
+    match preint {
+        Some(t) if class == crate::CellClass::Outside && t.max_alpha(lo, hi) > 0.0 => crate::CellClass::Active,
+        _ => class,
     }
 }
 

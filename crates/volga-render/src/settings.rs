@@ -5,7 +5,7 @@ use volga_core::Aabb;
 
 use crate::error::bad_setting;
 use crate::march::MAX_STEPS_PER_RAY;
-use crate::{Light, Material, RenderError};
+use crate::{Light, LightId, Material, PointLight, RenderError};
 
 /// Largest image rendered (pixels), so a typo cannot ask for terabytes.
 pub const MAX_PIXELS: u64 = 1 << 28;
@@ -68,6 +68,12 @@ pub struct Sampling {
     /// image within 1/255 per channel, faster; default on. Fields that do not pack
     /// themselves ([`Field::pack`](volga_core::Field::pack)) ignore it.
     pub packed_path: bool,
+    /// Pre-integrated classification (Engel et al., survey §7 "transfer functions"):
+    /// volume rendering looks up each ray segment `(s_front, s_back)` in a 2D table
+    /// built once per transfer function and step, instead of classifying the sample
+    /// alone, so sharp transfer functions show no slab artefacts at large steps.
+    /// Default off (the table costs a build and a bilinear lookup per sample).
+    pub pre_integration: bool,
 }
 
 impl Default for Sampling {
@@ -79,6 +85,7 @@ impl Default for Sampling {
             empty_space_skipping: true,
             prepare_field: true,
             packed_path: true,
+            pre_integration: false,
         }
     }
 }
@@ -128,12 +135,18 @@ impl Sampling {
     }
 }
 
-/// Blinn-Phong lighting (survey eq. 9).
+/// Blinn-Phong lighting (survey eq. 9), with volumetric shadows (eq. 10) for the
+/// lights [`ShadowSettings::casters`] names.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lighting {
-    /// Directional lights; empty means unlit, and then no gradient is evaluated.
-    /// Default: one white light from direction (1, 1, 1).
+    /// Directional lights; with no point lights either, the image is unlit and no
+    /// gradient is evaluated. Default: one white light from direction (1, 1, 1).
     pub lights: Vec<Light>,
+    /// Point lights (coloured, optionally attenuated with distance); default none.
+    pub point_lights: Vec<PointLight>,
+    /// Which lights cast volumetric shadows and how finely shadow rays sample;
+    /// default: no light casts shadows (no shadow ray is cast).
+    pub shadows: ShadowSettings,
     /// Ambient colour `C_a` of survey eq. 9; default white.
     pub ambient_colour: Vec3,
     pub material: Material,
@@ -146,8 +159,41 @@ impl Default for Lighting {
                 direction: DVec3::ONE,
                 colour: Vec3::ONE,
             }],
+            point_lights: Vec::new(),
+            shadows: ShadowSettings::default(),
             ambient_colour: Vec3::ONE,
             material: Material::default(),
+        }
+    }
+}
+
+/// Volumetric shadows (survey eq. 10): the light reaching a sample is its colour
+/// times the transmittance along the shadow ray towards the light. Only the lights
+/// listed in `casters` cast shadow rays.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShadowSettings {
+    /// The lights that cast shadows; empty (the default) casts no shadow ray.
+    pub casters: Vec<LightId>,
+    /// Shadow ray step as a fraction of the field's sample spacing (the quality
+    /// knob: smaller is more accurate and slower); default 1.0.
+    pub step_voxels: f64,
+    /// Shadow rays stop once the transmittance falls below this (the light is then
+    /// taken as fully blocked); default 1/256, 0 disables the cut-off.
+    pub min_transmittance: f32,
+    /// Directional lights' shadows in volume rendering from a light-space pre-pass
+    /// (one transmittance grid per light, swept once per image at the shadow step and
+    /// read trilinearly) instead of a shadow ray per shaded sample; default off.
+    /// Point lights and iso-surfaces always cast shadow rays.
+    pub light_space: bool,
+}
+
+impl Default for ShadowSettings {
+    fn default() -> Self {
+        ShadowSettings {
+            casters: Vec::new(),
+            step_voxels: 1.0,
+            min_transmittance: 1.0 / 256.0,
+            light_space: false,
         }
     }
 }
@@ -163,7 +209,26 @@ impl Lighting {
 
     /// Whether any light shines (and so whether shading modes need gradients).
     pub fn is_lit(&self) -> bool {
-        !self.lights.is_empty()
+        !self.lights.is_empty() || !self.point_lights.is_empty()
+    }
+
+    /// Number of lights, directional and point.
+    pub fn light_count(&self) -> usize {
+        self.lights.len() + self.point_lights.len()
+    }
+
+    /// Whether any light that shines casts shadows (and so whether shadow rays are cast).
+    pub fn casts_shadows(&self) -> bool {
+        self.shadows.casters.iter().any(|c| match *c {
+            LightId::Directional(i) => i < self.lights.len(),
+            LightId::Point(i) => i < self.point_lights.len(),
+        })
+    }
+
+    /// Plain lighting: directional lights only and no shadows (what a fast path that
+    /// knows only directional Blinn-Phong may render).
+    pub fn is_plain(&self) -> bool {
+        self.point_lights.is_empty() && !self.casts_shadows()
     }
 }
 
@@ -264,6 +329,34 @@ impl RenderSettings {
                 ));
             }
             check_finite_nonneg(format!("lighting.lights[{i}].colour"), &light.colour.to_array())?;
+        }
+        for (i, light) in l.point_lights.iter().enumerate() {
+            light.validate(&format!("lighting.point_lights[{i}]"))?;
+        }
+        let sh = &l.shadows;
+        for (k, c) in sh.casters.iter().enumerate() {
+            let (n, list) = match *c {
+                LightId::Directional(i) => (i, l.lights.len()),
+                LightId::Point(i) => (i, l.point_lights.len()),
+            };
+            if n >= list {
+                return Err(bad_setting(
+                    format!("lighting.shadows.casters[{k}]"),
+                    format!("names {c:?}, but there are only {list} such lights"),
+                ));
+            }
+        }
+        if !(sh.step_voxels.is_finite() && sh.step_voxels > 0.0) {
+            return Err(bad_setting(
+                "lighting.shadows.step_voxels",
+                format!("must be finite and > 0, got {}", sh.step_voxels),
+            ));
+        }
+        if !(0.0..1.0).contains(&sh.min_transmittance) {
+            return Err(bad_setting(
+                "lighting.shadows.min_transmittance",
+                format!("must lie in [0, 1), got {}", sh.min_transmittance),
+            ));
         }
         check_finite_nonneg("lighting.ambient_colour", &l.ambient_colour.to_array())?;
         let m = &l.material;

@@ -1,7 +1,9 @@
 use glam::{DVec3, Vec3};
 
 use crate::camera::safe_normalize;
-use crate::Camera;
+use crate::error::bad_setting;
+use crate::settings::check_finite_nonneg;
+use crate::{Camera, RenderError};
 
 /// A directional light.
 #[derive(Clone, Debug, PartialEq)]
@@ -21,6 +23,101 @@ impl Light {
             colour: Vec3::ONE,
         }
     }
+}
+
+/// A point light: it shines from `position` in every direction, towards a sample at
+/// `p` along `L = (position − p)/|position − p|`, with colour
+/// `colour / (c + l·d + q·d²)` at distance `d` ([`Attenuation`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointLight {
+    /// World position of the light.
+    pub position: DVec3,
+    /// Linear RGB colour `C_l` of survey eq. 9 (at distance 0 when attenuated).
+    pub colour: Vec3,
+    pub attenuation: Attenuation,
+}
+
+impl PointLight {
+    /// A light of `colour` at `position`, not attenuated with distance.
+    pub fn new(position: DVec3, colour: Vec3) -> Self {
+        PointLight {
+            position,
+            colour,
+            attenuation: Attenuation::NONE,
+        }
+    }
+
+    pub(crate) fn validate(&self, path: &str) -> Result<(), RenderError> {
+        if !self.position.is_finite() {
+            return Err(bad_setting(
+                format!("{path}.position"),
+                format!("must be finite, got {}", self.position),
+            ));
+        }
+        check_finite_nonneg(format!("{path}.colour"), &self.colour.to_array())?;
+        let a = &self.attenuation;
+        check_finite_nonneg(
+            format!("{path}.attenuation"),
+            &[a.constant as f32, a.linear as f32, a.quadratic as f32],
+        )?;
+        if !(a.constant > 0.0 || a.linear > 0.0 || a.quadratic > 0.0) {
+            return Err(bad_setting(
+                format!("{path}.attenuation"),
+                "at least one coefficient must be > 0",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Distance attenuation of a [`PointLight`]: the colour is divided by
+/// `constant + linear·d + quadratic·d²` at world distance `d`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Attenuation {
+    pub constant: f64,
+    pub linear: f64,
+    pub quadratic: f64,
+}
+
+impl Attenuation {
+    /// No attenuation: `(1, 0, 0)`.
+    pub const NONE: Attenuation = Attenuation {
+        constant: 1.0,
+        linear: 0.0,
+        quadratic: 0.0,
+    };
+
+    /// The inverse square law, `1/d²` (infinite at the light: keep lights off the surfaces).
+    pub const INVERSE_SQUARE: Attenuation = Attenuation {
+        constant: 0.0,
+        linear: 0.0,
+        quadratic: 1.0,
+    };
+
+    /// The factor `1/(c + l·d + q·d²)` at world distance `d`, finite (at most 10⁶).
+    #[inline]
+    pub fn factor(&self, d: f64) -> f32 {
+        let den = self.constant + d * (self.linear + d * self.quadratic);
+        if den > 1e-6 {
+            (1.0 / den) as f32
+        } else {
+            1e6
+        }
+    }
+}
+
+impl Default for Attenuation {
+    fn default() -> Self {
+        Attenuation::NONE
+    }
+}
+
+/// Names one light of a [`Lighting`](crate::Lighting): an index into its `lights`
+/// (directional) or its `point_lights`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightId {
+    Directional(usize),
+    Point(usize),
 }
 
 /// Blinn-Phong material coefficients of survey eq. 9: `k_a`, `k_d`, `k_s`, `ns`.
@@ -55,6 +152,13 @@ pub(crate) struct Shader {
     integer_shininess: Option<i32>,
     /// Gradients shorter than this are treated as zero (no defined normal).
     min_gradient: f64,
+    /// Point lights: position, colour, attenuation.
+    points: Vec<(DVec3, Vec3, Attenuation)>,
+    /// Per light (the directional ones first, then the point lights): whether it
+    /// casts shadows.
+    shadowed: Vec<bool>,
+    /// Point lights or shadows: samples are shaded by [`RayShader::shade_general`].
+    general: bool,
 }
 
 impl Shader {
@@ -66,11 +170,45 @@ impl Shader {
             integer_shininess: (material.shininess.fract() == 0.0 && (0.0..=1024.0).contains(&material.shininess))
                 .then_some(material.shininess as i32),
             min_gradient: 1e-9 / spacing,
+            points: Vec::new(),
+            shadowed: vec![false; lights.len()],
+            general: false,
         }
     }
 
+    /// The shader of `lighting`: its directional and point lights, shadows where
+    /// [`ShadowSettings::casters`](crate::ShadowSettings::casters) asks.
+    pub(crate) fn from_lighting(lighting: &crate::Lighting, spacing: f64) -> Self {
+        let mut s = Shader::new(&lighting.lights, lighting.ambient_colour, lighting.material, spacing);
+        s.points = lighting
+            .point_lights
+            .iter()
+            .map(|p| (p.position, p.colour, p.attenuation))
+            .collect();
+        let nd = lighting.lights.len();
+        s.shadowed = vec![false; nd + s.points.len()];
+        for c in &lighting.shadows.casters {
+            let k = match *c {
+                LightId::Directional(i) => i,
+                LightId::Point(i) => nd + i,
+            };
+            if let Some(f) = s.shadowed.get_mut(k) {
+                *f = true;
+            }
+        }
+        s.general = !s.points.is_empty() || s.shadowed.iter().any(|&f| f);
+        s
+    }
+
     pub(crate) fn is_lit(&self) -> bool {
-        !self.lights.is_empty()
+        !self.lights.is_empty() || !self.points.is_empty()
+    }
+
+    /// Whether samples need [`RayShader::shade_general`] (point lights or shadows)
+    /// rather than [`RayShader::shade`].
+    #[inline]
+    pub(crate) fn is_general(&self) -> bool {
+        self.general
     }
 
     /// Blinn-Phong reflection, survey eq. 9 with the half vector `H`:
@@ -187,6 +325,72 @@ impl RayShader<'_> {
                 None => n_dot_h.powf(m.shininess),
             };
             r += cl * colour * (m.diffuse * n_dot_l) + cl * (m.specular * highlight);
+        }
+        r
+    }
+
+    /// Survey eq. 9 with the light colours of eq. 10: like [`RayShader::shade`], over
+    /// the directional and the point lights, each light's colour scaled by its
+    /// attenuation and, for a light that casts shadows, by `visibility(k, L, distance)`
+    /// (the transmittance towards light `k` — directional lights first, then point
+    /// lights — along unit `L`, over the world distance to the light, ∞ for a
+    /// directional one). `visibility` is called only for shadowed
+    /// lights that would add light (`N·L > 0` or a highlight), and for `opaque_surface`
+    /// (an iso-surface) not at all when `N·L ≤ 0`: the light is then behind the
+    /// surface, which shadows itself.
+    #[inline]
+    pub(crate) fn shade_general(
+        &self,
+        colour: Vec3,
+        outward: DVec3,
+        p: DVec3,
+        opaque_surface: bool,
+        mut visibility: impl FnMut(usize, DVec3, f64) -> f32,
+    ) -> Vec3 {
+        let s = self.shader;
+        let view = self.view;
+        let len = outward.length();
+        let mut n = if len.is_finite() && len > s.min_gradient {
+            outward * len.recip()
+        } else {
+            view
+        };
+        if n.dot(view) < 0.0 {
+            n = -n;
+        }
+        let m = &s.material;
+        let mut r = s.ambient * colour;
+        let nd = s.lights.len();
+        let lights = s.lights.iter().map(|&(l, cl)| (l, f64::INFINITY, cl));
+        let points = s.points.iter().map(|&(pos, cl, att)| {
+            let v = pos - p;
+            let d = v.length();
+            (safe_normalize(v), d, cl * att.factor(d))
+        });
+        for (i, (l, dist, cl)) in lights.chain(points).enumerate() {
+            let n_dot_l = n.dot(l);
+            let h = if i < CACHED_HALVES && i < nd {
+                self.halves[i]
+            } else {
+                safe_normalize(l + view)
+            };
+            let n_dot_h = n.dot(h).max(0.0) as f32;
+            let highlight = match s.integer_shininess {
+                Some(ns) => powi(n_dot_h, ns),
+                None => n_dot_h.powf(m.shininess),
+            };
+            let diffuse = n_dot_l.max(0.0) as f32;
+            let mut cl = cl;
+            if s.shadowed[i] {
+                if opaque_surface && n_dot_l <= 0.0 {
+                    continue;
+                }
+                if diffuse == 0.0 && highlight == 0.0 {
+                    continue;
+                }
+                cl *= visibility(i, l, dist);
+            }
+            r += cl * colour * (m.diffuse * diffuse) + cl * (m.specular * highlight);
         }
         r
     }

@@ -63,6 +63,9 @@ pub struct ImageReport {
     pub gradient_evaluations: u64,
     pub rays_terminated_early: u64,
     pub cells_skipped: u64,
+    /// Shadow rays cast and field values they read (0 when no light casts shadows).
+    pub shadow_rays: u64,
+    pub shadow_samples: u64,
 }
 
 /// Parses and validates a scene file (no I/O but reading it).
@@ -130,38 +133,49 @@ pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Re
     let mut staged = StagedOutputs::new();
     let mut images = Vec::new();
     for job in &scene.images {
-        let (image, stats) = stages
-            .run(format!("render:{}", job.name), || match (job.source, &volume) {
-                (RenderSource::Baked, Some(volume)) => {
-                    let field = Sampled::new(volume, job.filter).with_gradient(job.gradient);
-                    render(&field, &job.camera, &job.mode, &job.settings, progress)
+        let frames: Vec<(String, volga_render::Camera)> = match &job.turntable {
+            None => vec![(job.name.clone(), job.camera)],
+            Some(t) => (0..t.frames)
+                .map(|k| {
+                    let camera = t.camera(&job.camera, k).unwrap_or(job.camera);
+                    (crate::turntable::frame_stem(&job.name, k), camera)
+                })
+                .collect(),
+        };
+        for (name, camera) in &frames {
+            let (image, stats) = stages
+                .run(format!("render:{name}"), || match (job.source, &volume) {
+                    (RenderSource::Baked, Some(volume)) => {
+                        let field = Sampled::new(volume, job.filter).with_gradient(job.gradient);
+                        render(&field, camera, &job.mode, &job.settings, progress)
+                    }
+                    _ => {
+                        let field = scene
+                            .root
+                            .lazy_field(&scene.grid)
+                            .map_err(|e| RenderError::BadSetting {
+                                name: "source".into(),
+                                reason: e.to_string(),
+                            })?;
+                        render(field.as_ref(), camera, &job.mode, &job.settings, progress)
+                    }
+                })
+                .map_err(|e| BuildError::Render {
+                    image: name.clone(),
+                    message: e.to_string(),
+                })?;
+            let file = options.out_dir.join(format!("{name}.png"));
+            stages.run(format!("encode:{name}"), || {
+                if job.bit_depth == 16 {
+                    let rgba = image.to_rgba16();
+                    staged.stage(&file, |w| volga_io::encode_png16(w, image.width, image.height, &rgba))
+                } else {
+                    let rgba = image.to_rgba8();
+                    staged.stage(&file, |w| volga_io::encode_png(w, image.width, image.height, &rgba))
                 }
-                _ => {
-                    let field = scene
-                        .root
-                        .lazy_field(&scene.grid)
-                        .map_err(|e| RenderError::BadSetting {
-                            name: "source".into(),
-                            reason: e.to_string(),
-                        })?;
-                    render(field.as_ref(), &job.camera, &job.mode, &job.settings, progress)
-                }
-            })
-            .map_err(|e| BuildError::Render {
-                image: job.name.clone(),
-                message: e.to_string(),
             })?;
-        let file = options.out_dir.join(format!("{}.png", job.name));
-        stages.run(format!("encode:{}", job.name), || {
-            if job.bit_depth == 16 {
-                let rgba = image.to_rgba16();
-                staged.stage(&file, |w| volga_io::encode_png16(w, image.width, image.height, &rgba))
-            } else {
-                let rgba = image.to_rgba8();
-                staged.stage(&file, |w| volga_io::encode_png(w, image.width, image.height, &rgba))
-            }
-        })?;
-        images.push(image_report(&job.name, file, &image, stats));
+            images.push(image_report(name, file, &image, stats));
+        }
     }
 
     stages.run("write", || -> Result<(), BuildError> {
@@ -242,6 +256,8 @@ fn image_report(name: &str, file: PathBuf, image: &volga_render::Image, s: Rende
         gradient_evaluations: s.gradient_evaluations,
         rays_terminated_early: s.rays_terminated_early,
         cells_skipped: s.cells_skipped,
+        shadow_rays: s.shadow_rays,
+        shadow_samples: s.shadow_samples,
     }
 }
 

@@ -31,6 +31,7 @@ pub mod nodes;
 pub mod plan;
 mod stages;
 pub mod strokes;
+pub mod turntable;
 mod validate;
 
 pub use build::{build, load_scene, validate_scene, BuildOptions, GridReport, ImageReport, Report, VoxelReport};

@@ -196,10 +196,23 @@ pub struct TransferPoint {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LightSpec {
-    /// Direction towards the light (world space).
-    pub direction: V3,
+    /// Direction towards the light (world space): a directional light. Give either
+    /// this or `position`.
+    #[serde(default)]
+    pub direction: Option<V3>,
+    /// World position of a point light. Give either this or `direction`.
+    #[serde(default)]
+    pub position: Option<V3>,
     #[serde(default = "white")]
     pub colour: V3,
+    /// Point lights only: the colour is divided by `c + l·d + q·d²` at world
+    /// distance `d`, given as `(c, l, q)`; default `(1, 0, 0)` (no attenuation).
+    #[serde(default)]
+    pub attenuation: Option<V3>,
+    /// The light casts volumetric shadows (survey eq. 10) in shaded iso and volume
+    /// images; default false.
+    #[serde(default)]
+    pub shadows: bool,
 }
 
 fn white() -> V3 {
@@ -302,6 +315,35 @@ pub struct ImageSpec {
     /// itself (`Lazy`, no voxels; `filter` does not apply).
     #[serde(default)]
     pub source: Option<SourceSpec>,
+    /// Shadow ray step in voxels for the lights with `shadows: true` (default 1).
+    #[serde(default)]
+    pub shadow_step_voxels: Option<f64>,
+    /// `Volume` images: directional lights' shadows from a light-space pre-pass
+    /// (one transmittance grid per light) instead of a shadow ray per sample (default false).
+    #[serde(default)]
+    pub light_space_shadows: Option<bool>,
+    /// Pre-integrated transfer function for `Volume` images (default false).
+    #[serde(default)]
+    pub pre_integration: Option<bool>,
+    /// Render a turntable: `frames` images `{name}_0000.png`… with the camera
+    /// turned about an axis instead of one `{name}.png`.
+    #[serde(default)]
+    pub turntable: Option<TurntableSpec>,
+}
+
+/// A turntable sequence: the camera (eye, target and up) turned about the line
+/// through `center` along `axis` by `360°·k/frames` for frame `k`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TurntableSpec {
+    /// Number of frames, 1 to 3600.
+    pub frames: u32,
+    /// Rotation axis (default +y).
+    #[serde(default = "y_up")]
+    pub axis: V3,
+    /// A point on the axis (default: the camera's target).
+    #[serde(default)]
+    pub center: Option<V3>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

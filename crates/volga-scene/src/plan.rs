@@ -84,6 +84,7 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
         let e = im.mode.integrator().effects(&im.settings);
         for (what, effect) in [
             ("gradients", e.gradients),
+            ("shadow rays", e.shadows),
             ("early ray termination", e.early_ray_termination),
             ("empty-space skipping", e.empty_space_skipping),
         ] {

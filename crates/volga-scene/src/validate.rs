@@ -4,11 +4,11 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use glam::{DVec3, UVec3, Vec3, Vec4};
+use glam::{DVec3, UVec3, Vec4};
 use volga_core::{Aabb, Filter, GradientMethod, Grid, Transform};
 use volga_render::{
-    Camera, ImageSettings, Iso, Light, Lighting, Material, Mip, Mode, Projection, RenderError, RenderSettings,
-    Sampling, SurfaceColour, TransferFunction, Volume, XRay,
+    Attenuation, Camera, ImageSettings, Iso, Light, LightId, Lighting, Material, Mip, Mode, PointLight, Projection,
+    RenderError, RenderSettings, Sampling, ShadowSettings, SurfaceColour, TransferFunction, Volume, XRay,
 };
 
 use crate::ctx::Ctx;
@@ -81,6 +81,8 @@ pub struct ImageJob {
     pub source: RenderSource,
     /// The image reads the volume's colour channel.
     pub reads_colour: bool,
+    /// A turntable: the image is rendered once per frame with the camera turned.
+    pub turntable: Option<crate::turntable::Turntable>,
 }
 
 /// Largest voxel count per axis a scene may ask for (the grid type's own limit).
@@ -108,19 +110,7 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
     };
 
     let transfer = validate_transfer(&cx, file.transfer_function.as_deref())?;
-    let mut lights = Vec::new();
-    for (i, l) in file.lights.iter().enumerate() {
-        let f = format!("lights[{i}]");
-        let dir = cx.finite3(&format!("{f}.direction"), l.direction)?;
-        if dir.length_squared() == 0.0 {
-            return Err(cx.err(format!("{f}.direction"), "must not be the zero vector"));
-        }
-        cx.unit_interval(&format!("{f}.colour"), &l.colour)?;
-        lights.push(Light {
-            direction: dir,
-            colour: DVec3::from_array(l.colour).as_vec3(),
-        });
-    }
+    let lights = validate_lights(&cx, &file.lights)?;
     let material = match &file.material {
         None => Material::default(),
         Some(m) => {
@@ -179,7 +169,20 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
         images.push(validate_image(
             &cx, &f, im, &grid, &cameras, &transfer, &lights, material,
         )?);
-        if !stems.insert(im.name.clone()) {
+        if let (Some(t), Some(job)) = (&im.turntable, images.last_mut()) {
+            // The default centre is the camera's target (validated with the camera).
+            let target = file.cameras.iter().find(|c| c.name == im.camera).map(|c| c.target);
+            let center = target.map(DVec3::from_array);
+            let f = format!("{f}.turntable");
+            job.turntable = Some(crate::turntable::validate(&cx, &f, t, &job.camera, center)?);
+        }
+        let frame_stems = match &im.turntable {
+            None => vec![im.name.clone()],
+            Some(t) => (0..t.frames)
+                .map(|k| crate::turntable::frame_stem(&im.name, k))
+                .collect(),
+        };
+        if !frame_stems.into_iter().all(|stem| stems.insert(stem)) {
             return Err(cx.err(
                 format!("{f}.name"),
                 format!("output name `{}` is used twice (or is reserved)", im.name),
@@ -321,7 +324,7 @@ fn validate_image(
     grid: &Grid,
     cameras: &[(String, Camera)],
     transfer: &TransferFunction,
-    lights: &[Light],
+    lights: &Lighting,
     material: Material,
 ) -> Result<ImageJob, SceneError> {
     cx.file_stem(&format!("{f}.name"), &im.name)?;
@@ -383,20 +386,51 @@ fn validate_image(
             empty_space_skipping: im.empty_space_skipping.unwrap_or(true),
             ..defaults.sampling
         },
-        lighting: Lighting {
-            lights: if im.shading.unwrap_or(true) {
-                lights.to_vec()
-            } else {
-                Vec::new()
-            },
-            ambient_colour: Vec3::ONE,
-            material,
+        lighting: if im.shading.unwrap_or(true) {
+            Lighting {
+                material,
+                ..lights.clone()
+            }
+        } else {
+            Lighting {
+                material,
+                ..Lighting::unlit()
+            }
         },
     };
+    if let Some(step) = im.shadow_step_voxels {
+        if !(step.is_finite() && step > 0.0 && step <= 16.0) {
+            return Err(cx.err(
+                format!("{f}.shadow_step_voxels"),
+                format!("must lie in (0, 16] voxels, got {step}"),
+            ));
+        }
+        settings.lighting.shadows.step_voxels = step;
+    }
+    if im.light_space_shadows.unwrap_or(false) {
+        if !matches!(mode, Mode::Volume(_)) {
+            return Err(cx.err(
+                format!("{f}.light_space_shadows"),
+                "the light-space pre-pass shadows volume rendering: it needs `mode: Volume`",
+            ));
+        }
+        settings.lighting.shadows.light_space = true;
+    }
+    if im.pre_integration.unwrap_or(false) {
+        if !matches!(mode, Mode::Volume(_)) {
+            return Err(cx.err(
+                format!("{f}.pre_integration"),
+                "pre-integration classifies volume rendering: it needs `mode: Volume`",
+            ));
+        }
+        settings.sampling.pre_integration = true;
+    }
     // The mode says what it needs: lights only where it shades, colour where it reads it.
     let effects = mode.integrator().effects(&settings);
     if !effects.gradients.enabled {
         settings.lighting.lights.clear();
+        settings.lighting.point_lights.clear();
+        settings.lighting.shadows.casters.clear();
     }
     let reads_colour = effects.colour.enabled;
     // The renderer's own checks, run now so bad settings are input errors (exit 2),
@@ -448,7 +482,83 @@ fn validate_image(
         bit_depth,
         source,
         reads_colour,
+        turntable: None,
     })
+}
+
+/// The scene's `lights`: directional ones (`direction`) and point ones
+/// (`position`, optional `attenuation`), and which cast shadows, as the lighting
+/// every shaded image starts from.
+fn validate_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lighting, SceneError> {
+    let mut lighting = Lighting {
+        lights: Vec::new(),
+        point_lights: Vec::new(),
+        shadows: ShadowSettings::default(),
+        ..Lighting::default()
+    };
+    for (i, l) in specs.iter().enumerate() {
+        let f = format!("lights[{i}]");
+        cx.unit_interval(&format!("{f}.colour"), &l.colour)?;
+        let colour = DVec3::from_array(l.colour).as_vec3();
+        let id = match (l.direction, l.position) {
+            (Some(d), None) => {
+                let dir = cx.finite3(&format!("{f}.direction"), d)?;
+                if dir.length_squared() == 0.0 {
+                    return Err(cx.err(format!("{f}.direction"), "must not be the zero vector"));
+                }
+                if l.attenuation.is_some() {
+                    return Err(cx.err(
+                        format!("{f}.attenuation"),
+                        "only point lights (`position`) are attenuated with distance",
+                    ));
+                }
+                lighting.lights.push(Light { direction: dir, colour });
+                LightId::Directional(lighting.lights.len() - 1)
+            }
+            (None, Some(p)) => {
+                let position = cx.finite3(&format!("{f}.position"), p)?;
+                let attenuation = match l.attenuation {
+                    None => Attenuation::NONE,
+                    Some(a) => {
+                        let path = format!("{f}.attenuation");
+                        if !a.iter().all(|c| c.is_finite() && *c >= 0.0) || a.iter().all(|c| *c == 0.0) {
+                            return Err(cx.err(
+                                path,
+                                format!("(constant, linear, quadratic) must be finite and ≥ 0, not all 0, got {a:?}"),
+                            ));
+                        }
+                        Attenuation {
+                            constant: a[0],
+                            linear: a[1],
+                            quadratic: a[2],
+                        }
+                    }
+                };
+                lighting.point_lights.push(PointLight {
+                    position,
+                    colour,
+                    attenuation,
+                });
+                LightId::Point(lighting.point_lights.len() - 1)
+            }
+            (Some(_), Some(_)) => {
+                return Err(cx.err(
+                    f,
+                    "give either `direction` (a directional light) or `position` (a point light), not both",
+                ))
+            }
+            (None, None) => {
+                return Err(cx.err(
+                    f,
+                    "give `direction` (a directional light) or `position` (a point light)",
+                ))
+            }
+        };
+        if l.shadows {
+            lighting.shadows.casters.push(id);
+        }
+    }
+    Ok(lighting)
 }
 
 /// World bounds of all objects (for tools that frame a camera); unbounded quadrics

@@ -18,6 +18,7 @@ mod adf_tolerance;
 mod binary_vs_antialiased;
 mod filter_width;
 mod narrow_band;
+mod render_effects;
 mod render_filters;
 mod render_step;
 mod resolution;
@@ -115,6 +116,8 @@ pub const EXPERIMENTS: &[Experiment] = &[
     render_step::EXPERIMENT,
     render_filters::EXPERIMENT,
     adf_tolerance::EXPERIMENT,
+    render_effects::EXPERIMENT,
+    render_effects::SUPERSAMPLING,
 ];
 
 /// The names of the files experiments attach ([`Context::attach`]), in order.

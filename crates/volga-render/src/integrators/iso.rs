@@ -8,6 +8,7 @@ use super::{Effect, Effects, Integrator, March};
 use crate::error::bad_setting;
 use crate::march::{field_colour, march_iso};
 use crate::settings::check_finite_nonneg;
+use crate::shadow;
 use crate::{CellClass, Ray, RenderError, RenderSettings, RenderStats};
 
 /// Colour `C_o` of an iso-surface.
@@ -54,7 +55,7 @@ impl Integrator for Iso {
                 SurfaceColour::FromField => Effect::on("surface colour from the field"),
                 SurfaceColour::Constant(_) => Effect::off("constant surface colour"),
             },
-            shadows: Effects::no_shadows(),
+            shadows: Effects::shadowing(settings),
             early_ray_termination: Effect::off("iso rays stop at the first hit"),
             empty_space_skipping: Effects::skipping(settings, "skip macro-cells whose value range excludes the iso value"),
         }
@@ -106,6 +107,16 @@ impl Integrator for Iso {
                     SurfaceColour::Constant(c) => *c,
                     SurfaceColour::FromField => field_colour(m.field, p),
                 };
+                if m.shader.is_general() {
+                    // Point lights or shadows: the surface occludes its shadow rays.
+                    stats.gradient_evaluations += 1;
+                    let outward = m.kind.outward(m.field.gradient(p));
+                    let shader = m.shader.for_ray(ray.dir);
+                    let rgb = shader.shade_general(co, outward, p, true, |_, l, d| {
+                        shadow::iso_visibility(m, self.value, p, l, d, stats)
+                    });
+                    return (rgb, 1.0);
+                }
                 (m.shade_at(co, p, ray, stats), 1.0)
             }
         }

@@ -6,7 +6,8 @@ use glam::{DVec3, Vec3, Vec4};
 use volga_core::{Aabb, Field, FieldKind};
 
 use crate::march::MacroGrid;
-use crate::{CellClass, Ray, RenderError, RenderSettings, RenderStats, Shader};
+use crate::shadow::ShadowParams;
+use crate::{CellClass, PreIntegrated, Ray, RenderError, RenderSettings, RenderStats, Shader};
 
 /// What one render mode computes along a ray.
 ///
@@ -45,6 +46,25 @@ pub trait Integrator: Sync + std::fmt::Debug {
     /// value lies in `[lo, hi]` (conservative, never NaN, possibly infinite), for a
     /// field of `kind`.
     fn classify_cell(&self, lo: f64, hi: f64, kind: FieldKind) -> CellClass;
+
+    /// The pre-integrated table of the mode's classification for `settings` (asked
+    /// only when [`Sampling::pre_integration`](crate::Sampling::pre_integration) is
+    /// on), over the field's value `domain`. Modes that do not classify keep the
+    /// default, `None`.
+    fn pre_integrate(&self, settings: &RenderSettings, domain: (f64, f64)) -> Option<PreIntegrated> {
+        let _ = (settings, domain);
+        None
+    }
+
+    /// The opacity (per reference step) a sample of `value` has for shadows, for modes
+    /// whose shadows are the transmittance of their classification (volume rendering):
+    /// what the light-space pre-pass
+    /// ([`ShadowSettings::light_space`](crate::ShadowSettings::light_space)) sweeps.
+    /// `None` (the default) for modes that shadow otherwise.
+    fn shadow_opacity(&self, value: f64) -> Option<f32> {
+        let _ = value;
+        None
+    }
 
     /// Premultiplied colour and alpha of one ray over `[t0, t1]` (the ray clipped to
     /// the field's bounds, finite), before the background is composited.
@@ -89,7 +109,7 @@ pub struct Effects {
     pub gradients: Effect,
     /// The field's colour ([`Field::colour`]).
     pub colour: Effect,
-    /// Shadow rays (none of today's modes casts them).
+    /// Shadow rays (iso and volume rendering, for the lights that ask).
     pub shadows: Effect,
     /// Rays may stop early.
     pub early_ray_termination: Effect,
@@ -100,7 +120,7 @@ pub struct Effects {
 impl Effects {
     /// The gradient effect of a mode that shades with `settings.lighting`.
     pub fn shading(settings: &RenderSettings) -> Effect {
-        match settings.lighting.lights.len() {
+        match settings.lighting.light_count() {
             0 => Effect::off("unlit (no lights, or shading: false)"),
             k => Effect::on(format!("shaded by {k} light(s) (Phong, eq. 9)")),
         }
@@ -116,7 +136,21 @@ impl Effects {
     }
 
     pub(crate) fn no_shadows() -> Effect {
-        Effect::off("no mode casts shadow rays yet")
+        Effect::off("the mode casts no shadow rays")
+    }
+
+    /// The shadow effect of a mode that shades with `settings.lighting` and casts
+    /// shadow rays for the lights that ask (survey eq. 10).
+    pub fn shadowing(settings: &RenderSettings) -> Effect {
+        let l = &settings.lighting;
+        if !l.casts_shadows() {
+            return Effect::off("no light casts shadows");
+        }
+        Effect::on(format!(
+            "{} light(s) cast shadows (eq. 10), shadow step {} voxels",
+            l.shadows.casters.len(),
+            l.shadows.step_voxels
+        ))
     }
 
     /// A projection (MIP, X-ray): unlit, colourless, reading the whole ray.
@@ -147,6 +181,15 @@ pub struct March<'a, F: ?Sized> {
     pub(crate) early_termination_alpha: f32,
     pub(crate) shader: &'a Shader,
     pub(crate) grid: Option<&'a MacroGrid>,
+    /// The field's bounds (where shadow rays end).
+    pub(crate) bounds: Aabb,
+    /// Shadow ray constants (used only when a light casts shadows).
+    pub(crate) shadow: ShadowParams,
+    /// The pre-integrated table when pre-integration is on (volume rendering).
+    pub(crate) preint: Option<&'a PreIntegrated>,
+    /// Per light (directional first, then point): its light-space transmittance grid,
+    /// when the pre-pass is on and the light has one.
+    pub(crate) light_volumes: &'a [Option<crate::light_volume::LightVolume>],
 }
 
 impl<F: Field + ?Sized> March<'_, F> {
