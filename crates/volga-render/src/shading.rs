@@ -296,20 +296,29 @@ pub(crate) struct RayShader<'s> {
 }
 
 impl RayShader<'_> {
+    /// The unit normal `outward/|outward|` flipped towards the viewer (two-sided
+    /// lighting); `−ray_dir` where `outward` vanishes or is not finite.
+    #[inline]
+    fn normal(&self, outward: DVec3) -> DVec3 {
+        let len = outward.length();
+        let n = if len.is_finite() && len > self.shader.min_gradient {
+            outward * len.recip()
+        } else {
+            self.view
+        };
+        if n.dot(self.view) < 0.0 {
+            -n
+        } else {
+            n
+        }
+    }
+
     /// [`Shader::shade`] for this ray's direction.
     #[inline]
     pub(crate) fn shade(&self, colour: Vec3, outward: DVec3) -> Vec3 {
         let s = self.shader;
         let view = self.view;
-        let len = outward.length();
-        let mut n = if len.is_finite() && len > s.min_gradient {
-            outward * len.recip()
-        } else {
-            view
-        };
-        if n.dot(view) < 0.0 {
-            n = -n;
-        }
+        let n = self.normal(outward);
         let m = &s.material;
         let mut r = s.ambient * colour;
         for (i, &(l, cl)) in s.lights.iter().enumerate() {
@@ -349,15 +358,7 @@ impl RayShader<'_> {
     ) -> Vec3 {
         let s = self.shader;
         let view = self.view;
-        let len = outward.length();
-        let mut n = if len.is_finite() && len > s.min_gradient {
-            outward * len.recip()
-        } else {
-            view
-        };
-        if n.dot(view) < 0.0 {
-            n = -n;
-        }
+        let n = self.normal(outward);
         let m = &s.material;
         let mut r = s.ambient * colour;
         let nd = s.lights.len();
