@@ -168,21 +168,7 @@ impl<'a> LeafWalk<'a> {
                 return (index, min, size);
             }
             size *= 0.5;
-            let mid = min + DVec3::splat(size);
-            let mut o = 0;
-            if p.x >= mid.x {
-                o |= 1;
-                min.x = mid.x;
-            }
-            if p.y >= mid.y {
-                o |= 2;
-                min.y = mid.y;
-            }
-            if p.z >= mid.z {
-                o |= 4;
-                min.z = mid.z;
-            }
-            index = c.children as usize + o;
+            index = c.children as usize + crate::tree::child_octant(p, &mut min, size);
             self.path[self.len] = (index, min, size);
             self.len += 1;
         }

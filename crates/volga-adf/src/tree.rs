@@ -872,21 +872,7 @@ impl Adf {
                 return (index, min, size, depth);
             }
             size *= 0.5;
-            let mid = min + DVec3::splat(size);
-            let mut o = 0;
-            if world_pos.x >= mid.x {
-                o |= 1;
-                min.x = mid.x;
-            }
-            if world_pos.y >= mid.y {
-                o |= 2;
-                min.y = mid.y;
-            }
-            if world_pos.z >= mid.z {
-                o |= 4;
-                min.z = mid.z;
-            }
-            index = c.children as usize + o;
+            index = c.children as usize + crate::tree::child_octant(world_pos, &mut min, size);
             depth += 1;
         }
     }
@@ -1052,4 +1038,26 @@ pub(crate) fn corner_position(min: DVec3, size: f64, b: usize) -> DVec3 {
 #[inline]
 pub(crate) fn overlaps(a: &Aabb, b: &Aabb) -> bool {
     a.min.cmple(b.max).all() && b.min.cmple(a.max).all()
+}
+
+/// The octant (bit 0: x, bit 1: y, bit 2: z) of the child of the cell at `min` with
+/// children of edge `child_size` that holds `world_pos`, moving `min` to that child's
+/// minimum corner. Points on a mid-plane go to the upper child.
+#[inline]
+pub(crate) fn child_octant(world_pos: DVec3, min: &mut DVec3, child_size: f64) -> usize {
+    let mid = *min + DVec3::splat(child_size);
+    let mut o = 0;
+    if world_pos.x >= mid.x {
+        o |= 1;
+        min.x = mid.x;
+    }
+    if world_pos.y >= mid.y {
+        o |= 2;
+        min.y = mid.y;
+    }
+    if world_pos.z >= mid.z {
+        o |= 4;
+        min.z = mid.z;
+    }
+    o
 }
