@@ -113,77 +113,49 @@ pub struct Sample {
     pub region: Option<i64>,
 }
 
-impl<S: DistanceSource + ?Sized> DistanceSource for &S {
-    fn distance(&self, p: DVec3) -> f64 {
-        (**self).distance(p)
-    }
-    fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
-        (**self).sample(p, near)
-    }
-    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
-        (**self).candidates(cell, reach, parent)
-    }
-    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
-        (**self).sample_among(p, near, candidates)
-    }
-    fn sign_field(&self, p: DVec3) -> Option<f64> {
-        (**self).sign_field(p)
-    }
-    fn may_jump(&self) -> bool {
-        (**self).may_jump()
-    }
-    fn side_of_empty_cell(&self, cell: &Aabb, corner: (DVec3, &Sample)) -> Option<bool> {
-        (**self).side_of_empty_cell(cell, corner)
-    }
-    fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
-        (**self).sign_field_at(p, sample)
-    }
-    fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
-        (**self).inside_in_empty_cell(p, near)
-    }
-    fn bounds(&self) -> Aabb {
-        (**self).bounds()
-    }
-    fn is_exact(&self) -> bool {
-        (**self).is_exact()
-    }
+/// Forwards every [`DistanceSource`] method through a pointer, so `&S` and `Box<S>` can
+/// never silently fall back to a default a new method adds (one list, both impls).
+macro_rules! forward_distance_source {
+    ($($ptr:ty),*) => {$(
+        impl<S: DistanceSource + ?Sized> DistanceSource for $ptr {
+            fn distance(&self, p: DVec3) -> f64 {
+                (**self).distance(p)
+            }
+            fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
+                (**self).sample(p, near)
+            }
+            fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
+                (**self).candidates(cell, reach, parent)
+            }
+            fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
+                (**self).sample_among(p, near, candidates)
+            }
+            fn sign_field(&self, p: DVec3) -> Option<f64> {
+                (**self).sign_field(p)
+            }
+            fn may_jump(&self) -> bool {
+                (**self).may_jump()
+            }
+            fn side_of_empty_cell(&self, cell: &Aabb, corner: (DVec3, &Sample)) -> Option<bool> {
+                (**self).side_of_empty_cell(cell, corner)
+            }
+            fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
+                (**self).sign_field_at(p, sample)
+            }
+            fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
+                (**self).inside_in_empty_cell(p, near)
+            }
+            fn bounds(&self) -> Aabb {
+                (**self).bounds()
+            }
+            fn is_exact(&self) -> bool {
+                (**self).is_exact()
+            }
+        }
+    )*};
 }
 
-impl<S: DistanceSource + ?Sized> DistanceSource for Box<S> {
-    fn distance(&self, p: DVec3) -> f64 {
-        (**self).distance(p)
-    }
-    fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
-        (**self).sample(p, near)
-    }
-    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
-        (**self).candidates(cell, reach, parent)
-    }
-    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
-        (**self).sample_among(p, near, candidates)
-    }
-    fn sign_field(&self, p: DVec3) -> Option<f64> {
-        (**self).sign_field(p)
-    }
-    fn may_jump(&self) -> bool {
-        (**self).may_jump()
-    }
-    fn side_of_empty_cell(&self, cell: &Aabb, corner: (DVec3, &Sample)) -> Option<bool> {
-        (**self).side_of_empty_cell(cell, corner)
-    }
-    fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
-        (**self).sign_field_at(p, sample)
-    }
-    fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
-        (**self).inside_in_empty_cell(p, near)
-    }
-    fn bounds(&self) -> Aabb {
-        (**self).bounds()
-    }
-    fn is_exact(&self) -> bool {
-        (**self).is_exact()
-    }
-}
+forward_distance_source!(&S, Box<S>);
 
 /// A shape of the geometry layer (`volga-shapes`) as a distance source.
 #[derive(Debug, Clone)]
