@@ -111,51 +111,52 @@ impl<F: Field + ?Sized> Field for PackedField<'_, F> {
 /// Most control points [`TransferLanes`] takes (more classify on the general path).
 const MAX_LANE_POINTS: usize = 8;
 
-/// A 1D transfer function in `f32` for the packed loop: `n + 1` segments, the first and
-/// last constant (below the first and from the last control value on), so a value's
-/// segment is the number of control values `≤` it (selects over the control values in
-/// the packet's lanes) and its RGBA one lerp.
+/// A 1D transfer function in `f32` for the packed loop, in a branch-free form: with
+/// control values `c₀ < … < c_{n−1}` and colours `q₀ … q_{n−1}`,
+///
+/// `tf(v) = q₀ + Σ_k s_k · (clamp(v, c_{k−1}, c_k) − c_{k−1})`, `s_k = (q_k − q_{k−1}) / (c_k − c_{k−1})`,
+///
+/// the same piecewise-linear function (constant below `c₀` and from `c_{n−1}` on) as
+/// [`TransferFunction::eval`](crate::TransferFunction::eval), every lane running the
+/// same instructions whatever segment its value falls in.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct TransferLanes {
-    /// The control values, padded with +∞ (never `≤` a value).
-    values: [Vec4; 2],
-    /// Per segment: start value, 1 / width, RGBA at the start, RGBA change over it.
-    start: [f32; MAX_LANE_POINTS + 1],
-    inv_width: [f32; MAX_LANE_POINTS + 1],
-    rgba: [Vec4; MAX_LANE_POINTS + 1],
-    delta: [Vec4; MAX_LANE_POINTS + 1],
+    /// The colour below the first control value.
+    first: [f32; 4],
+    /// Segments `1 .. n` in use.
+    segments: usize,
+    /// Per segment: its start and end value and its RGBA slope.
+    lo: [f32; MAX_LANE_POINTS],
+    hi: [f32; MAX_LANE_POINTS],
+    slope: [[f32; 4]; MAX_LANE_POINTS],
 }
 
 impl TransferLanes {
     /// The `f32` form of sorted control points, or `None` if there are more than
-    /// [`MAX_LANE_POINTS`] or a value or a segment's inverse width is not finite in
-    /// `f32` (the general path then classifies).
+    /// [`MAX_LANE_POINTS`] or a value or a segment's slope is not finite in `f32` (the
+    /// general path then classifies).
     pub(crate) fn new(values: &[f64], rgba: &[Vec4]) -> Option<TransferLanes> {
         let n = values.len();
         if n == 0 || n > MAX_LANE_POINTS || values.iter().any(|v| !(*v as f32).is_finite()) {
             return None;
         }
-        let mut padded = [f32::INFINITY; 8];
-        for (p, v) in padded.iter_mut().zip(values) {
-            *p = *v as f32;
-        }
         let mut lanes = TransferLanes {
-            values: [Vec4::from_slice(&padded[..4]), Vec4::from_slice(&padded[4..])],
-            start: [0.0; MAX_LANE_POINTS + 1],
-            inv_width: [0.0; MAX_LANE_POINTS + 1],
-            rgba: [rgba[n - 1]; MAX_LANE_POINTS + 1],
-            delta: [Vec4::ZERO; MAX_LANE_POINTS + 1],
+            first: rgba[0].to_array(),
+            segments: n - 1,
+            lo: [0.0; MAX_LANE_POINTS],
+            hi: [0.0; MAX_LANE_POINTS],
+            slope: [[0.0; 4]; MAX_LANE_POINTS],
         };
-        lanes.rgba[0] = rgba[0];
         for k in 1..n {
-            let inv = (1.0 / (values[k] - values[k - 1])) as f32;
-            if !inv.is_finite() {
+            let (lo, hi) = (values[k - 1] as f32, values[k] as f32);
+            let width = values[k] - values[k - 1];
+            let slope = ((rgba[k] - rgba[k - 1]).as_dvec4() / width).as_vec4();
+            if !(hi > lo && slope.is_finite()) {
                 return None;
             }
-            lanes.start[k] = values[k - 1] as f32;
-            lanes.inv_width[k] = inv;
-            lanes.rgba[k] = rgba[k - 1];
-            lanes.delta[k] = rgba[k] - rgba[k - 1];
+            lanes.lo[k - 1] = lo;
+            lanes.hi[k - 1] = hi;
+            lanes.slope[k - 1] = slope.to_array();
         }
         Some(lanes)
     }
@@ -248,8 +249,10 @@ struct RayPackets<'a> {
     /// `α / (1 + √(1 − α))`, `e = 1` as is; other exponents are corrected per sample
     /// afterwards.
     half_step: bool,
-    index_origin: DVec3,
-    index_step: DVec3,
+    /// Index position of sample 0 and the step between samples, in `f32` (index
+    /// coordinates stay below 2²⁴ with sub-voxel error ~1e-5 at 256 voxels).
+    index_origin: [f32; 3],
+    index_step: [f32; 3],
 }
 
 impl RayPackets<'_> {
@@ -259,35 +262,36 @@ impl RayPackets<'_> {
     // Index loops over the lanes on purpose: they are what the compiler vectorizes.
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn shade(&self, j: u64) -> Shaded {
-        let mut v = [0.0f32; LANES];
-        let mut g = [[0.0f32; LANES]; 3];
-        for l in 0..LANES {
-            let index_pos = self.index_origin + self.index_step * (j + l as u64) as f64;
-            let s = self.packed.sample4(&self.packed.cell_at_index(index_pos));
-            v[l] = s.x;
-            g[0][l] = s.y;
-            g[1][l] = s.z;
-            g[2][l] = s.w;
-        }
-        // Classification: the segment of each lane by selects over the control values.
-        let tf = self.tf;
-        let mut start = [tf.start[0]; LANES];
-        let mut inv = [tf.inv_width[0]; LANES];
-        let mut base = [tf.rgba[0].to_array(); LANES];
-        let mut delta = [tf.delta[0].to_array(); LANES];
-        let values = [tf.values[0].to_array(), tf.values[1].to_array()];
-        for m in 0..MAX_LANE_POINTS {
-            let c = values[m / 4][m % 4];
-            if c == f32::INFINITY {
-                break;
-            }
+    fn shade<const AVX2: bool>(&self, j: u64) -> Shaded {
+        let mut index_pos = [[0.0f32; LANES]; 3];
+        for a in 0..3 {
             for l in 0..LANES {
-                if v[l] >= c {
-                    start[l] = tf.start[m + 1];
-                    inv[l] = tf.inv_width[m + 1];
-                    base[l] = tf.rgba[m + 1].to_array();
-                    delta[l] = tf.delta[m + 1].to_array();
+                // Exact: sample indices stay below `MAX_SAMPLES_PER_RAY` = 2²⁴.
+                index_pos[a][l] = self.index_origin[a] + self.index_step[a] * ((j as i32 + l as i32) as f32);
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        let (v, g) = if AVX2 {
+            // SAFETY: `AVX2` is true only in `composite_avx2`, called after
+            // `is_x86_feature_detected!("avx2")` held.
+            unsafe { self.packed.sample_lanes_avx2(&index_pos) }
+        } else {
+            self.packed.sample_lanes(&index_pos)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (v, g) = self.packed.sample_lanes(&index_pos);
+        // Classification: the clamped sum over the segments (see `TransferLanes`).
+        let tf = self.tf;
+        let mut rgba = [[0.0f32; LANES]; 4];
+        for ch in 0..4 {
+            rgba[ch] = [tf.first[ch]; LANES];
+        }
+        for k in 0..tf.segments {
+            let (lo, hi, slope) = (tf.lo[k], tf.hi[k], tf.slope[k]);
+            for l in 0..LANES {
+                let d = v[l].max(lo).min(hi) - lo;
+                for ch in 0..4 {
+                    rgba[ch][l] += slope[ch] * d;
                 }
             }
         }
@@ -297,11 +301,10 @@ impl RayPackets<'_> {
         };
         let mut colour = [[0.0f32; LANES]; 3];
         for l in 0..LANES {
-            let f = ((v[l] - start[l]) * inv[l]).clamp(0.0, 1.0);
             for ch in 0..3 {
-                colour[ch][l] = (base[l][ch] + delta[l][ch] * f).clamp(0.0, 1.0);
+                colour[ch][l] = rgba[ch][l].clamp(0.0, 1.0);
             }
-            let a = (base[l][3] + delta[l][3] * f).clamp(0.0, 1.0);
+            let a = rgba[3][l].clamp(0.0, 1.0);
             // NaN values are invisible.
             let a = if v[l].is_nan() { 0.0 } else { a };
             out.alpha[l] = if self.half_step && a < 1.0 {
@@ -392,7 +395,7 @@ pub(crate) fn composite<F: Field + ?Sized>(
         // Measured reason: see docs/BENCHMARKS.md (the packed path's AVX2 row).
         return unsafe { composite_avx2(m, packed, tf, ray, interval, stats) };
     }
-    composite_lanes(m, packed, tf, ray, interval, stats)
+    composite_lanes::<F, false>(m, packed, tf, ray, interval, stats)
 }
 
 /// [`composite_lanes`] compiled for AVX2 and FMA.
@@ -406,11 +409,11 @@ fn composite_avx2<F: Field + ?Sized>(
     interval: (f64, f64),
     stats: &mut RenderStats,
 ) -> (Vec3, f32) {
-    composite_lanes(m, packed, tf, ray, interval, stats)
+    composite_lanes::<F, true>(m, packed, tf, ray, interval, stats)
 }
 
 #[inline(always)]
-fn composite_lanes<F: Field + ?Sized>(
+fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
     m: &March<'_, F>,
     packed: &PackedVolume,
     tf: &TransferLanes,
@@ -429,8 +432,8 @@ fn composite_lanes<F: Field + ?Sized>(
         shader: RayShader32::new(m.shader, ray.dir, m.kind),
         lit,
         half_step,
-        index_origin: transform.world_to_index(ray.at(t0 + 0.5 * m.step)),
-        index_step: (ray.dir * m.step) / transform.spacing(),
+        index_origin: transform.world_to_index(ray.at(t0 + 0.5 * m.step)).as_vec3().to_array(),
+        index_step: ((ray.dir * m.step) / transform.spacing()).as_vec3().to_array(),
     };
     let eta = m.early_termination_alpha;
     let mut c = Vec3::ZERO;
@@ -461,7 +464,7 @@ fn composite_lanes<F: Field + ?Sized>(
         let mut j = i;
         while j < run_end {
             let lanes = ((n - j) as usize).min(LANES);
-            let shaded = packets.shade(j);
+            let shaded = packets.shade::<AVX2>(j);
             for l in 0..lanes {
                 let mut alpha = shaded.alpha[l];
                 if alpha.is_nan() || alpha <= 0.0 {
