@@ -265,32 +265,36 @@ impl PackedVolume {
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
     fn cells_lanes(&self, index_pos: &[[f32; 8]; 3]) -> ([u32; 8], [[f32; 8]; 3]) {
+        // Clamping sends NaN to −LIM (`f32::max` returns the non-NaN operand) and ±∞ to
+        // ±LIM: outside the stored region, with fraction 0.
         const LIM: f32 = 1e9;
-        let mut offset = [0u32; 8];
         let mut frac = [[0.0f32; 8]; 3];
         let mut stored = [[0u32; 8]; 3];
-        let mut inside = [true; 8];
+        let mut outside = [0u32; 8];
         for a in 0..3 {
+            let extent = self.extent[a];
             for l in 0..8 {
-                let x = index_pos[a][l];
-                // `clamp` keeps NaN: `!(x > -LIM)` routes it (and −∞) to the background.
-                let finite = x > -LIM && x < LIM;
-                let f = if finite { x.floor() } else { 0.0 };
-                frac[a][l] = if finite { x - f } else { 0.0 };
+                let x = index_pos[a][l].max(-LIM).min(LIM);
+                let f = x.floor();
+                frac[a][l] = x - f;
                 let s = (f as i32).wrapping_add(SHIFT) as u32;
                 stored[a][l] = s;
-                inside[l] &= finite && s < self.extent[a];
+                outside[l] |= (s >= extent) as u32;
             }
         }
         let (tx, ty) = (self.tiles.x as u32, self.tiles.y as u32);
+        let last = self.table.len() - 1;
+        let mut offset = [0u32; 8];
         for l in 0..8 {
             let (sx, sy, sz) = (stored[0][l], stored[1][l], stored[2][l]);
-            // Wrapping: a lane outside the stored region computes garbage, unused.
+            // Wrapping and clamped: a lane outside the stored region reads some entry,
+            // unused.
             let tile = (sx >> TILE_LOG2)
                 .wrapping_add(tx.wrapping_mul((sy >> TILE_LOG2).wrapping_add(ty.wrapping_mul(sz >> TILE_LOG2))));
             let local = (sx & 15) + STRIDE_Y as u32 * (sy & 15) + STRIDE_Z as u32 * (sz & 15);
-            offset[l] = if inside[l] {
-                self.table[tile as usize] + local
+            let entry = self.table[(tile as usize).min(last)];
+            offset[l] = if outside[l] == 0 {
+                entry + local
             } else {
                 self.background_offset
             };
