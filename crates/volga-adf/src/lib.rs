@@ -58,11 +58,13 @@ mod measure;
 mod ray;
 mod source;
 mod tree;
+mod walk;
 
 pub use edit::EditStats;
 pub use measure::{measure_errors, measure_errors_with_probes, ErrorStats, Probe};
 pub use ray::RayHit;
 pub use source::{CellCandidates, Csg, CsgOp, DistanceSource, FieldSource, MeshSource, Sample, ShapeSource};
+pub use walk::DescentWalk;
 pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};
 
 use volga_core::FieldKind;
