@@ -76,6 +76,9 @@ pub(crate) struct WalkIndex {
     /// `None` if there are none: for an iso value ≤ 0 the reconstruction is above it
     /// everywhere else, so a ray's interval is clipped to this box first.
     active: Option<(DVec3, DVec3)>,
+    /// A coarser grid of `(n / 4)³` blocks of 4³ grid cells (when `G ≥ 2`): the minimum
+    /// of their minima, so a ray crosses an empty block in one step.
+    block_lo: Vec<f32>,
 }
 
 impl WalkIndex {
@@ -90,8 +93,21 @@ impl WalkIndex {
             level: vec![0; n * n * n],
             lo: vec![0.0; n * n * n],
             active: None,
+            block_lo: Vec::new(),
         };
         index.fill(adf, 0, 0, [0; 3]);
+        if depth >= 2 {
+            let m = n / 4;
+            index.block_lo = vec![f32::INFINITY; m * m * m];
+            for z in 0..n {
+                for y in 0..n {
+                    for x in 0..n {
+                        let b = &mut index.block_lo[x / 4 + m * (y / 4 + m * (z / 4))];
+                        *b = b.min(index.lo[x + n * (y + n * z)]);
+                    }
+                }
+            }
+        }
         let mut box_lo = [usize::MAX; 3];
         let mut box_hi = [0usize; 3];
         for z in 0..n {
@@ -141,7 +157,7 @@ impl WalkIndex {
     }
 
     fn bytes(&self) -> usize {
-        self.links.len() * 4 + self.node.len() * 4 + self.level.len() + self.lo.len() * 4
+        self.links.len() * 4 + self.node.len() * 4 + self.level.len() + self.lo.len() * 4 + self.block_lo.len() * 4
     }
 }
 
@@ -159,6 +175,15 @@ fn subtree_lo(cells: &[Cell], i: usize) -> f32 {
     } else {
         (0..8).fold(f32::INFINITY, |a, o| a.min(subtree_lo(cells, c.children as usize + o)))
     }
+}
+
+/// Just past a box's exit parameter (by 1e-9 of the box, `cell_t` in ray units), so the
+/// next point lies in the next box despite rounding instead of costing a step with a
+/// nudge. A crossing in that sliver is found at its end (the next box's start is already
+/// inside), within 1e-9 of the box.
+#[inline]
+fn past(exit: f64, cell_t: f64) -> f64 {
+    exit + cell_t * 1e-9
 }
 
 /// Where a ray leaves the box `min + [0, size]³`, with `inv` the reciprocal direction
@@ -285,11 +310,22 @@ impl Adf {
             let cell = |v: f64| (v.max(0.0) as usize).min(n - 1);
             let (gx, gy, gz) = (cell(g.x), cell(g.y), cell(g.z));
             let k = gx + n * (gy + n * gz);
+            if ix.depth >= 2 && ix.level[k] >= ix.depth - 2 {
+                let m = n / 4;
+                let (bx, by, bz) = (gx / 4, gy / 4, gz / 4);
+                if (ix.block_lo[bx + m * (by + m * bz)] as f64) > iso {
+                    let block = 4.0 * grid_size;
+                    let bmin = self.root_min + DVec3::new(bx as f64, by as f64, bz as f64) * block;
+                    let exit = box_exit(origin, dir, inv, bmin, block).min(t_end).max(t);
+                    t = next_t(t, past(exit, block / scale), block / scale);
+                    continue;
+                }
+            }
             if ix.level[k] == ix.depth && (ix.lo[k] as f64) > iso && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG
             {
                 let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
                 let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
-                t = next_t(t, exit, grid_size / scale);
+                t = next_t(t, past(exit, grid_size / scale), grid_size / scale);
                 continue;
             }
             let (index, min, size) = self.locate_indexed(ix, q);
@@ -308,7 +344,7 @@ impl Adf {
                     }
                     candidate = exit.max(t + bound / scale);
                 }
-                t = next_t(t, candidate, size / scale);
+                t = next_t(t, past(candidate, size / scale), size / scale);
                 continue;
             }
             let inv_size = 1.0 / size;
@@ -345,7 +381,7 @@ impl Adf {
             if let Some(hit_t) = found {
                 return (Some(hit_t), steps);
             }
-            t = next_t(t, exit, size / scale);
+            t = next_t(t, past(exit, size / scale), size / scale);
         }
         (None, steps)
     }
