@@ -49,7 +49,11 @@ fn bits(image: &Image) -> Vec<[u32; 4]> {
 fn indexed_walk_image_equals_the_reference_walk_for_any_thread_count() {
     // Outside the root cube (oblique); inside it but outside the surface; inside the
     // torus's tube (every ray starts inside: the whole image is covered).
-    for eye in [DVec3::new(1.2, 1.0, 2.2), DVec3::new(0.1, 0.3, 0.9), DVec3::new(0.0, 0.05, 0.55)] {
+    for eye in [
+        DVec3::new(1.2, 1.0, 2.2),
+        DVec3::new(0.1, 0.3, 0.9),
+        DVec3::new(0.0, 0.05, 0.55),
+    ] {
         let one = draw(&scene(), eye, 1);
         let two = draw(&scene(), eye, 2);
         assert_eq!(bits(&one), bits(&two), "1 and 2 threads differ from {eye:?}");
@@ -65,6 +69,9 @@ fn indexed_walk_image_equals_the_reference_walk_for_any_thread_count() {
         }
         assert!(covered > 500, "{covered} pixels covered from {eye:?}");
         // Hits on a leaf face may land in either leaf (the gradient jumps there).
-        assert!(differs <= 4, "{differs} pixels differ from the reference walk from {eye:?}");
+        assert!(
+            differs <= 4,
+            "{differs} pixels differ from the reference walk from {eye:?}"
+        );
     }
 }

@@ -151,7 +151,11 @@ impl WalkIndex {
             return;
         }
         for o in 0..8 {
-            let child = [ijk[0] * 2 + (o & 1), ijk[1] * 2 + ((o >> 1) & 1), ijk[2] * 2 + ((o >> 2) & 1)];
+            let child = [
+                ijk[0] * 2 + (o & 1),
+                ijk[1] * 2 + ((o >> 1) & 1),
+                ijk[2] * 2 + ((o >> 2) & 1),
+            ];
             self.fill(adf, c.children as usize + o, d + 1, child);
         }
     }
@@ -227,7 +231,8 @@ impl Adf {
         let level = ix.level[k];
         let shift = ix.depth - level;
         let size = self.cell_size(level);
-        let mut min = self.root_min + DVec3::new((gx >> shift) as f64, (gy >> shift) as f64, (gz >> shift) as f64) * size;
+        let mut min =
+            self.root_min + DVec3::new((gx >> shift) as f64, (gy >> shift) as f64, (gz >> shift) as f64) * size;
         let max = min + DVec3::splat(size);
         let root_max = self.root_min + DVec3::splat(self.root_size);
         let contains = q.cmpge(min).all() && (q.cmplt(max) | max.cmpge(root_max)).all();
@@ -290,7 +295,7 @@ impl Adf {
                 t = t.max(ta);
                 t_end = t_end.min(tb);
             }
-            if !(t <= t_end) {
+            if t > t_end {
                 return (None, 0);
             }
         }
@@ -321,7 +326,9 @@ impl Adf {
                     continue;
                 }
             }
-            if ix.level[k] == ix.depth && (ix.lo[k] as f64) > iso && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG
+            if ix.level[k] == ix.depth
+                && (ix.lo[k] as f64) > iso
+                && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG
             {
                 let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
                 let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);

@@ -40,7 +40,10 @@ fn agree(adf: &Adf, origin: DVec3, dir: DVec3, iso: f64, eps: f64) -> Option<f64
     let (fast, _) = adf.first_crossing_between(origin, dir, t0, t1, iso);
     let (slow, _) = adf.first_crossing_by_descent(origin, dir, t0, t1, iso);
     match (fast, slow) {
-        (Some(a), Some(b)) => assert!((a - b).abs() <= eps, "t {a} vs reference {b} ({origin:?} {dir:?} iso {iso})"),
+        (Some(a), Some(b)) => assert!(
+            (a - b).abs() <= eps,
+            "t {a} vs reference {b} ({origin:?} {dir:?} iso {iso})"
+        ),
         (None, None) => {}
         _ => panic!("hit {fast:?} vs reference {slow:?} ({origin:?} {dir:?} iso {iso})"),
     }
@@ -115,8 +118,15 @@ fn iso_values_on_both_sides_of_zero_and_the_steps_saved() {
     // The active box and the empty grid cells save leaf visits.
     assert!(fast_steps < slow_steps, "{fast_steps} vs {slow_steps}");
     // An iso value below every value: no crossing anywhere (the active box is empty).
-    let (t0, t1) = adf.root_box().ray_interval(DVec3::new(0.0, 0.1, 3.0), DVec3::NEG_Z).unwrap();
-    assert_eq!(adf.first_crossing_between(DVec3::new(0.0, 0.1, 3.0), DVec3::NEG_Z, t0, t1, -10.0).0, None);
+    let (t0, t1) = adf
+        .root_box()
+        .ray_interval(DVec3::new(0.0, 0.1, 3.0), DVec3::NEG_Z)
+        .unwrap();
+    assert_eq!(
+        adf.first_crossing_between(DVec3::new(0.0, 0.1, 3.0), DVec3::NEG_Z, t0, t1, -10.0)
+            .0,
+        None
+    );
 }
 
 #[test]
