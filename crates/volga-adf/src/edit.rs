@@ -169,6 +169,7 @@ impl Adf {
             jumps: tree.jumps,
             options: self.options,
             stats: self.stats,
+            walk: Default::default(),
         };
         adf.recount();
         Ok((adf, stats))

@@ -26,7 +26,11 @@
 //! * **Rendering**: an `Adf` is a [`volga_core::Field`] of signed-distance kind, so the
 //!   raycaster renders it directly; iso rays ask [`volga_core::Field::first_crossing`],
 //!   which the ADF answers with its own leaf walk ([`Adf::first_crossing_between`]),
-//!   other modes sample it and skip empty space with per-cell ranges.
+//!   other modes sample it and skip empty space with per-cell ranges. The walk runs on an
+//!   index built on the first ray (module `walk`: a 64³ grid of tree nodes with
+//!   conservative minima, 4³-cell blocks, the box of cells that can hold the surface, a
+//!   compact copy of the child links; [`Adf::walk_index_bytes`]); the reference walk
+//!   without it is [`Adf::first_crossing_by_descent`] ([`DescentWalk`] renders with it).
 //! * **CSG and edits** ([`Adf::combine`], [`Adf::edit`]): union, intersection and
 //!   difference with another ADF or any source, regenerating only the cells the operation
 //!   can change (the Kizamu approach of Perry & Frisken 2001); counted in [`EditStats`].
@@ -58,12 +62,14 @@ mod measure;
 mod ray;
 mod source;
 mod tree;
+mod walk;
 
 pub use edit::EditStats;
 pub use measure::{measure_errors, measure_errors_with_probes, ErrorStats, Probe};
 pub use ray::RayHit;
 pub use source::{CellCandidates, Csg, CsgOp, DistanceSource, FieldSource, MeshSource, Sample, ShapeSource};
 pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};
+pub use walk::DescentWalk;
 
 use volga_core::FieldKind;
 

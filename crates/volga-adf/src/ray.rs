@@ -45,8 +45,10 @@ impl Adf {
         })
     }
 
-    /// The first `t ∈ [t_start, t_end]` where the reconstruction along `origin + t·dir`
-    /// falls to `iso` or below, and the number of leaves visited.
+    /// The reference walk of [`Adf::first_crossing_between`] without the walk index: the
+    /// first `t ∈ [t_start, t_end]` where the reconstruction along `origin + t·dir`
+    /// falls to `iso` or below, and the number of leaves visited. The tests compare the
+    /// indexed walk against it.
     ///
     /// Walks the leaves the ray crosses, keeping the path of ancestors so each next leaf
     /// is found from the nearest common ancestor, not from the root. In a leaf whose
@@ -59,7 +61,7 @@ impl Adf {
     /// pieces at its critical points and the first downward crossing is refined (regula
     /// falsi safeguarded by bisection) to 1e-12 of the piece, so no crossing that the
     /// reconstruction has is stepped over.
-    pub fn first_crossing_between(
+    pub fn first_crossing_by_descent(
         &self,
         origin: DVec3,
         dir: DVec3,
@@ -192,7 +194,7 @@ fn leaf_exit(origin: DVec3, dir: DVec3, min: DVec3, size: f64) -> f64 {
 
 /// The first `s ∈ [a, b]` with `g(s) ≤ 0` for a function that is not a cubic (a jump
 /// leaf's signed magnitude at a non-zero iso value): 16 samples, then bisection.
-fn first_root_sampled(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
+pub(crate) fn first_root_sampled(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
     if g(a) <= 0.0 {
         return Some(a);
     }
@@ -212,7 +214,7 @@ fn first_root_sampled(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
 /// sliver of the interval (1e-12 of its width, or the last bit): regula falsi with the
 /// Illinois modification, safeguarded by bisection whenever a step fails to halve the
 /// bracket. Returns the inside end of the final bracket (`g ≤ 0` there).
-fn bisect(g: &impl Fn(f64) -> f64, mut l: f64, mut r: f64) -> f64 {
+pub(crate) fn bisect(g: &impl Fn(f64) -> f64, mut l: f64, mut r: f64) -> f64 {
     let tol = (r - l) * 1e-12;
     let (mut gl, mut gr) = (g(l), g(r));
     let mut kept = 0i8;
@@ -257,7 +259,7 @@ fn bisect(g: &impl Fn(f64) -> f64, mut l: f64, mut r: f64) -> f64 {
 /// The next ray parameter: `candidate`, but always past `t` by a sliver of the cell so a
 /// ray exactly on a cell corner cannot stall.
 #[inline]
-fn next_t(t: f64, candidate: f64, cell_t: f64) -> f64 {
+pub(crate) fn next_t(t: f64, candidate: f64, cell_t: f64) -> f64 {
     let nudge = (cell_t * 1e-9).max(t.abs() * f64::EPSILON * 4.0);
     if candidate > t + nudge {
         candidate
@@ -268,7 +270,7 @@ fn next_t(t: f64, candidate: f64, cell_t: f64) -> f64 {
 
 /// The first `s ∈ [a, b]` with `g(s) ≤ 0` for a cubic `g` (the trilinear reconstruction
 /// along a segment), or `None`.
-fn first_root(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
+pub(crate) fn first_root(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
     let ga = g(a);
     if ga <= 0.0 {
         return Some(a);

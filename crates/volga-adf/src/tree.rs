@@ -190,6 +190,8 @@ pub struct Adf {
     pub(crate) jumps: Vec<[f32; 8]>,
     pub(crate) options: AdfOptions,
     pub(crate) stats: BuildStats,
+    /// The ray walk's index, built on the first ray ([`crate::walk`]).
+    pub(crate) walk: crate::walk::WalkCache,
 }
 
 /// A subtree built apart: `cells[0]` is its root; child indices are relative to the vector.
@@ -805,6 +807,7 @@ impl Adf {
             jumps: tree.jumps,
             options,
             stats,
+            walk: Default::default(),
         })
     }
 
@@ -950,7 +953,14 @@ impl Adf {
     /// the direction away from the cube.
     pub fn gradient(&self, world_pos: DVec3) -> DVec3 {
         let q = self.clamp(world_pos);
-        let (i, min, size, _) = self.locate(q);
+        // The same leaf either way; the walk index (once a ray has built it) finds it faster.
+        let (i, min, size) = match self.walk.0.get() {
+            Some(ix) => self.locate_indexed(ix, q),
+            None => {
+                let (i, min, size, _) = self.locate(q);
+                (i, min, size)
+            }
+        };
         let t = ((q - min) / size).clamp(DVec3::ZERO, DVec3::ONE);
         let g = self.leaf_gradient(i, t) / size;
         let away = world_pos - q;

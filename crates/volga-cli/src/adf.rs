@@ -12,7 +12,8 @@ use std::time::Instant;
 use clap::Args;
 use glam::{DVec3, Vec3};
 use serde_json::{json, Value};
-use volga_adf::{measure_errors_with_probes, Adf, AdfOptions, MeshSource, Probe};
+use volga_adf::{measure_errors_with_probes, Adf, AdfOptions, DescentWalk, MeshSource, Probe};
+use volga_core::Field;
 use volga_core::{Aabb, NoProgress};
 use volga_render::{Camera, Iso, Projection, RenderSettings, Renderer, SurfaceColour};
 
@@ -225,41 +226,100 @@ pub fn bench(args: AdfBenchArgs) -> Result<(), Failure> {
         value["probes_out"] = json!(path.display().to_string());
     }
     let (settings, iso) = render_setup(args.adf.size);
-    let renderer = Renderer::new(&built.adf, &iso, &settings).map_err(|e| failed(e.to_string()))?;
     let cam = camera(&built.mesh_bounds)?;
-    let (_, warm) = renderer.render(&cam, &NoProgress); // warm-up
-    let mut frames = Vec::new();
-    for _ in 0..args.frames.max(1) {
-        let start = Instant::now();
-        let _ = renderer.render(&cam, &NoProgress);
-        frames.push(start.elapsed().as_secs_f64());
-    }
+    // The walk index is built before the timed frames; its time and memory are reported.
+    let (index_s, index_bytes) = timed_cpu(|| built.adf.walk_index_bytes());
+    value["walk_index_build_s"] = json!(index_s.0);
+    value["walk_index_bytes"] = json!(index_bytes);
+    // The reference walk (no index), rendered in the same run for a before/after ratio.
+    let descent = DescentWalk(&built.adf);
+    let (descent_frames, descent_cpu, _) = time_frames(&descent, &iso, &settings, &cam, args.frames)?;
+    value["render_fps_descent"] = json!(1.0 / median(&descent_frames));
+    value["render_cpu_s_descent"] = json!(median(&descent_cpu));
+    let (frames, cpu, warm) = time_frames(&built.adf, &iso, &settings, &cam, args.frames)?;
     value["render_size"] = json!(args.adf.size);
     value["render_fps"] = json!(1.0 / median(&frames));
     value["render_times_s"] = json!(frames);
+    value["render_cpu_s"] = json!(median(&cpu));
+    value["loadavg"] = json!(std::fs::read_to_string("/proc/loadavg").unwrap_or_default().trim());
     value["render_samples"] = json!(warm.samples);
     value["render_rays"] = json!(warm.rays);
     value["render_cells_skipped"] = json!(warm.cells_skipped);
     value["render_gradient_evaluations"] = json!(warm.gradient_evaluations);
     let walk_start = Instant::now();
-    let (leaves, hits) = leaves_per_ray(&built.adf, &cam, args.adf.size);
+    let (leaves, hits) = leaves_per_ray(&built.adf, &cam, args.adf.size, false);
     value["ray_walk_s_one_thread"] = json!(walk_start.elapsed().as_secs_f64());
     value["ray_leaves_mean"] = json!(leaves as f64 / (args.adf.size as f64).powi(2));
     value["ray_hits"] = json!(hits);
+    let walk_start = Instant::now();
+    let (leaves, hits) = leaves_per_ray(&built.adf, &cam, args.adf.size, true);
+    value["ray_walk_s_one_thread_descent"] = json!(walk_start.elapsed().as_secs_f64());
+    value["ray_leaves_mean_descent"] = json!(leaves as f64 / (args.adf.size as f64).powi(2));
+    value["ray_hits_descent"] = json!(hits);
     println!("{value}");
     Ok(())
 }
 
-/// Leaves visited by [`Adf::ray_hit`] over the camera's pixel-centre rays (the work of the
-/// iso render's leaf walk), and the rays that hit.
-fn leaves_per_ray(adf: &Adf, camera: &Camera, size: u32) -> (u64, u64) {
+/// Timed frames (after one warm-up): wall seconds, CPU seconds (all threads) per frame,
+/// and the warm-up's counters.
+fn time_frames<F: Field + ?Sized>(
+    field: &F,
+    iso: &Iso,
+    settings: &RenderSettings,
+    cam: &Camera,
+    frames: usize,
+) -> Result<(Vec<f64>, Vec<f64>, volga_render::RenderStats), Failure> {
+    let renderer = Renderer::new(field, iso, settings).map_err(|e| failed(e.to_string()))?;
+    let (_, warm) = renderer.render(cam, &NoProgress);
+    let mut wall = Vec::new();
+    let mut cpu = Vec::new();
+    for _ in 0..frames.max(1) {
+        let (c, _) = timed_cpu(|| renderer.render(cam, &NoProgress));
+        wall.push(c.0);
+        cpu.push(c.1);
+    }
+    Ok((wall, cpu, warm))
+}
+
+/// CPU time of the whole process so far (every thread), in nanoseconds, from
+/// `/proc/self/task/*/schedstat`; `None` where that is not readable.
+fn process_cpu_ns() -> Option<u64> {
+    let mut total = 0u64;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total)
+}
+
+/// `((wall s, CPU s of all threads), result)` of `f` (CPU NaN where unknown).
+fn timed_cpu<T>(f: impl FnOnce() -> T) -> ((f64, f64), T) {
+    let cpu0 = process_cpu_ns();
+    let start = Instant::now();
+    let out = f();
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = match (cpu0, process_cpu_ns()) {
+        (Some(a), Some(b)) => b.saturating_sub(a) as f64 * 1e-9,
+        _ => f64::NAN,
+    };
+    ((wall, cpu), out)
+}
+
+/// Steps of the ray walk over the camera's pixel-centre rays (the work of the iso
+/// render's leaf walk), and the rays that hit: the indexed walk, or the reference walk
+/// without the index (`descent`).
+fn leaves_per_ray(adf: &Adf, camera: &Camera, size: u32, descent: bool) -> (u64, u64) {
     let mut leaves = 0u64;
     let mut hits = 0u64;
     for y in 0..size {
         for x in 0..size {
             let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5, size, size);
             let (t0, t1) = adf.root_box().ray_interval(ray.origin, ray.dir).unwrap_or((0.0, -1.0));
-            let (hit, steps) = adf.first_crossing_between(ray.origin, ray.dir, t0, t1, 0.0);
+            let (hit, steps) = if descent {
+                adf.first_crossing_by_descent(ray.origin, ray.dir, t0, t1, 0.0)
+            } else {
+                adf.first_crossing_between(ray.origin, ray.dir, t0, t1, 0.0)
+            };
             leaves += steps as u64;
             hits += hit.is_some() as u64;
         }

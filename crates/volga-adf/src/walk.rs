@@ -1,0 +1,509 @@
+//! The ray walk's index: what makes an ADF render at interactive rates.
+//!
+//! The reference walk ([`Adf::first_crossing_by_descent`]) reads 36-byte cells on every
+//! descent and visits every leaf the ray crosses, however far from the surface. The
+//! indexed walk ([`Adf::first_crossing_between`]) adds, built once on the first ray
+//! ([`WalkIndex`]):
+//!
+//! * a **uniform grid** over the root cube at depth `G = min(6, depth reached)` (64³
+//!   cells at most) holding, per grid cell, the index and depth of the tree node that
+//!   covers it (the node at depth `G`, or the shallower leaf that contains it), so a
+//!   leaf is found by descending at most `depth − G` levels instead of from the root;
+//! * per grid cell a **conservative minimum** of the reconstruction (the smallest corner
+//!   value of every leaf that meets it; `−max |c|` for a jump leaf): a ray crosses a grid
+//!   cell whose minimum is above the iso value in one step, without locating its leaves;
+//! * a **compact copy of the child links** (4 bytes per cell; the 8 siblings' links in one
+//!   32-byte run), so the descent touches a cache line per level instead of a 36-byte
+//!   cell, and the leaf's corners are read once.
+//!
+//! In a leaf with a corner at or below the iso value the trilinear restriction to the
+//! ray is a cubic; its coefficients come from 4 samples as in the reference walk, and its
+//! first downward root is refined on the polynomial (3 multiply-adds per evaluation)
+//! rather than by re-evaluating the trilinear cell.
+//!
+//! The index is a function of the tree alone (deterministic, the same for any thread
+//! count); it is not part of the ADF's value (`PartialEq` ignores it, a clone rebuilds it
+//! when needed) and its size is [`Adf::walk_index_bytes`].
+
+use std::sync::OnceLock;
+
+use glam::DVec3;
+
+use crate::ray::{bisect, first_root_sampled, next_t};
+use crate::tree::{corner_position, trilinear, Cell, LEAF};
+use crate::Adf;
+
+/// Deepest level of the walk grid (64³ cells, 2.25 MB with its links and minima).
+const GRID_DEPTH: u8 = 6;
+
+/// The walk index of an ADF, built lazily (see the module doc).
+#[derive(Default)]
+pub(crate) struct WalkCache(pub(crate) OnceLock<WalkIndex>);
+
+impl Clone for WalkCache {
+    /// A clone starts without an index (built again on its first ray).
+    fn clone(&self) -> Self {
+        WalkCache::default()
+    }
+}
+
+impl PartialEq for WalkCache {
+    /// Derived data: never part of an ADF's value.
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for WalkCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "WalkCache(built: {})", self.0.get().is_some())
+    }
+}
+
+/// The grid and compact links of the indexed walk.
+pub(crate) struct WalkIndex {
+    /// `cells[i].children` for every cell.
+    links: Vec<u32>,
+    /// Grid depth `G`; the grid has `n = 2^G` cells per axis, index `x + n(y + n z)`.
+    depth: u8,
+    n: usize,
+    /// The node covering each grid cell and its depth (≤ `G`).
+    node: Vec<u32>,
+    level: Vec<u8>,
+    /// Conservative minimum of the reconstruction over each grid cell.
+    lo: Vec<f32>,
+    /// The world box of the grid cells whose minimum is ≤ 0 (padded by 1e-6 of the root),
+    /// `None` if there are none: for an iso value ≤ 0 the reconstruction is above it
+    /// everywhere else, so a ray's interval is clipped to this box first.
+    active: Option<(DVec3, DVec3)>,
+    /// A coarser grid of `(n / 4)³` blocks of 4³ grid cells (when `G ≥ 2`): the minimum
+    /// of their minima, so a ray crosses an empty block in one step.
+    block_lo: Vec<f32>,
+}
+
+impl WalkIndex {
+    fn build(adf: &Adf) -> WalkIndex {
+        let depth = adf.stats.depth_reached.min(GRID_DEPTH);
+        let n = 1usize << depth;
+        let mut index = WalkIndex {
+            links: adf.cells.iter().map(|c| c.children).collect(),
+            depth,
+            n,
+            node: vec![0; n * n * n],
+            level: vec![0; n * n * n],
+            lo: vec![0.0; n * n * n],
+            active: None,
+            block_lo: Vec::new(),
+        };
+        index.fill(adf, 0, 0, [0; 3]);
+        if depth >= 2 {
+            let m = n / 4;
+            index.block_lo = vec![f32::INFINITY; m * m * m];
+            for z in 0..n {
+                for y in 0..n {
+                    for x in 0..n {
+                        let b = &mut index.block_lo[x / 4 + m * (y / 4 + m * (z / 4))];
+                        *b = b.min(index.lo[x + n * (y + n * z)]);
+                    }
+                }
+            }
+        }
+        let mut box_lo = [usize::MAX; 3];
+        let mut box_hi = [0usize; 3];
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    if index.lo[x + n * (y + n * z)] <= 0.0 {
+                        for (a, v) in [x, y, z].into_iter().enumerate() {
+                            box_lo[a] = box_lo[a].min(v);
+                            box_hi[a] = box_hi[a].max(v + 1);
+                        }
+                    }
+                }
+            }
+        }
+        if box_lo[0] != usize::MAX {
+            let g = adf.cell_size(depth);
+            let pad = adf.root_size * 1e-6;
+            let corner = |c: [usize; 3]| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * g + adf.root_min;
+            index.active = Some((corner(box_lo) - DVec3::splat(pad), corner(box_hi) + DVec3::splat(pad)));
+        }
+        index
+    }
+
+    /// Fills the grid cells under node `i` (depth `d`, integer position `ijk` at its depth).
+    fn fill(&mut self, adf: &Adf, i: usize, d: u8, ijk: [usize; 3]) {
+        let c = &adf.cells[i];
+        if d == self.depth || c.is_leaf() {
+            let lo = subtree_lo(&adf.cells, i);
+            let span = 1usize << (self.depth - d);
+            let n = self.n;
+            for z in ijk[2] * span..(ijk[2] + 1) * span {
+                for y in ijk[1] * span..(ijk[1] + 1) * span {
+                    for x in ijk[0] * span..(ijk[0] + 1) * span {
+                        let k = x + n * (y + n * z);
+                        self.node[k] = i as u32;
+                        self.level[k] = d;
+                        self.lo[k] = lo;
+                    }
+                }
+            }
+            return;
+        }
+        for o in 0..8 {
+            let child = [
+                ijk[0] * 2 + (o & 1),
+                ijk[1] * 2 + ((o >> 1) & 1),
+                ijk[2] * 2 + ((o >> 2) & 1),
+            ];
+            self.fill(adf, c.children as usize + o, d + 1, child);
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        self.links.len() * 4 + self.node.len() * 4 + self.level.len() + self.lo.len() * 4 + self.block_lo.len() * 4
+    }
+}
+
+/// The smallest value the reconstruction takes in the subtree of cell `i` (a lower bound:
+/// each leaf's value is a convex combination of its corners, or of their magnitudes with
+/// a sign).
+fn subtree_lo(cells: &[Cell], i: usize) -> f32 {
+    let c = &cells[i];
+    if c.is_leaf() {
+        if c.jump().is_some() {
+            -c.corners.iter().fold(0.0f32, |a, &v| a.max(v.abs()))
+        } else {
+            c.corners.iter().fold(f32::INFINITY, |a, &v| a.min(v))
+        }
+    } else {
+        (0..8).fold(f32::INFINITY, |a, o| a.min(subtree_lo(cells, c.children as usize + o)))
+    }
+}
+
+/// Just past a box's exit parameter (by 1e-9 of the box, `cell_t` in ray units), so the
+/// next point lies in the next box despite rounding instead of costing a step with a
+/// nudge. A crossing in that sliver is found at its end (the next box's start is already
+/// inside), within 1e-9 of the box.
+#[inline]
+fn past(exit: f64, cell_t: f64) -> f64 {
+    exit + cell_t * 1e-9
+}
+
+/// Where a ray leaves the box `min + [0, size]³`, with `inv` the reciprocal direction
+/// (only the signs of `dir` choose the faces).
+#[inline]
+fn box_exit(origin: DVec3, dir: DVec3, inv: DVec3, min: DVec3, size: f64) -> f64 {
+    let mut exit = f64::INFINITY;
+    for a in 0..3 {
+        let d = dir[a];
+        if d > 0.0 {
+            exit = exit.min((min[a] + size - origin[a]) * inv[a]);
+        } else if d < 0.0 {
+            exit = exit.min((min[a] - origin[a]) * inv[a]);
+        }
+    }
+    exit
+}
+
+impl Adf {
+    /// The walk index, built on first use.
+    pub(crate) fn walk_index(&self) -> &WalkIndex {
+        self.walk.0.get_or_init(|| WalkIndex::build(self))
+    }
+
+    /// Builds the ray walk's index now (otherwise the first ray does) and returns its
+    /// size in bytes: the render layout's memory on top of [`Adf::memory_bytes`].
+    pub fn walk_index_bytes(&self) -> usize {
+        self.walk_index().bytes()
+    }
+
+    /// The leaf containing `q` (a point of the root cube), found from the walk grid: the
+    /// same leaf as [`Adf::locate`].
+    #[inline]
+    pub(crate) fn locate_indexed(&self, ix: &WalkIndex, q: DVec3) -> (usize, DVec3, f64) {
+        let n = ix.n;
+        // Truncation is the floor for the non-negative offsets of a point in the root.
+        let g = (q - self.root_min) * (n as f64 / self.root_size);
+        let cell = |v: f64| (v.max(0.0) as usize).min(n - 1);
+        let (gx, gy, gz) = (cell(g.x), cell(g.y), cell(g.z));
+        let k = gx + n * (gy + n * gz);
+        let level = ix.level[k];
+        let shift = ix.depth - level;
+        let size = self.cell_size(level);
+        let mut min =
+            self.root_min + DVec3::new((gx >> shift) as f64, (gy >> shift) as f64, (gz >> shift) as f64) * size;
+        let max = min + DVec3::splat(size);
+        let root_max = self.root_min + DVec3::splat(self.root_size);
+        let contains = q.cmpge(min).all() && (q.cmplt(max) | max.cmpge(root_max)).all();
+        if !contains {
+            // Rounding put `q` in a neighbouring grid cell: descend from the root.
+            let (i, min, size, _) = self.locate(q);
+            return (i, min, size);
+        }
+        let mut index = ix.node[k] as usize;
+        let mut size = size;
+        loop {
+            let link = ix.links[index];
+            if link >= crate::tree::JUMP_FLAG {
+                return (index, min, size);
+            }
+            size *= 0.5;
+            index = link as usize + crate::tree::child_octant(q, &mut min, size);
+        }
+    }
+
+    /// The first `t ∈ [t_start, t_end]` where the reconstruction along `origin + t·dir`
+    /// falls to `iso` or below, and the number of steps taken (leaves visited, and grid
+    /// cells crossed without visiting their leaves).
+    ///
+    /// The walk of [`Adf::first_crossing_by_descent`] (sphere-tracing steps in leaves
+    /// above `iso`, the cubic restriction's first downward root in a leaf with a corner
+    /// at or below it) on the walk index (see the module `walk`): leaves are found from a
+    /// 64³ grid of nodes and grid cells whose conservative minimum is above `iso` are
+    /// crossed in one step. A value at `t_start` already at or below `iso` gives
+    /// `t_start`.
+    pub fn first_crossing_between(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        t_start: f64,
+        t_end: f64,
+        iso: f64,
+    ) -> (Option<f64>, u32) {
+        let ix = self.walk_index();
+        let mut t = t_start;
+        let mut t_end = t_end;
+        let mut steps = 0u32;
+        if iso <= 0.0 {
+            // Outside the active box the reconstruction is above `iso`.
+            let Some((lo, hi)) = ix.active else {
+                return (None, 0);
+            };
+            for a in 0..3 {
+                let (o, d) = (origin[a], dir[a]);
+                if d == 0.0 {
+                    if o < lo[a] || o > hi[a] {
+                        return (None, 0);
+                    }
+                    continue;
+                }
+                let (mut ta, mut tb) = ((lo[a] - o) / d, (hi[a] - o) / d);
+                if ta > tb {
+                    std::mem::swap(&mut ta, &mut tb);
+                }
+                t = t.max(ta);
+                t_end = t_end.min(tb);
+            }
+            if t > t_end {
+                return (None, 0);
+            }
+        }
+        let scale = dir.length();
+        let inv = DVec3::ONE / dir;
+        let root_max = self.root_min + DVec3::splat(self.root_size);
+        let n = ix.n;
+        let grid_size = self.cell_size(ix.depth);
+        let to_grid = n as f64 / self.root_size;
+        while t <= t_end {
+            steps += 1;
+            let p = origin + dir * t;
+            let q = p.clamp(self.root_min, root_max);
+            // A grid cell whose minimum is above `iso` (and that is not one leaf, whose
+            // own exit may reach farther) is crossed in one step.
+            let g = (q - self.root_min) * to_grid;
+            let cell = |v: f64| (v.max(0.0) as usize).min(n - 1);
+            let (gx, gy, gz) = (cell(g.x), cell(g.y), cell(g.z));
+            let k = gx + n * (gy + n * gz);
+            if ix.depth >= 2 && ix.level[k] >= ix.depth - 2 {
+                let m = n / 4;
+                let (bx, by, bz) = (gx / 4, gy / 4, gz / 4);
+                if (ix.block_lo[bx + m * (by + m * bz)] as f64) > iso {
+                    let block = 4.0 * grid_size;
+                    let bmin = self.root_min + DVec3::new(bx as f64, by as f64, bz as f64) * block;
+                    let exit = box_exit(origin, dir, inv, bmin, block).min(t_end).max(t);
+                    t = next_t(t, past(exit, block / scale), block / scale);
+                    continue;
+                }
+            }
+            if ix.level[k] == ix.depth
+                && (ix.lo[k] as f64) > iso
+                && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG
+            {
+                let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
+                let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
+                t = next_t(t, past(exit, grid_size / scale), grid_size / scale);
+                continue;
+            }
+            let (index, min, size) = self.locate_indexed(ix, q);
+            let exit = box_exit(origin, dir, inv, min, size).min(t_end).max(t);
+            let cell = &self.cells[index];
+            let corners = cell.corners;
+            let lo = corners.iter().fold(f32::INFINITY, |a, &c| a.min(c)) as f64;
+            if lo > iso {
+                let hi = corners.iter().fold(f32::NEG_INFINITY, |a, &c| a.max(c)) as f64;
+                let mut candidate = exit;
+                if hi - iso > (exit - t) * scale {
+                    let mut bound = f64::NEG_INFINITY;
+                    for (b, &c) in corners.iter().enumerate() {
+                        bound =
+                            bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
+                    }
+                    candidate = exit.max(t + bound / scale);
+                }
+                t = next_t(t, past(candidate, size / scale), size / scale);
+                continue;
+            }
+            let inv_size = 1.0 / size;
+            let found = if cell.children == LEAF {
+                let at = |s: f64| {
+                    trilinear(
+                        &corners,
+                        ((origin + dir * s - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE),
+                    ) - iso
+                };
+                first_root_cubic(&at, t, exit)
+            } else {
+                // A jump leaf: as in the reference walk.
+                let k = cell.jump().expect("a leaf that is not plain is a jump leaf");
+                let magnitudes = corners.map(f32::abs);
+                let signs = &self.jumps[k];
+                if iso == 0.0 {
+                    let sign_at = |s: f64| {
+                        trilinear(
+                            signs,
+                            ((origin + dir * s - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE),
+                        )
+                    };
+                    first_root_cubic(&sign_at, t, exit)
+                } else {
+                    let at = |s: f64| {
+                        let u = ((origin + dir * s - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
+                        let m = trilinear(&magnitudes, u);
+                        (if trilinear(signs, u) > 0.0 { m } else { -m }) - iso
+                    };
+                    first_root_sampled(&at, t, exit)
+                }
+            };
+            if let Some(hit_t) = found {
+                return (Some(hit_t), steps);
+            }
+            t = next_t(t, past(exit, size / scale), size / scale);
+        }
+        (None, steps)
+    }
+}
+
+/// The first `s ∈ [a, b]` with `g(s) ≤ 0` for a cubic `g` (the trilinear reconstruction
+/// along a segment inside one cell), or `None`: the cubic through 4 samples, split into
+/// monotone pieces at its critical points, the first downward crossing refined on the
+/// polynomial (regula falsi safeguarded by bisection, [`bisect`]).
+pub(crate) fn first_root_cubic(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
+    let ga = g(a);
+    if ga <= 0.0 {
+        return Some(a);
+    }
+    if b <= a {
+        return None;
+    }
+    let h = b - a;
+    let (g0, g1, g2, g3) = (ga, g(a + h / 3.0), g(a + 2.0 * h / 3.0), g(b));
+    // p(u) = c0 + c1 u + c2 u² + c3 u³ on u ∈ [0, 1] (Lagrange at 0, ⅓, ⅔, 1).
+    let c0 = g0;
+    let c1 = (-11.0 * g0 + 18.0 * g1 - 9.0 * g2 + 2.0 * g3) / 2.0;
+    let c2 = (18.0 * g0 - 45.0 * g1 + 36.0 * g2 - 9.0 * g3) / 2.0;
+    let c3 = (-9.0 * g0 + 27.0 * g1 - 27.0 * g2 + 9.0 * g3) / 2.0;
+    // The end value is the sample itself (not the fit), so a root at the exit face is seen.
+    let poly = |u: f64| {
+        if u >= 1.0 {
+            g3
+        } else {
+            c0 + u * (c1 + u * (c2 + u * c3))
+        }
+    };
+    let mut cuts = [0.0, 1.0, 2.0, 2.0];
+    let mut m = 2;
+    let (qa, qb, qc) = (3.0 * c3, 2.0 * c2, c1);
+    if qa.abs() > 1e-300 {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if disc >= 0.0 {
+            let r = disc.sqrt();
+            let q = -0.5 * (qb + qb.signum() * r);
+            for u in [q / qa, if q != 0.0 { qc / q } else { f64::NAN }] {
+                if u > 0.0 && u < 1.0 {
+                    cuts[m] = u;
+                    m += 1;
+                }
+            }
+        }
+    } else if qb.abs() > 1e-300 {
+        let u = -qc / qb;
+        if u > 0.0 && u < 1.0 {
+            cuts[m] = u;
+            m += 1;
+        }
+    }
+    let cuts = &mut cuts[..m];
+    cuts.sort_by(f64::total_cmp);
+    for w in cuts.windows(2) {
+        if poly(w[1]) <= 0.0 {
+            let u = bisect(&poly, w[0], w[1]);
+            return Some((a + u * h).min(b));
+        }
+    }
+    None
+}
+
+/// An ADF rendered through the reference walk ([`Adf::first_crossing_by_descent`]):
+/// every [`Field`](volga_core::Field) method is the ADF's, except that iso crossings are
+/// found without the walk index. For same-run comparisons (`volga bench adf`) and tests.
+#[derive(Clone, Copy, Debug)]
+pub struct DescentWalk<'a>(pub &'a Adf);
+
+impl volga_core::Field for DescentWalk<'_> {
+    fn bounds(&self) -> volga_core::Aabb {
+        volga_core::Field::bounds(self.0)
+    }
+    fn kind(&self) -> volga_core::FieldKind {
+        volga_core::Field::kind(self.0)
+    }
+    fn background(&self) -> f64 {
+        volga_core::Field::background(self.0)
+    }
+    fn value(&self, world_pos: DVec3) -> f64 {
+        volga_core::Field::value(self.0, world_pos)
+    }
+    fn values_along(&self, line: &volga_core::Line, first: u64, out: &mut [f64]) {
+        volga_core::Field::values_along(self.0, line, first, out)
+    }
+    fn gradient(&self, world_pos: DVec3) -> DVec3 {
+        volga_core::Field::gradient(self.0, world_pos)
+    }
+    fn gradient_step(&self) -> DVec3 {
+        volga_core::Field::gradient_step(self.0)
+    }
+    fn first_crossing(
+        &self,
+        world_origin: DVec3,
+        world_dir: DVec3,
+        t0: f64,
+        t1: f64,
+        iso: f64,
+    ) -> volga_core::Crossing {
+        if !(world_origin.is_finite() && world_dir.is_finite() && t0.is_finite() && t1.is_finite())
+            || world_dir == DVec3::ZERO
+        {
+            return volga_core::Crossing::NotProvided;
+        }
+        match self.0.first_crossing_by_descent(world_origin, world_dir, t0, t1, iso).0 {
+            Some(t) => volga_core::Crossing::At(t),
+            None => volga_core::Crossing::Miss,
+        }
+    }
+    fn value_range(&self, world_box: &volga_core::Aabb) -> (f64, f64) {
+        volga_core::Field::value_range(self.0, world_box)
+    }
+    fn sample_spacing(&self) -> f64 {
+        volga_core::Field::sample_spacing(self.0)
+    }
+}
