@@ -262,7 +262,9 @@ impl PackedVolume {
 
     /// Per lane: the offset of the cell's base voxel entry (the background block's
     /// outside the stored region or at non-finite positions) and the fractions.
-    #[allow(clippy::needless_range_loop)]
+    // Index loops over the lanes on purpose; `max(..).min(..)` rather than `clamp`,
+    // which keeps NaN.
+    #[allow(clippy::needless_range_loop, clippy::manual_clamp)]
     #[inline(always)]
     fn cells_lanes(&self, index_pos: &[[f32; 8]; 3]) -> ([u32; 8], [[f32; 8]; 3]) {
         // Clamping sends NaN to −LIM (`f32::max` returns the non-NaN operand) and ±∞ to
