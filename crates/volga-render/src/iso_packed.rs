@@ -88,7 +88,8 @@ pub(crate) fn march_iso_packed(
         return None;
     }
     let tau_end = t1 - t0;
-    let mut dda = Dda::new(a0, d, 0.0);
+    // The voxel walk, (re)started lazily at `pos` where a macro cell must be read.
+    let mut dda: Option<Dda> = None;
     let mut below = background_below;
     let mut walk = grid.map(|g| g.walk(ray, t0));
     // The current macro cell's class, valid for ray parameters below `macro_exit`.
@@ -104,12 +105,11 @@ pub(crate) fn march_iso_packed(
     };
     let mut visited = 0u64;
     loop {
-        let (tau_a, tau_b) = dda.segment(tau_end);
-        if tau_a > tau_end || visited > max_cells {
-            return None;
-        }
         if let Some(w) = &mut walk {
-            let q = (t0 + tau_a).max(pos);
+            let q = match &dda {
+                Some(v) => (t0 + v.segment(tau_end).0).max(pos),
+                None => pos,
+            };
             if q >= macro_exit {
                 // Just past `q`: a cell starting on a macro face belongs to the next one.
                 let (class, exit) = w.class_at(q.next_up());
@@ -130,20 +130,28 @@ pub(crate) fn march_iso_packed(
                     return None;
                 }
                 pos = macro_exit;
-                let tau = pos - t0;
-                dda = Dda::new(a0, d, tau);
-                // Skip a cell `pos` only touches (its exit at or before `pos`).
-                while dda.exit_min() <= tau {
-                    dda.step();
-                }
+                dda = None;
                 continue;
             }
+        }
+        let v = dda.get_or_insert_with(|| {
+            let tau = pos - t0;
+            let mut v = Dda::new(a0, d, tau);
+            // Skip a cell `pos` only touches (its exit at or before `pos`).
+            while v.exit_min() <= tau {
+                v.step();
+            }
+            v
+        });
+        let (tau_a, tau_b) = v.segment(tau_end);
+        if tau_a > tau_end || visited > max_cells {
+            return None;
         }
         visited += 1;
         if tau_b >= tau_a {
             stats.samples += 1;
-            let c = cell_corners(packed, dda.base, inward, bg);
-            match cell_crossing(&c, dda.base, a0, d, iso, tau_a, tau_b, tol, below) {
+            let c = cell_corners(packed, v.base, inward, bg);
+            match cell_crossing(&c, v.base, a0, d, iso, tau_a, tau_b, tol, below) {
                 Crossing::At(tau) => return Some(t0 + tau),
                 Crossing::End(b) => below = b,
             }
@@ -152,7 +160,7 @@ pub(crate) fn march_iso_packed(
         if tau_b >= tau_end {
             return None;
         }
-        dda.step();
+        v.step();
     }
 }
 
@@ -377,11 +385,13 @@ impl Dda {
         for a in 0..3 {
             // Clamped far outside any grid (the packed volume serves the background there).
             let x = p[a].clamp(-1e9, 1e9);
-            let mut b = x.floor();
-            if dir[a] < 0 && b == x {
-                b -= 1.0; // on a face, moving down: the cell below
+            // floor(x) through one conversion (NaN → 0, as `cell_at_index`).
+            let t = x as i32;
+            let mut b = t - ((t as f64) > x) as i32;
+            if dir[a] < 0 && b as f64 == x {
+                b -= 1; // on a face, moving down: the cell below
             }
-            base[a] = b as i32;
+            base[a] = b;
         }
         let mut dda = Dda {
             base,
