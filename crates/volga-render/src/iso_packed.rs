@@ -461,6 +461,10 @@ fn sign(x: f64) -> i32 {
 }
 
 #[cfg(test)]
+#[path = "iso_packed_tests.rs"]
+mod accuracy_tests;
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
