@@ -73,6 +73,7 @@ pub(crate) fn march_iso_packed(
     (t0, t1): (f64, f64),
     tol: f64,
     grid: Option<&MacroGrid>,
+    mask: Option<&IsoCellMask>,
     background_below: Option<bool>,
     stats: &mut RenderStats,
 ) -> Option<f64> {
@@ -148,7 +149,10 @@ pub(crate) fn march_iso_packed(
             return None;
         }
         visited += 1;
-        if tau_b >= tau_a {
+        if mask.is_some_and(|m| m.outside(v.base)) {
+            // All eight corners outside (what `cell_crossing` would find reading them).
+            below = Some(true);
+        } else if tau_b >= tau_a {
             stats.samples += 1;
             let c = cell_corners(packed, v.base, inward, bg);
             match cell_crossing(&c, v.base, a0, d, iso, tau_a, tau_b, tol, below) {
@@ -161,6 +165,65 @@ pub(crate) fn march_iso_packed(
             return None;
         }
         v.step();
+    }
+}
+
+/// Per voxel cell of a packed volume, one bit: set when its eight corners are all
+/// finite and outside the oriented iso value (`inward·v < inward·iso`), so the walk
+/// passes it without reading them (the same decision `cell_crossing` takes from the
+/// corners). Cells are grouped 4×4×4 per `u64` so a ray's consecutive cells share
+/// words. Built once per renderer (iso value and orientation fixed).
+pub(crate) struct IsoCellMask {
+    /// Blocks of 4³ cells per axis; cell `base` is at `base + 1` (bases from −1 on).
+    blocks: [u32; 3],
+    words: Vec<u64>,
+}
+
+impl IsoCellMask {
+    /// The mask of `packed` for the oriented iso level (in parallel; the same bits for
+    /// any thread count).
+    pub(crate) fn build(packed: &PackedVolume, inward: f64, iso: f64) -> IsoCellMask {
+        use rayon::prelude::*;
+        let dims = packed.grid().dims();
+        // Cells with bases −1 ..= dims − 1: dims + 1 per axis.
+        let blocks = [dims.x, dims.y, dims.z].map(|n| (n + 1).div_ceil(4));
+        let n = blocks[0] as usize * blocks[1] as usize * blocks[2] as usize;
+        let iso = inward * iso;
+        let bg = inward * packed.background() as f64;
+        let words = (0..n)
+            .into_par_iter()
+            .map(|w| {
+                let (bx, by, bz) = (
+                    w % blocks[0] as usize,
+                    (w / blocks[0] as usize) % blocks[1] as usize,
+                    w / (blocks[0] as usize * blocks[1] as usize),
+                );
+                let mut word = 0u64;
+                for bit in 0..64usize {
+                    let local = IVec3::new((bit & 3) as i32, ((bit >> 2) & 3) as i32, (bit >> 4) as i32);
+                    let base = IVec3::new(bx as i32, by as i32, bz as i32) * 4 + local - IVec3::ONE;
+                    let c = cell_corners(packed, base, inward, bg);
+                    if c.iter().all(|v| *v < iso) {
+                        word |= 1 << bit;
+                    }
+                }
+                word
+            })
+            .collect();
+        IsoCellMask { blocks, words }
+    }
+
+    /// Whether cell `base` is known to lie wholly outside (false where not covered).
+    #[inline(always)]
+    fn outside(&self, base: IVec3) -> bool {
+        let s = (base + IVec3::ONE).as_uvec3();
+        let b: glam::UVec3 = s >> 2u32;
+        if !(b.x < self.blocks[0] && b.y < self.blocks[1] && b.z < self.blocks[2]) {
+            return false;
+        }
+        let w = b.x as usize + self.blocks[0] as usize * (b.y as usize + self.blocks[1] as usize * b.z as usize);
+        let bit = (s.x & 3) | ((s.y & 3) << 2) | ((s.z & 3) << 4);
+        self.words[w] >> bit & 1 == 1
     }
 }
 

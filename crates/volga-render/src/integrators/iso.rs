@@ -67,6 +67,10 @@ impl Integrator for Iso {
         true
     }
 
+    fn packed_iso_value(&self) -> Option<f64> {
+        Some(self.value)
+    }
+
     /// A cell is skipped when its whole (oriented) range lies on one side of the
     /// iso value; the side is kept so the bracket, and the hit, are unchanged.
     fn classify_cell(&self, lo: f64, hi: f64, kind: FieldKind) -> CellClass {
@@ -101,6 +105,7 @@ impl Integrator for Iso {
                 interval,
                 m.tol,
                 m.grid,
+                m.iso_mask,
                 background_below,
                 stats,
             );
