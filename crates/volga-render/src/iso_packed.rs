@@ -92,7 +92,7 @@ pub(crate) fn march_iso_packed(
     // The voxel walk, (re)started lazily at `pos` where a macro cell must be read.
     let mut dda: Option<Dda> = None;
     let mut below = background_below;
-    let mut walk = grid.map(|g| g.walk(ray, t0));
+    let mut walk = grid.map(|g| MacroWalk::new(g, ray, t0));
     // The current macro cell's class, valid for ray parameters below `macro_exit`.
     let mut macro_class = CellClass::Active;
     let mut macro_exit = f64::NEG_INFINITY;
@@ -165,6 +165,139 @@ pub(crate) fn march_iso_packed(
             return None;
         }
         v.step();
+    }
+}
+
+/// A walk over the macro cells along one ray (Amanatides and Woo), like
+/// [`MacroGrid::walk`] but with the ray's inverse direction and inverse cell size
+/// precomputed (multiplications where that walk divides), for the packed iso loop.
+/// Face parameters are computed from the face planes; a point within rounding of a
+/// face may be given either cell, which the cells' one-spacing margin covers.
+struct MacroWalk<'g> {
+    grid: &'g MacroGrid,
+    min: DVec3,
+    max: DVec3,
+    cell: DVec3,
+    inv_cell: DVec3,
+    dims: [usize; 3],
+    origin: DVec3,
+    dir: DVec3,
+    inv_dir: DVec3,
+    ijk: [usize; 3],
+    t_exit: [f64; 3],
+    /// Set after a jump over a block of Outside cells (or leaving the grid by
+    /// rounding): the next query locates its cell afresh.
+    relocate: bool,
+}
+
+impl<'g> MacroWalk<'g> {
+    fn new(grid: &'g MacroGrid, ray: &Ray, t: f64) -> MacroWalk<'g> {
+        let (min, max, cell, dims) = grid.layout();
+        let mut w = MacroWalk {
+            grid,
+            min,
+            max,
+            cell,
+            inv_cell: DVec3::ONE / cell,
+            dims,
+            origin: ray.origin,
+            dir: ray.dir,
+            inv_dir: DVec3::ONE / ray.dir,
+            ijk: [0; 3],
+            t_exit: [f64::INFINITY; 3],
+            relocate: false,
+        };
+        w.locate(t);
+        w
+    }
+
+    /// Starts at the cell holding the point at `t` (clamped to the grid).
+    #[inline]
+    fn locate(&mut self, t: f64) {
+        let p = self.origin + self.dir * t;
+        for a in 0..3 {
+            let f = (p[a] - self.min[a]) * self.inv_cell[a];
+            self.ijk[a] = if f.is_finite() && f > 0.0 {
+                (f as usize).min(self.dims[a] - 1)
+            } else {
+                0
+            };
+            self.t_exit[a] = self.face_t(a, self.ijk[a]);
+        }
+        self.relocate = false;
+    }
+
+    /// Ray parameter where the ray leaves the slab of cells `index` along `a` through
+    /// its far face (∞ when parallel).
+    #[inline(always)]
+    fn face_t(&self, a: usize, index: usize) -> f64 {
+        let d = self.dir[a];
+        if d > 0.0 {
+            let plane = if index + 1 >= self.dims[a] {
+                self.max[a]
+            } else {
+                self.min[a] + (index + 1) as f64 * self.cell[a]
+            };
+            (plane - self.origin[a]) * self.inv_dir[a]
+        } else if d < 0.0 {
+            (self.min[a] + index as f64 * self.cell[a] - self.origin[a]) * self.inv_dir[a]
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// The class of the cell holding the point at `t` (non-decreasing from call to
+    /// call) and the ray parameter up to which that class holds: the cell's exit, or
+    /// for an Outside cell whose Outside block reaches `r ≥ 2` cells on every side, the
+    /// block's exit. Leaving the grid (rounding at the bounds): Active to the end.
+    #[inline]
+    fn class_at(&mut self, t: f64) -> (CellClass, f64) {
+        if self.relocate {
+            self.locate(t);
+        }
+        loop {
+            let exit = self.t_exit[0].min(self.t_exit[1]).min(self.t_exit[2]);
+            if exit >= t || exit.is_nan() {
+                break;
+            }
+            let a = if self.t_exit[0] == exit {
+                0
+            } else if self.t_exit[1] == exit {
+                1
+            } else {
+                2
+            };
+            let forward = self.dir[a] > 0.0;
+            if (forward && self.ijk[a] + 1 >= self.dims[a]) || (!forward && self.ijk[a] == 0) {
+                self.relocate = true;
+                return (CellClass::Active, f64::INFINITY);
+            }
+            if forward {
+                self.ijk[a] += 1;
+            } else {
+                self.ijk[a] -= 1;
+            }
+            self.t_exit[a] = self.face_t(a, self.ijk[a]);
+        }
+        let exit = self.t_exit[0].min(self.t_exit[1]).min(self.t_exit[2]);
+        let [nx, ny, _] = self.dims;
+        let lin = self.ijk[0] + nx * (self.ijk[1] + ny * self.ijk[2]);
+        let (class, r) = self.grid.class_and_reach(lin);
+        let r = r as usize;
+        if class != CellClass::Outside || r < 2 {
+            return (class, exit);
+        }
+        let mut block_exit = f64::INFINITY;
+        for a in 0..3 {
+            let index = if self.dir[a] > 0.0 {
+                (self.ijk[a] + r).min(self.dims[a] - 1)
+            } else {
+                self.ijk[a].saturating_sub(r)
+            };
+            block_exit = block_exit.min(self.face_t(a, index));
+        }
+        self.relocate = true;
+        (class, block_exit.max(exit))
     }
 }
 

@@ -34,7 +34,18 @@ fn packed_hit(field: &dyn Field, inward: f64, ray: &Ray, iso: f64) -> Option<f64
     // The cell mask only spares reads: the same hit, bit for bit, with fewer cells read.
     let mask = IsoCellMask::build(&packed, inward, iso);
     let mut masked = RenderStats::default();
-    let with_mask = march_iso_packed(&packed, ray, inward, iso, (t0, t1), 1e-9, None, Some(&mask), below, &mut masked);
+    let with_mask = march_iso_packed(
+        &packed,
+        ray,
+        inward,
+        iso,
+        (t0, t1),
+        1e-9,
+        None,
+        Some(&mask),
+        below,
+        &mut masked,
+    );
     assert_eq!(hit.map(f64::to_bits), with_mask.map(f64::to_bits));
     assert!(masked.samples <= stats.samples);
     hit
@@ -76,7 +87,12 @@ fn sphere_ray(c: DVec3, r: f64, k: usize) -> Ray {
     let dir = match k % 25 {
         0 => DVec3::X,
         1 => -DVec3::Z,
-        _ => DVec3::new((k as f64 * 0.7).sin(), (k as f64 * 1.3).cos(), 0.4 + (k as f64 * 0.37).sin()).normalize(),
+        _ => DVec3::new(
+            (k as f64 * 0.7).sin(),
+            (k as f64 * 1.3).cos(),
+            0.4 + (k as f64 * 0.37).sin(),
+        )
+        .normalize(),
     };
     let offset = dir.any_orthogonal_vector().normalize() * (r * 0.97 * ((k % 20) as f64 / 19.0));
     Ray {
@@ -117,11 +133,20 @@ fn sphere_hits_are_the_exact_roots_of_the_reconstruction() {
                 let _ = exact;
                 // Radial error: along the ray it grows as 1/cos at grazing incidence.
                 let (e_rec, e_sphere) = ((hit - brute).abs(), ((ray.at(hit) - c).length() - r).abs());
-                assert!(e_rec < 1e-3, "{kind:?} at {origin}: ray {k} {e_rec} voxel from the root");
-                assert!(e_sphere < 0.05, "{kind:?} at {origin}: ray {k} {e_sphere} voxel from the sphere");
+                assert!(
+                    e_rec < 1e-3,
+                    "{kind:?} at {origin}: ray {k} {e_rec} voxel from the root"
+                );
+                assert!(
+                    e_sphere < 0.05,
+                    "{kind:?} at {origin}: ray {k} {e_sphere} voxel from the sphere"
+                );
                 worst = (worst.0.max(e_rec), worst.1.max(e_sphere));
             }
-            eprintln!("{kind:?} at {origin}: worst {:.2e} voxel from the root, {:.3} from the sphere", worst.0, worst.1);
+            eprintln!(
+                "{kind:?} at {origin}: worst {:.2e} voxel from the root, {:.3} from the sphere",
+                worst.0, worst.1
+            );
         }
     }
 }
@@ -141,15 +166,25 @@ fn plane_hits_are_exact() {
             });
             let field = Sampled::new(&v, Filter::Trilinear);
             let mut tested = 0;
-            let (iso, s) = if kind == ChannelKind::SignedDistance { (0.0, -1.0) } else { (0.5, 1.0) };
+            let (iso, s) = if kind == ChannelKind::SignedDistance {
+                (0.0, -1.0)
+            } else {
+                (0.5, 1.0)
+            };
             for k in 0..60 {
-                let target = origin + DVec3::new(5.0 + (k % 7) as f64 * 4.1, 4.0 + (k % 5) as f64 * 5.3, 6.0 + (k % 3) as f64 * 9.0);
+                let target = origin
+                    + DVec3::new(
+                        5.0 + (k % 7) as f64 * 4.1,
+                        4.0 + (k % 5) as f64 * 5.3,
+                        6.0 + (k % 3) as f64 * 9.0,
+                    );
                 // Project the target onto the plane, then shoot at it from the outside (+n side).
                 let on = target - n * (n.dot(target - origin) - 5.0);
                 let dir = match k % 6 {
                     0 => -DVec3::Y,
                     1 => DVec3::Z,
-                    _ => (-n + 0.6 * DVec3::new((k as f64).sin(), (k as f64 * 2.1).cos(), (k as f64 * 0.3).sin())).normalize(),
+                    _ => (-n + 0.6 * DVec3::new((k as f64).sin(), (k as f64 * 2.1).cos(), (k as f64 * 0.3).sin()))
+                        .normalize(),
                 };
                 if dir.dot(n) >= -1e-3 {
                     continue;
@@ -171,4 +206,3 @@ fn plane_hits_are_exact() {
         }
     }
 }
-

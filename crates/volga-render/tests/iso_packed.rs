@@ -159,7 +159,10 @@ fn packed_iso_images_match_the_general_path() {
             for (p, q) in a.pixels.iter().zip(&b.pixels) {
                 hits += (q.w > 0.0) as usize;
                 // Sampling found a crossing: the exact path finds one too.
-                assert!(q.w == 0.0 || p.w > 0.0, "{name} view {view}: the packed path missed a hit");
+                assert!(
+                    q.w == 0.0 || p.w > 0.0,
+                    "{name} view {view}: the packed path missed a hit"
+                );
                 if (*p - *q).abs().max_element() > 1.0 / 255.0 {
                     differing += 1;
                 }
@@ -175,7 +178,9 @@ fn packed_iso_images_match_the_general_path() {
             );
         }
     }
-    eprintln!("packed vs general iso: worst fraction of differing pixels {worst_fraction:.4}, {total_differing} in all");
+    eprintln!(
+        "packed vs general iso: worst fraction of differing pixels {worst_fraction:.4}, {total_differing} in all"
+    );
 }
 
 /// Skipping on = off and 1 = 2 threads, bit for bit; skipping skips.
@@ -243,7 +248,12 @@ fn axis_parallel_and_grazing_rays() {
         no_skip.sampling.empty_space_skipping = false;
         assert_eq!(bits(&a), bits(&draw(&field, &cam, &no_skip).0), "{dir}");
         let (g, _, _) = draw(&field, &cam, &general_settings);
-        let missed = a.pixels.iter().zip(&g.pixels).filter(|(p, q)| q.w > 0.0 && p.w == 0.0).count();
+        let missed = a
+            .pixels
+            .iter()
+            .zip(&g.pixels)
+            .filter(|(p, q)| q.w > 0.0 && p.w == 0.0)
+            .count();
         assert_eq!(missed, 0, "{dir}");
         assert!(a.pixels.iter().filter(|p| p.w > 0.0).count() > 100, "{dir}");
     }
@@ -293,10 +303,15 @@ fn the_packed_iso_path_is_taken_only_where_it_applies() {
 fn a_far_grid_renders_like_a_near_one() {
     let make = |origin: DVec3| {
         let grid = Grid::new(Transform::new(origin, DVec3::ONE).unwrap(), UVec3::splat(20)).unwrap();
-        volume_from(grid, |p| (0.5 - ((p - 0.5).length() - 0.3) * 10.0).clamp(0.0, 1.0) as f32)
+        volume_from(grid, |p| {
+            (0.5 - ((p - 0.5).length() - 0.3) * 10.0).clamp(0.0, 1.0) as f32
+        })
     };
     let (near, far) = (make(DVec3::ZERO), make(DVec3::splat(1e6)));
-    let (fnear, ffar) = (Sampled::new(&near, Filter::Trilinear), Sampled::new(&far, Filter::Trilinear));
+    let (fnear, ffar) = (
+        Sampled::new(&near, Filter::Trilinear),
+        Sampled::new(&far, Filter::Trilinear),
+    );
     let s = settings(true);
     let cam = |o: DVec3| {
         Camera::look_at(
