@@ -113,9 +113,9 @@ pub(crate) fn march_iso_packed(
             };
             if q >= macro_exit {
                 // Just past `q`: a cell starting on a macro face belongs to the next one.
-                let (class, exit) = w.class_at(q.next_up());
+                let (class, exit) = w.class_at(next_up(q));
                 macro_class = class;
-                macro_exit = exit.max(q.next_up());
+                macro_exit = exit.max(next_up(q));
             }
             let skip = match macro_class {
                 CellClass::Active => false,
@@ -645,6 +645,20 @@ impl Dda {
     }
 }
 
+/// The least `f64` above `x` (`f64::next_up`, stable only after this crate's MSRV).
+#[inline(always)]
+fn next_up(x: f64) -> f64 {
+    if x.is_nan() || x == f64::INFINITY {
+        x
+    } else if x == 0.0 {
+        f64::from_bits(1)
+    } else if x > 0.0 {
+        f64::from_bits(x.to_bits() + 1)
+    } else {
+        f64::from_bits(x.to_bits() - 1)
+    }
+}
+
 #[inline(always)]
 fn sign(x: f64) -> i32 {
     if x > 0.0 {
@@ -683,6 +697,16 @@ mod tests {
             let want = tri(p.x, p.y, p.z) - 0.25;
             assert!((g.eval(s) - want).abs() < 1e-14, "{s}: {} vs {want}", g.eval(s));
         }
+    }
+
+    /// `next_up` is the least float above.
+    #[test]
+    fn next_up_steps_one_ulp() {
+        assert_eq!(next_up(1.0), 1.0 + f64::EPSILON);
+        assert_eq!(next_up(-1.0), -1.0 + f64::EPSILON / 2.0);
+        assert!(next_up(0.0) > 0.0 && next_up(-0.0) > 0.0);
+        assert_eq!(next_up(f64::INFINITY), f64::INFINITY);
+        assert_eq!(next_up(f64::NEG_INFINITY), f64::MIN);
     }
 
     /// Critical points are where the derivative vanishes.

@@ -96,7 +96,7 @@ impl Integrator for Iso {
         // A packed sampled volume: its exact cell-by-cell crossing (`iso_packed.rs`).
         if let Some(packed) = crate::iso_packed::iso_packed(m) {
             let bg = m.field.background();
-            let background_below = (interval.0 > 0.0 && !bg.is_nan()).then(|| m.inward * bg < m.inward * self.value);
+            let background_below = (interval.0 > 0.0 && !bg.is_nan()).then_some(m.inward * bg < m.inward * self.value);
             let hit = crate::iso_packed::march_iso_packed(
                 packed,
                 ray,
