@@ -159,6 +159,7 @@ mod camera;
 mod classify;
 mod error;
 mod integrators;
+mod iso_packed;
 mod light_volume;
 mod march;
 mod packet;

@@ -9,7 +9,8 @@
 //! DVR with a 1D transfer function taking its colour from it) and the field packs itself
 //! ([`Field::pack`]: trilinear, central-difference sampled volumes); every other field
 //! (analytic fields, CVG trees, octrees, ADFs, cubic filters, analytic gradients) and
-//! mode (iso-surfaces included) renders through the general path.
+//! mode renders through the general path, except iso-surfaces, which march the same
+//! packed copy cell by cell (`iso_packed.rs`).
 //! [`Sampling::packed_path`](crate::Sampling::packed_path) turns it off.
 //!
 //! **What it changes in the image**: the lattice, skipping and early termination are the

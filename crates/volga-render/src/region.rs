@@ -65,6 +65,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             shadow: self.shadow,
             preint: self.preint,
             light_volumes: self.light_volumes,
+            iso_mask: None, // only with a packed copy, which is never kept here
         })
     }
 

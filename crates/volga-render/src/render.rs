@@ -158,6 +158,8 @@ pub struct Renderer<'a, F: ?Sized, I> {
     shadow: ShadowParams,
     preint: Option<PreIntegrated>,
     light_volumes: Vec<Option<LightVolume>>,
+    /// The packed iso path's cell mask (built with the packed copy for iso modes).
+    iso_mask: Option<crate::iso_packed::IsoCellMask>,
 }
 
 /// The scalar per-image constants of a [`March`].
@@ -216,6 +218,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             None => light_volumes(field, integrator, settings, &bounds, shadow, spacing),
         };
 
+        let iso_mask = match (&packed, integrator.packed_iso_value()) {
+            (Some(p), Some(iso)) => Some(crate::iso_packed::IsoCellMask::build(p, kind.inward_sign(), iso)),
+            _ => None,
+        };
         let sampling = &settings.sampling;
         let lighting = &settings.lighting;
         Ok(Renderer {
@@ -238,6 +244,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             shadow,
             preint,
             light_volumes,
+            iso_mask,
         })
     }
 
@@ -268,6 +275,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             shadow: self.shadow,
             preint: self.preint.as_ref(),
             light_volumes: &self.light_volumes,
+            iso_mask: self.iso_mask.as_ref(),
         }
     }
 

@@ -187,11 +187,9 @@ fn packed_images_match_the_general_path() {
                     let (b, sb, not_packed) = draw(&field, &cam, &mode, &general);
                     assert!(!not_packed);
                     if let Mode::Iso(_) = mode {
-                        // Iso-surfaces stay on the atlas path (the packed one was no
-                        // faster for them): the same bits.
-                        assert!(!packed);
-                        assert_eq!(bits(&a), bits(&b));
-                        assert_eq!(sa, sb);
+                        // Iso-surfaces find exact crossings on their own packed path,
+                        // compared with the general one in `tests/iso_packed.rs`.
+                        assert!(packed);
                         continue;
                     }
                     assert!(packed, "{name} {mode:?}");
@@ -226,7 +224,7 @@ fn packed_images_are_deterministic_and_skipping_changes_nothing() {
         for mode in modes() {
             let s = settings(view % 2 == 0);
             let (a, sa, packed) = draw(&field, &cam, &mode, &s);
-            assert_eq!(packed, matches!(mode, Mode::Volume(_)));
+            assert!(packed, "{mode:?}");
             assert!(a.pixels.iter().any(|p| p.w > 0.0), "{mode:?}: empty image");
             let mut no_skip = s.clone();
             no_skip.sampling.empty_space_skipping = false;
@@ -255,7 +253,7 @@ fn the_packed_path_is_taken_only_where_it_applies() {
     let iso = &modes()[0];
     let dvr = &modes()[1];
     let trilinear = Sampled::new(&volume, Filter::Trilinear);
-    assert!(!draw(&trilinear, &cam, iso, &s).2);
+    assert!(draw(&trilinear, &cam, iso, &s).2); // see `tests/iso_packed.rs`
     assert!(draw(&trilinear, &cam, dvr, &s).2);
     // A projection has no packed loop.
     assert!(!draw(&trilinear, &cam, &Mode::Mip(Mip), &s).2);

@@ -61,6 +61,16 @@ impl Integrator for Iso {
         }
     }
 
+    /// Trilinear, central-difference sampled volumes find their crossings exactly in
+    /// the packed copy (`iso_packed.rs`) when no shadow rays or point lights are asked for.
+    fn packed_path(&self) -> bool {
+        true
+    }
+
+    fn packed_iso_value(&self) -> Option<f64> {
+        Some(self.value)
+    }
+
     /// A cell is skipped when its whole (oriented) range lies on one side of the
     /// iso value; the side is kept so the bracket, and the hit, are unchanged.
     fn classify_cell(&self, lo: f64, hi: f64, kind: FieldKind) -> CellClass {
@@ -83,6 +93,34 @@ impl Integrator for Iso {
         interval: (f64, f64),
         stats: &mut RenderStats,
     ) -> (Vec3, f32) {
+        // A packed sampled volume: its exact cell-by-cell crossing (`iso_packed.rs`).
+        if let Some(packed) = crate::iso_packed::iso_packed(m) {
+            let bg = m.field.background();
+            let background_below = (interval.0 > 0.0 && !bg.is_nan()).then_some(m.inward * bg < m.inward * self.value);
+            let hit = crate::iso_packed::march_iso_packed(
+                packed,
+                ray,
+                m.inward,
+                self.value,
+                interval,
+                m.tol,
+                m.grid,
+                m.iso_mask,
+                background_below,
+                stats,
+            );
+            return match hit {
+                None => (Vec3::ZERO, 0.0),
+                Some(t) => {
+                    let p = ray.at(t);
+                    let co = match &self.colour {
+                        SurfaceColour::Constant(c) => *c,
+                        SurfaceColour::FromField => field_colour(m.field, p),
+                    };
+                    (m.shade_at(co, p, ray, stats), 1.0)
+                }
+            };
+        }
         // A field that finds its own crossings (an ADF) answers; the others are marched.
         let hit = match m.field.first_crossing(ray.origin, ray.dir, interval.0, interval.1, self.value) {
             Crossing::At(t) => Some(t),

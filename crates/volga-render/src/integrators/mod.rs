@@ -56,6 +56,12 @@ pub trait Integrator: Sync + std::fmt::Debug {
         None
     }
 
+    /// The iso value whose packed cell mask (`iso_packed.rs`) the renderer builds once
+    /// when this mode takes the packed path; `None` (the default) for modes without one.
+    fn packed_iso_value(&self) -> Option<f64> {
+        None
+    }
+
     /// The opacity (per reference step) a sample of `value` has for shadows, for modes
     /// whose shadows are the transmittance of their classification (volume rendering):
     /// what the light-space pre-pass
@@ -190,6 +196,8 @@ pub struct March<'a, F: ?Sized> {
     /// Per light (directional first, then point): its light-space transmittance grid,
     /// when the pre-pass is on and the light has one.
     pub(crate) light_volumes: &'a [Option<crate::light_volume::LightVolume>],
+    /// The packed iso path's cell mask, when the renderer built one.
+    pub(crate) iso_mask: Option<&'a crate::iso_packed::IsoCellMask>,
 }
 
 impl<F: Field + ?Sized> March<'_, F> {
