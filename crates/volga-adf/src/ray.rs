@@ -286,6 +286,22 @@ pub(crate) fn first_root(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64>
     let c2 = (18.0 * g0 - 45.0 * g1 + 36.0 * g2 - 9.0 * g3) / 2.0;
     let c3 = (-9.0 * g0 + 27.0 * g1 - 27.0 * g2 + 9.0 * g3) / 2.0;
     // Critical points: 3 c3 u² + 2 c2 u + c1 = 0.
+    let (cuts, n) = monotone_cuts(c1, c2, c3);
+    let cuts = &cuts[..n];
+    for w in cuts.windows(2) {
+        let (lo, hi) = (a + w[0] * h, a + w[1] * h);
+        if g(hi) <= 0.0 {
+            // g(lo) > 0 (checked at the previous piece's end) and g(hi) ≤ 0: bisect.
+            return Some(bisect(g, lo, hi));
+        }
+    }
+    None
+}
+
+/// `0`, `1` and the critical points in `(0, 1)` of the cubic `c0 + c1 u + c2 u² + c3 u³`
+/// (roots of `3 c3 u² + 2 c2 u + c1`, by the cancellation-free quadratic formula), sorted:
+/// the cubic is monotone between consecutive cuts. Returns the cuts and their count.
+pub(crate) fn monotone_cuts(c1: f64, c2: f64, c3: f64) -> ([f64; 4], usize) {
     let mut cuts = [0.0, 1.0, 2.0, 2.0];
     let mut n = 2;
     let (qa, qb, qc) = (3.0 * c3, 2.0 * c2, c1);
@@ -308,14 +324,6 @@ pub(crate) fn first_root(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64>
             n += 1;
         }
     }
-    let cuts = &mut cuts[..n];
-    cuts.sort_by(f64::total_cmp);
-    for w in cuts.windows(2) {
-        let (lo, hi) = (a + w[0] * h, a + w[1] * h);
-        if g(hi) <= 0.0 {
-            // g(lo) > 0 (checked at the previous piece's end) and g(hi) ≤ 0: bisect.
-            return Some(bisect(g, lo, hi));
-        }
-    }
-    None
+    cuts[..n].sort_by(f64::total_cmp);
+    (cuts, n)
 }

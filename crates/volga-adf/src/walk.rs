@@ -29,7 +29,7 @@ use std::sync::OnceLock;
 
 use glam::DVec3;
 
-use crate::ray::{bisect, first_root_sampled, next_t};
+use crate::ray::{bisect, first_root_sampled, monotone_cuts, next_t};
 use crate::tree::{corner_position, trilinear, Cell, LEAF};
 use crate::Adf;
 
@@ -421,30 +421,8 @@ pub(crate) fn first_root_cubic(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Optio
             c0 + u * (c1 + u * (c2 + u * c3))
         }
     };
-    let mut cuts = [0.0, 1.0, 2.0, 2.0];
-    let mut m = 2;
-    let (qa, qb, qc) = (3.0 * c3, 2.0 * c2, c1);
-    if qa.abs() > 1e-300 {
-        let disc = qb * qb - 4.0 * qa * qc;
-        if disc >= 0.0 {
-            let r = disc.sqrt();
-            let q = -0.5 * (qb + qb.signum() * r);
-            for u in [q / qa, if q != 0.0 { qc / q } else { f64::NAN }] {
-                if u > 0.0 && u < 1.0 {
-                    cuts[m] = u;
-                    m += 1;
-                }
-            }
-        }
-    } else if qb.abs() > 1e-300 {
-        let u = -qc / qb;
-        if u > 0.0 && u < 1.0 {
-            cuts[m] = u;
-            m += 1;
-        }
-    }
-    let cuts = &mut cuts[..m];
-    cuts.sort_by(f64::total_cmp);
+    let (cuts, m) = monotone_cuts(c1, c2, c3);
+    let cuts = &cuts[..m];
     for w in cuts.windows(2) {
         if poly(w[1]) <= 0.0 {
             let u = bisect(&poly, w[0], w[1]);
