@@ -281,10 +281,7 @@ pub(crate) fn first_root(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64>
     // The cubic through 4 samples (exact up to rounding: the restriction is a cubic).
     let h = b - a;
     let (g0, g1, g2, g3) = (ga, g(a + h / 3.0), g(a + 2.0 * h / 3.0), g(b));
-    // Coefficients of p(u) = c0 + c1 u + c2 u² + c3 u³ on u ∈ [0, 1] (Lagrange at 0, ⅓, ⅔, 1).
-    let c1 = (-11.0 * g0 + 18.0 * g1 - 9.0 * g2 + 2.0 * g3) / 2.0;
-    let c2 = (18.0 * g0 - 45.0 * g1 + 36.0 * g2 - 9.0 * g3) / 2.0;
-    let c3 = (-9.0 * g0 + 27.0 * g1 - 27.0 * g2 + 9.0 * g3) / 2.0;
+    let [_, c1, c2, c3] = cubic_coefficients(g0, g1, g2, g3);
     // Critical points: 3 c3 u² + 2 c2 u + c1 = 0.
     let (cuts, n) = monotone_cuts(c1, c2, c3);
     let cuts = &cuts[..n];
@@ -296,6 +293,17 @@ pub(crate) fn first_root(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64>
         }
     }
     None
+}
+
+/// Coefficients `[c0, c1, c2, c3]` of the cubic `p(u) = c0 + c1 u + c2 u² + c3 u³` on
+/// `u ∈ [0, 1]` through the samples `p(0), p(⅓), p(⅔), p(1)` (Lagrange).
+pub(crate) fn cubic_coefficients(g0: f64, g1: f64, g2: f64, g3: f64) -> [f64; 4] {
+    [
+        g0,
+        (-11.0 * g0 + 18.0 * g1 - 9.0 * g2 + 2.0 * g3) / 2.0,
+        (18.0 * g0 - 45.0 * g1 + 36.0 * g2 - 9.0 * g3) / 2.0,
+        (-9.0 * g0 + 27.0 * g1 - 27.0 * g2 + 9.0 * g3) / 2.0,
+    ]
 }
 
 /// `0`, `1` and the critical points in `(0, 1)` of the cubic `c0 + c1 u + c2 u² + c3 u³`

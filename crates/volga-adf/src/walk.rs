@@ -29,7 +29,7 @@ use std::sync::OnceLock;
 
 use glam::DVec3;
 
-use crate::ray::{bisect, first_root_sampled, monotone_cuts, next_t};
+use crate::ray::{bisect, cubic_coefficients, first_root_sampled, monotone_cuts, next_t};
 use crate::tree::{corner_position, trilinear, Cell, LEAF};
 use crate::Adf;
 
@@ -408,11 +408,8 @@ pub(crate) fn first_root_cubic(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Optio
     }
     let h = b - a;
     let (g0, g1, g2, g3) = (ga, g(a + h / 3.0), g(a + 2.0 * h / 3.0), g(b));
-    // p(u) = c0 + c1 u + c2 u² + c3 u³ on u ∈ [0, 1] (Lagrange at 0, ⅓, ⅔, 1).
-    let c0 = g0;
-    let c1 = (-11.0 * g0 + 18.0 * g1 - 9.0 * g2 + 2.0 * g3) / 2.0;
-    let c2 = (18.0 * g0 - 45.0 * g1 + 36.0 * g2 - 9.0 * g3) / 2.0;
-    let c3 = (-9.0 * g0 + 27.0 * g1 - 27.0 * g2 + 9.0 * g3) / 2.0;
+    // p(u) = c0 + c1 u + c2 u² + c3 u³ on u ∈ [0, 1].
+    let [c0, c1, c2, c3] = cubic_coefficients(g0, g1, g2, g3);
     // The end value is the sample itself (not the fit), so a root at the exit face is seen.
     let poly = |u: f64| {
         if u >= 1.0 {

@@ -456,6 +456,16 @@ mod tests {
     use super::*;
     use crate::{DenseVolume, Field, Filter, GradientMethod, Sampled, SparseVolume, Transform};
 
+    /// A deterministic uniform generator on `[0, 1)` (a 64-bit LCG's top 53 bits).
+    fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     fn volume(dims: UVec3, background: f32) -> SparseVolume {
         let grid = Grid::new(
             Transform::new(DVec3::new(-3.0, 1e3, 2.0), DVec3::new(0.5, 0.25, 0.75)).unwrap(),
@@ -486,13 +496,7 @@ mod tests {
             let field = Sampled::new(&v, Filter::Trilinear).with_gradient(GradientMethod::CentralDifference);
             let packed = PackedVolume::build(&v).expect("small volume");
             let t = &v.grid.transform;
-            let mut state = 12345u64;
-            let mut next = || {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (state >> 11) as f64 / (1u64 << 53) as f64
-            };
+            let mut next = uniform(12345u64);
             let lo = DVec3::splat(-4.0);
             let hi = dims.as_dvec3() + 4.0;
             for _ in 0..20_000 {
@@ -530,13 +534,7 @@ mod tests {
         ] {
             let v = volume(dims, bg);
             let packed = PackedVolume::build(&v).expect("small volume");
-            let mut state = 99u64;
-            let mut next = || {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (state >> 11) as f64 / (1u64 << 53) as f64
-            };
+            let mut next = uniform(99u64);
             let lo = DVec3::splat(-40.0);
             let hi = dims.as_dvec3() + 40.0;
             let mut lanes_checked = 0;
