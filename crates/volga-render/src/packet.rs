@@ -24,7 +24,8 @@ use glam::{DVec3, Vec3, Vec4};
 use volga_core::{Aabb, Field, FieldKind, Line, PackedVolume};
 
 use crate::integrators::March;
-use crate::march::{index_after, midpoint_lattice_len, BATCH};
+use crate::march::{midpoint_lattice_len, BATCH};
+use crate::sample_walk::SampleWalk;
 use crate::{CellClass, Integrator, Ray, RenderSettings, RenderStats, Shader};
 
 /// Lights the `f32` shading handles per ray (more fall back to the general path).
@@ -442,14 +443,12 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
     let mut visible = 0u64;
     // The last opacity corrected by `powf` and its correction (uniform regions repeat it).
     let mut corrected = (f32::NAN, f32::NAN);
-    let mut walk = m.grid.map(|g| g.walk(ray, t0 + 0.5 * m.step));
+    let mut walk = m.grid.map(|g| SampleWalk::new(g, ray, t0 + 0.5 * m.step, m.step));
     let mut i = 0u64;
     while i < n {
         let mut end = n;
         if let Some(w) = &mut walk {
-            let t = t0 + (i as f64 + 0.5) * m.step;
-            let (class, t_exit) = w.class_at(t);
-            let next = index_after(t_exit, t0, m.step, 0.5, i, n);
+            let (class, next) = w.class_at(i, n);
             if class != CellClass::Active {
                 stats.cells_skipped += 1;
                 i = next;
