@@ -304,6 +304,28 @@ impl PackedVolume {
         (offset, frac)
     }
 
+    /// Prefetches into L1 the corner rows that [`PackedVolume::sample_lanes_avx2`] will
+    /// read at these positions (issued one packet ahead of the fetch).
+    ///
+    /// # Safety
+    /// As [`PackedVolume::sample_lanes_avx2`]: the CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub unsafe fn prefetch_lanes_avx2(&self, index_pos: &[[f32; 8]; 3]) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller guarantees AVX2.
+        let (offset, _) = unsafe { self.cells_lanes_avx2(index_pos) };
+        let base = self.voxels.as_ptr() as *const i8;
+        for o in offset {
+            let o = o as usize * 16;
+            for d in [0, 16 * STRIDE_Y, 16 * STRIDE_Z, 16 * (STRIDE_Z + STRIDE_Y)] {
+                // A prefetch never faults; the address is inside `voxels` anyway (see
+                // `sample_lanes_avx2`).
+                _mm_prefetch::<_MM_HINT_T0>(base.wrapping_add(o + d));
+            }
+        }
+    }
+
     /// [`PackedVolume::cells_lanes`] in AVX2 vectors: the same clamp, floor, tile
     /// lookup (one gather from the table) and in-region test, so the same offsets and
     /// fractions bit for bit. The portable loop compiles to one scalar saturating

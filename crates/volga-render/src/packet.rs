@@ -273,6 +273,17 @@ impl RayPackets<'_> {
             }
         }
         #[cfg(target_arch = "x86_64")]
+        if AVX2 {
+            let mut ahead = [[0.0f32; LANES]; 3];
+            for a in 0..3 {
+                for l in 0..LANES {
+                    ahead[a][l] = index_pos[a][l] + self.index_step[a] * (2 * LANES) as f32;
+                }
+            }
+            // SAFETY: as below.
+            unsafe { self.packed.prefetch_lanes_avx2(&ahead) };
+        }
+        #[cfg(target_arch = "x86_64")]
         let (v, g) = if AVX2 {
             // SAFETY: `AVX2` is true only in `composite_avx2`, called after
             // `is_x86_feature_detected!("avx2")` held.
@@ -438,7 +449,9 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
         index_step: ((ray.dir * m.step) / transform.spacing()).as_vec3().to_array(),
     };
     let eta = m.early_termination_alpha;
-    let mut c = Vec3::ZERO;
+    // The colour's channels as plain locals: a `Vec3` here was kept in memory, a
+    // store-to-load chain through every sample (perf).
+    let (mut cr, mut cg, mut cb) = (0.0f32, 0.0f32, 0.0f32);
     let mut a = 0.0f32;
     let mut visible = 0u64;
     // The last opacity corrected by `powf` and its correction (uniform regions repeat it).
@@ -477,14 +490,15 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
                     alpha = corrected.1;
                 }
                 visible += lit as u64;
-                let rgb = Vec3::new(shaded.rgb[0][l], shaded.rgb[1][l], shaded.rgb[2][l]);
                 let w = (1.0 - a) * alpha;
-                c += rgb * w;
+                cr += shaded.rgb[0][l] * w;
+                cg += shaded.rgb[1][l] * w;
+                cb += shaded.rgb[2][l] * w;
                 a += w;
                 if a >= eta {
                     stats.rays_terminated_early += 1;
                     stats.gradient_evaluations += visible;
-                    return (c, a);
+                    return (Vec3::new(cr, cg, cb), a);
                 }
             }
             j += lanes as u64;
@@ -493,5 +507,5 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
         i = j;
     }
     stats.gradient_evaluations += visible;
-    (c, a)
+    (Vec3::new(cr, cg, cb), a)
 }
