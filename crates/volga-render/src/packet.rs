@@ -217,7 +217,9 @@ impl RayShader32 {
 /// the loop is uniform and the lanes vectorize); the algorithm of
 /// [`powi`](crate::shading::powi).
 #[inline(always)]
-fn powi_lanes(mut x: [f32; LANES], mut n: i32) -> [f32; LANES] {
+fn powi_lanes(mut x: [f32; LANES], n: i32) -> [f32; LANES] {
+    // Shininess exponents are in 0..=1024 (`Shader`); unsigned halving is one shift.
+    let mut n = n.max(0) as u32;
     let mut r = [1.0f32; LANES];
     loop {
         if n & 1 != 0 {
@@ -225,7 +227,7 @@ fn powi_lanes(mut x: [f32; LANES], mut n: i32) -> [f32; LANES] {
                 r[l] *= x[l];
             }
         }
-        n /= 2;
+        n >>= 1;
         if n == 0 {
             return r;
         }

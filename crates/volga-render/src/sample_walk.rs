@@ -158,3 +158,143 @@ impl<'g> SampleWalk<'g> {
         (class, next.max(i + 1).min(n))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::{DVec3, UVec3};
+    use volga_core::{Field, Filter, Grid, Sampled, SparseVolume, Transform};
+
+    use super::SampleWalk;
+    use crate::march::{midpoint_lattice_len, CellClass, MacroGrid};
+    use crate::Ray;
+
+    fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// Every sample of every ray gets the class of the macro cell that holds it, except
+    /// within rounding of a cell face, and a skipped sample never sees a value above
+    /// the skip threshold: random, axis-parallel, grazing and inside-starting rays over
+    /// a volume with scattered blobs (so cells of every class and reach occur), with the
+    /// grid at the origin and at 1e6.
+    #[test]
+    fn each_sample_gets_its_cells_class() {
+        for origin in [DVec3::new(-3.0, 0.5, 2.0), DVec3::splat(1e6)] {
+            let dims = UVec3::new(150, 90, 120);
+            let grid = Grid::new(Transform::new(origin, DVec3::ONE).unwrap(), dims).unwrap();
+            let mut v = SparseVolume::new(grid, 0.0, false);
+            let blobs = [
+                DVec3::new(30.0, 20.0, 40.0),
+                DVec3::new(110.0, 70.0, 30.0),
+                DVec3::new(75.0, 45.0, 100.0),
+            ];
+            for ijk in grid.index_box().iter() {
+                let p = ijk.as_dvec3();
+                let d = blobs.iter().map(|b| (p - *b).length()).fold(f64::INFINITY, f64::min);
+                v.density.set(ijk, (1.0 - d / 12.0).max(0.0) as f32);
+            }
+            let field = Sampled::new(&v, Filter::Trilinear);
+            let bounds = field.bounds();
+            let spacing = 1.0;
+            let threshold = 0.05;
+            let macro_grid = MacroGrid::build(&field, bounds, spacing, |_lo, hi| {
+                if hi > threshold {
+                    CellClass::Active
+                } else {
+                    CellClass::Outside
+                }
+            });
+            let (min, _, cell, mdims) = macro_grid.layout();
+            let true_cell = |p: DVec3| -> (usize, f64) {
+                let mut lin = 0;
+                let mut stride = 1;
+                let mut near_face = f64::INFINITY;
+                for a in 0..3 {
+                    let u = (p[a] - min[a]) / cell[a];
+                    let k = (u.max(0.0) as usize).min(mdims[a] - 1);
+                    near_face = near_face.min((u - u.round()).abs());
+                    lin += k * stride;
+                    stride *= mdims[a];
+                }
+                (lin, near_face)
+            };
+            let mut next = uniform(7);
+            let centre = bounds.center();
+            let (mut checked, mut skipped, mut near) = (0u64, 0u64, 0u64);
+            for k in 0..600 {
+                let random_dir = DVec3::new(2.0 * next() - 1.0, 2.0 * next() - 1.0, 2.0 * next() - 1.0);
+                let (from, dir) = match k % 4 {
+                    // From outside through a random interior point.
+                    0 => {
+                        let target = bounds.min + bounds.size() * DVec3::new(next(), next(), next());
+                        let from = centre + random_dir.normalize() * 400.0;
+                        (from, target - from)
+                    }
+                    // Axis-parallel, on a macro-cell face plane for some.
+                    1 => {
+                        let a = k / 4 % 3;
+                        let mut from = bounds.min + bounds.size() * DVec3::new(next(), next(), next());
+                        if k % 8 == 1 {
+                            from[(a + 1) % 3] = min[(a + 1) % 3] + cell[(a + 1) % 3] * 3.0;
+                        }
+                        from[a] = bounds.min[a] - 10.0;
+                        let mut dir = DVec3::ZERO;
+                        dir[a] = 1.0;
+                        (from, dir)
+                    }
+                    // Grazing: almost parallel to a face.
+                    2 => {
+                        let from = bounds.min + bounds.size() * DVec3::new(next(), next(), 0.0) - DVec3::Z * 5.0;
+                        (from, DVec3::new(1.0, 0.5, 1e-7 * next()))
+                    }
+                    // Starting inside, backwards.
+                    _ => {
+                        let from = bounds.min + bounds.size() * DVec3::new(next(), next(), next());
+                        (from, -random_dir)
+                    }
+                };
+                let ray = Ray {
+                    origin: from,
+                    dir: dir.normalize(),
+                };
+                let Some((t0, t1)) = bounds.ray_interval(ray.origin, ray.dir) else {
+                    continue;
+                };
+                let step = 0.5 * spacing;
+                let n = midpoint_lattice_len(t0, t1, step);
+                let t_first = t0 + 0.5 * step;
+                let mut walk = SampleWalk::new(&macro_grid, &ray, t_first, step);
+                let mut i = 0;
+                while i < n {
+                    let (class, end) = walk.class_at(i, n);
+                    assert!(end > i && end <= n);
+                    for j in i..end {
+                        let p = ray.at(t_first + j as f64 * step);
+                        let (lin, face) = true_cell(p);
+                        let (truth, _) = macro_grid.class_and_reach(lin);
+                        if face > 1e-6 {
+                            assert_eq!(class, truth, "ray {k}, sample {j} of {n} at {p}");
+                        } else {
+                            near += 1;
+                        }
+                        if class != CellClass::Active {
+                            assert!(field.value(p) <= threshold, "ray {k}, sample {j} skipped at {p}");
+                            skipped += 1;
+                        }
+                        checked += 1;
+                    }
+                    i = end;
+                }
+            }
+            assert!(
+                checked > 50_000 && skipped > checked / 4 && checked - skipped > 1_000 && near > 0,
+                "{checked} {skipped} {near}"
+            );
+        }
+    }
+}
