@@ -332,6 +332,11 @@ impl RayPackets<'_> {
             out.rgb = colour;
             return out;
         }
+        // A packet with no visible sample needs no shading (the compositing skips
+        // invisible lanes whatever their colour).
+        if out.alpha.iter().all(|a| !(*a > 0.0)) {
+            return out;
+        }
         // Blinn-Phong with the outward normal flipped towards the viewer (two-sided).
         let sh = &self.shader;
         let mut n = [[0.0f32; LANES]; 3];
