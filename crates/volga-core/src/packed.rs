@@ -304,6 +304,96 @@ impl PackedVolume {
         (offset, frac)
     }
 
+    /// Prefetches into L1 the corner rows that [`PackedVolume::sample_lanes_avx2`] will
+    /// read at these positions (issued one packet ahead of the fetch).
+    ///
+    /// # Safety
+    /// As [`PackedVolume::sample_lanes_avx2`]: the CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub unsafe fn prefetch_lanes_avx2(&self, index_pos: &[[f32; 8]; 3]) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller guarantees AVX2.
+        let (offset, _) = unsafe { self.cells_lanes_avx2(index_pos) };
+        let base = self.voxels.as_ptr() as *const i8;
+        for o in offset {
+            let o = o as usize * 16;
+            for d in [0, 16 * STRIDE_Y, 16 * STRIDE_Z, 16 * (STRIDE_Z + STRIDE_Y)] {
+                // A prefetch never faults; the address is inside `voxels` anyway (see
+                // `sample_lanes_avx2`).
+                _mm_prefetch::<_MM_HINT_T0>(base.wrapping_add(o + d));
+            }
+        }
+    }
+
+    /// [`PackedVolume::cells_lanes`] in AVX2 vectors: the same clamp, floor, tile
+    /// lookup (one gather from the table) and in-region test, so the same offsets and
+    /// fractions bit for bit. The portable loop compiles to one scalar saturating
+    /// conversion and table read per lane (callgrind: 38 of its 49 instructions per
+    /// sample were the conversion and the index arithmetic).
+    ///
+    /// # Safety
+    /// As [`PackedVolume::sample_lanes_avx2`]: the CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn cells_lanes_avx2(&self, index_pos: &[[f32; 8]; 3]) -> ([u32; 8], [[f32; 8]; 3]) {
+        use std::arch::x86_64::*;
+        const LIM: f32 = 1e9;
+        let mut frac = [[0.0f32; 8]; 3];
+        let mut stored = [_mm256_setzero_si256(); 3];
+        let mut outside = _mm256_setzero_si256();
+        for a in 0..3 {
+            // SAFETY: `index_pos[a]` is an `[f32; 8]`, 32 readable bytes; unaligned load.
+            let x = unsafe { _mm256_loadu_ps(index_pos[a].as_ptr()) };
+            // `maxps` returns its second operand when either is NaN: NaN → −LIM, as
+            // `f32::max` in the portable loop.
+            let x = _mm256_min_ps(_mm256_max_ps(x, _mm256_set1_ps(-LIM)), _mm256_set1_ps(LIM));
+            let f = _mm256_floor_ps(x);
+            // SAFETY: `frac[a]` is an `[f32; 8]`, 32 writable bytes; unaligned store.
+            unsafe { _mm256_storeu_ps(frac[a].as_mut_ptr(), _mm256_sub_ps(x, f)) };
+            // `f` is a whole number within ±10⁹: the truncation is exact, as `f as i32`.
+            let s = _mm256_add_epi32(_mm256_cvttps_epi32(f), _mm256_set1_epi32(SHIFT));
+            stored[a] = s;
+            // Unsigned `s ≥ extent` ⟺ `max(s, extent) = s`.
+            let extent = _mm256_set1_epi32(self.extent[a] as i32);
+            outside = _mm256_or_si256(outside, _mm256_cmpeq_epi32(_mm256_max_epu32(s, extent), s));
+        }
+        let [sx, sy, sz] = stored;
+        let tx = _mm256_set1_epi32(self.tiles.x);
+        let ty = _mm256_set1_epi32(self.tiles.y);
+        let tile = _mm256_add_epi32(
+            _mm256_srli_epi32::<TILE_LOG2>(sx),
+            _mm256_mullo_epi32(
+                tx,
+                _mm256_add_epi32(
+                    _mm256_srli_epi32::<TILE_LOG2>(sy),
+                    _mm256_mullo_epi32(ty, _mm256_srli_epi32::<TILE_LOG2>(sz)),
+                ),
+            ),
+        );
+        let tile = _mm256_min_epu32(tile, _mm256_set1_epi32((self.table.len() - 1) as i32));
+        let low = _mm256_set1_epi32(TILE - 1);
+        let local = _mm256_add_epi32(
+            _mm256_and_si256(sx, low),
+            _mm256_add_epi32(
+                _mm256_mullo_epi32(_mm256_and_si256(sy, low), _mm256_set1_epi32(STRIDE_Y as i32)),
+                _mm256_mullo_epi32(_mm256_and_si256(sz, low), _mm256_set1_epi32(STRIDE_Z as i32)),
+            ),
+        );
+        // SAFETY: every lane of `tile` is at most `table.len() − 1` (clamped just
+        // above), so the gather reads inside `table`.
+        let entry = unsafe { _mm256_i32gather_epi32::<4>(self.table.as_ptr() as *const i32, tile) };
+        let offset = _mm256_blendv_epi8(
+            _mm256_add_epi32(entry, local),
+            _mm256_set1_epi32(self.background_offset as i32),
+            outside,
+        );
+        let mut out = [0u32; 8];
+        // SAFETY: `out` is a `[u32; 8]`, 32 writable bytes; unaligned store.
+        unsafe { _mm256_storeu_si256(out.as_mut_ptr() as *mut __m256i, offset) };
+        (out, frac)
+    }
+
     /// Density and gradient of eight samples at once, at continuous index coordinates
     /// given per axis in `f32` lanes: `(v, [gx, gy, gz])` per lane.
     ///
@@ -358,7 +448,8 @@ impl PackedVolume {
     #[inline(always)]
     pub unsafe fn sample_lanes_avx2(&self, index_pos: &[[f32; 8]; 3]) -> ([f32; 8], [[f32; 8]; 3]) {
         use std::arch::x86_64::*;
-        let (offset, frac) = self.cells_lanes(index_pos);
+        // SAFETY: the caller guarantees AVX2 (this function's own contract).
+        let (offset, frac) = unsafe { self.cells_lanes_avx2(index_pos) };
         let base = self.voxels.as_ptr() as *const f32;
         let mut q = [_mm_setzero_ps(); 8];
         for l in 0..8 {

@@ -165,6 +165,7 @@ mod march;
 mod packet;
 mod preint;
 mod render;
+mod sample_walk;
 mod settings;
 mod shading;
 mod shadow;

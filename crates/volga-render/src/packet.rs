@@ -24,7 +24,8 @@ use glam::{DVec3, Vec3, Vec4};
 use volga_core::{Aabb, Field, FieldKind, Line, PackedVolume};
 
 use crate::integrators::March;
-use crate::march::{index_after, midpoint_lattice_len, BATCH};
+use crate::march::{midpoint_lattice_len, BATCH};
+use crate::sample_walk::SampleWalk;
 use crate::{CellClass, Integrator, Ray, RenderSettings, RenderStats, Shader};
 
 /// Lights the `f32` shading handles per ray (more fall back to the general path).
@@ -216,7 +217,9 @@ impl RayShader32 {
 /// the loop is uniform and the lanes vectorize); the algorithm of
 /// [`powi`](crate::shading::powi).
 #[inline(always)]
-fn powi_lanes(mut x: [f32; LANES], mut n: i32) -> [f32; LANES] {
+fn powi_lanes(mut x: [f32; LANES], n: i32) -> [f32; LANES] {
+    // Shininess exponents are in 0..=1024 (`Shader`); unsigned halving is one shift.
+    let mut n = n.max(0) as u32;
     let mut r = [1.0f32; LANES];
     loop {
         if n & 1 != 0 {
@@ -224,7 +227,7 @@ fn powi_lanes(mut x: [f32; LANES], mut n: i32) -> [f32; LANES] {
                 r[l] *= x[l];
             }
         }
-        n /= 2;
+        n >>= 1;
         if n == 0 {
             return r;
         }
@@ -272,6 +275,17 @@ impl RayPackets<'_> {
             }
         }
         #[cfg(target_arch = "x86_64")]
+        if AVX2 {
+            let mut ahead = [[0.0f32; LANES]; 3];
+            for a in 0..3 {
+                for l in 0..LANES {
+                    ahead[a][l] = index_pos[a][l] + self.index_step[a] * (2 * LANES) as f32;
+                }
+            }
+            // SAFETY: as below.
+            unsafe { self.packed.prefetch_lanes_avx2(&ahead) };
+        }
+        #[cfg(target_arch = "x86_64")]
         let (v, g) = if AVX2 {
             // SAFETY: `AVX2` is true only in `composite_avx2`, called after
             // `is_x86_feature_detected!("avx2")` held.
@@ -316,6 +330,11 @@ impl RayPackets<'_> {
         }
         if !self.lit {
             out.rgb = colour;
+            return out;
+        }
+        // A packet with no visible sample needs no shading (the compositing skips
+        // invisible lanes whatever their colour).
+        if out.alpha.iter().all(|a| !(*a > 0.0)) {
             return out;
         }
         // Blinn-Phong with the outward normal flipped towards the viewer (two-sided).
@@ -437,19 +456,19 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
         index_step: ((ray.dir * m.step) / transform.spacing()).as_vec3().to_array(),
     };
     let eta = m.early_termination_alpha;
-    let mut c = Vec3::ZERO;
+    // The colour's channels as plain locals: a `Vec3` here was kept in memory, a
+    // store-to-load chain through every sample (perf).
+    let (mut cr, mut cg, mut cb) = (0.0f32, 0.0f32, 0.0f32);
     let mut a = 0.0f32;
     let mut visible = 0u64;
     // The last opacity corrected by `powf` and its correction (uniform regions repeat it).
     let mut corrected = (f32::NAN, f32::NAN);
-    let mut walk = m.grid.map(|g| g.walk(ray, t0 + 0.5 * m.step));
+    let mut walk = m.grid.map(|g| SampleWalk::new(g, ray, t0 + 0.5 * m.step, m.step));
     let mut i = 0u64;
     while i < n {
         let mut end = n;
         if let Some(w) = &mut walk {
-            let t = t0 + (i as f64 + 0.5) * m.step;
-            let (class, t_exit) = w.class_at(t);
-            let next = index_after(t_exit, t0, m.step, 0.5, i, n);
+            let (class, next) = w.class_at(i, n);
             if class != CellClass::Active {
                 stats.cells_skipped += 1;
                 i = next;
@@ -478,14 +497,15 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
                     alpha = corrected.1;
                 }
                 visible += lit as u64;
-                let rgb = Vec3::new(shaded.rgb[0][l], shaded.rgb[1][l], shaded.rgb[2][l]);
                 let w = (1.0 - a) * alpha;
-                c += rgb * w;
+                cr += shaded.rgb[0][l] * w;
+                cg += shaded.rgb[1][l] * w;
+                cb += shaded.rgb[2][l] * w;
                 a += w;
                 if a >= eta {
                     stats.rays_terminated_early += 1;
                     stats.gradient_evaluations += visible;
-                    return (c, a);
+                    return (Vec3::new(cr, cg, cb), a);
                 }
             }
             j += lanes as u64;
@@ -494,5 +514,5 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
         i = j;
     }
     stats.gradient_evaluations += visible;
-    (c, a)
+    (Vec3::new(cr, cg, cb), a)
 }
