@@ -60,6 +60,7 @@ mod edit;
 mod field;
 mod measure;
 mod ray;
+mod reach;
 mod source;
 mod tree;
 mod walk;

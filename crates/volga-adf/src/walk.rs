@@ -29,7 +29,8 @@ use std::sync::OnceLock;
 
 use glam::DVec3;
 
-use crate::ray::{bisect, cubic_coefficients, first_root_sampled, monotone_cuts, next_t};
+use crate::ray::{cubic_coefficients, first_root_sampled, monotone_cuts, next_t};
+use crate::reach::chessboard_reach;
 use crate::tree::{corner_position, trilinear, Cell, LEAF};
 use crate::Adf;
 
@@ -77,8 +78,12 @@ pub(crate) struct WalkIndex {
     /// everywhere else, so a ray's interval is clipped to this box first.
     active: Option<(DVec3, DVec3)>,
     /// A coarser grid of `(n / 4)³` blocks of 4³ grid cells (when `G ≥ 2`): the minimum
-    /// of their minima, so a ray crosses an empty block in one step.
+    /// of their minima, so a ray crosses an empty block in one step (iso values > 0).
     block_lo: Vec<f32>,
+    /// Per grid cell, the chessboard distance in grid cells to the nearest cell whose
+    /// minimum is ≤ 0 (module `reach`): for an iso value ≤ 0 a ray crosses the
+    /// `(2k − 1)³` cube of empty cells around its cell in one step.
+    reach: Vec<u8>,
 }
 
 impl WalkIndex {
@@ -94,8 +99,10 @@ impl WalkIndex {
             lo: vec![0.0; n * n * n],
             active: None,
             block_lo: Vec::new(),
+            reach: Vec::new(),
         };
         index.fill(adf, 0, 0, [0; 3]);
+        index.reach = chessboard_reach(n, |k| index.lo[k] <= 0.0);
         if depth >= 2 {
             let m = n / 4;
             index.block_lo = vec![f32::INFINITY; m * m * m];
@@ -161,7 +168,12 @@ impl WalkIndex {
     }
 
     fn bytes(&self) -> usize {
-        self.links.len() * 4 + self.node.len() * 4 + self.level.len() + self.lo.len() * 4 + self.block_lo.len() * 4
+        self.links.len() * 4
+            + self.node.len() * 4
+            + self.level.len()
+            + self.lo.len() * 4
+            + self.block_lo.len() * 4
+            + self.reach.len()
     }
 }
 
@@ -309,31 +321,45 @@ impl Adf {
             steps += 1;
             let p = origin + dir * t;
             let q = p.clamp(self.root_min, root_max);
-            // A grid cell whose minimum is above `iso` (and that is not one leaf, whose
-            // own exit may reach farther) is crossed in one step.
             let g = (q - self.root_min) * to_grid;
             let cell = |v: f64| (v.max(0.0) as usize).min(n - 1);
             let (gx, gy, gz) = (cell(g.x), cell(g.y), cell(g.z));
             let k = gx + n * (gy + n * gz);
-            if ix.depth >= 2 && ix.level[k] >= ix.depth - 2 {
-                let m = n / 4;
-                let (bx, by, bz) = (gx / 4, gy / 4, gz / 4);
-                if (ix.block_lo[bx + m * (by + m * bz)] as f64) > iso {
-                    let block = 4.0 * grid_size;
-                    let bmin = self.root_min + DVec3::new(bx as f64, by as f64, bz as f64) * block;
-                    let exit = box_exit(origin, dir, inv, bmin, block).min(t_end).max(t);
-                    t = next_t(t, past(exit, block / scale), block / scale);
+            // Empty grid cells (minimum above `iso`) are crossed without locating their
+            // leaves, except a lone cell inside one larger leaf, whose own exit may reach
+            // farther.
+            let whole_cell = ix.level[k] == ix.depth && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG;
+            if iso <= 0.0 {
+                // The cube of `(2r − 1)³` empty cells around this one, in one step.
+                let r = ix.reach[k];
+                if r >= 2 || (r == 1 && whole_cell) {
+                    let half = (r - 1) as f64;
+                    let cube = (2.0 * half + 1.0) * grid_size;
+                    let cmin =
+                        self.root_min + (DVec3::new(gx as f64, gy as f64, gz as f64) - DVec3::splat(half)) * grid_size;
+                    let exit = box_exit(origin, dir, inv, cmin, cube).min(t_end).max(t);
+                    t = next_t(t, past(exit, grid_size / scale), grid_size / scale);
                     continue;
                 }
-            }
-            if ix.level[k] == ix.depth
-                && (ix.lo[k] as f64) > iso
-                && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG
-            {
-                let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
-                let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
-                t = next_t(t, past(exit, grid_size / scale), grid_size / scale);
-                continue;
+            } else {
+                // A 4³ block whose minimum is above `iso`, or this grid cell, in one step.
+                if ix.depth >= 2 && ix.level[k] >= ix.depth - 2 {
+                    let m = n / 4;
+                    let (bx, by, bz) = (gx / 4, gy / 4, gz / 4);
+                    if (ix.block_lo[bx + m * (by + m * bz)] as f64) > iso {
+                        let block = 4.0 * grid_size;
+                        let bmin = self.root_min + DVec3::new(bx as f64, by as f64, bz as f64) * block;
+                        let exit = box_exit(origin, dir, inv, bmin, block).min(t_end).max(t);
+                        t = next_t(t, past(exit, block / scale), block / scale);
+                        continue;
+                    }
+                }
+                if whole_cell && (ix.lo[k] as f64) > iso {
+                    let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
+                    let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
+                    t = next_t(t, past(exit, grid_size / scale), grid_size / scale);
+                    continue;
+                }
             }
             let (index, min, size) = self.locate_indexed(ix, q);
             let exit = box_exit(origin, dir, inv, min, size).min(t_end).max(t);
@@ -422,11 +448,54 @@ pub(crate) fn first_root_cubic(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Optio
     let cuts = &cuts[..m];
     for w in cuts.windows(2) {
         if poly(w[1]) <= 0.0 {
-            let u = bisect(&poly, w[0], w[1]);
+            let u = newton_on_piece(&poly, |u| c1 + u * (2.0 * c2 + u * 3.0 * c3), w[0], w[1]);
             return Some((a + u * h).min(b));
         }
     }
     None
+}
+
+/// The crossing of a monotone piece `[l, r]` of a polynomial `p` with `p(l) > 0 ≥ p(r)`, to
+/// within 1e-12 of the piece: Newton steps from the regula falsi point, kept inside the
+/// bracket (bisection when a step leaves it), and, once a step is below the tolerance, one
+/// probe just past it on the other side to close the bracket. Returns the inside end of
+/// the final bracket (`p ≤ 0` there), like [`crate::ray::bisect`], in fewer evaluations
+/// (quadratic convergence on a simple root).
+fn newton_on_piece(p: &impl Fn(f64) -> f64, dp: impl Fn(f64) -> f64, mut l: f64, mut r: f64) -> f64 {
+    let tol = (r - l) * 1e-12;
+    let (pl, pr) = (p(l), p(r));
+    let mut x = if pl > 0.0 && pr <= 0.0 && pl != pr {
+        l + (r - l) * (pl / (pl - pr))
+    } else {
+        0.5 * (l + r)
+    };
+    for _ in 0..100 {
+        if !(x > l && x < r) {
+            x = 0.5 * (l + r);
+            if !(x > l && x < r) {
+                break;
+            }
+        }
+        let v = p(x);
+        if v <= 0.0 {
+            r = x;
+        } else {
+            l = x;
+        }
+        if r - l <= tol {
+            break;
+        }
+        let step = v / dp(x);
+        let mut next = x - step;
+        if !(next > l && next < r) || !step.is_finite() {
+            next = 0.5 * (l + r);
+        } else if step.abs() < tol {
+            // Converged: probe one tolerance past the root to close the bracket.
+            next = if v > 0.0 { (x + tol).min(r) } else { (x - tol).max(l) };
+        }
+        x = next;
+    }
+    r
 }
 
 /// An ADF rendered through the reference walk ([`Adf::first_crossing_by_descent`]):
