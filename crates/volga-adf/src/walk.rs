@@ -34,8 +34,10 @@ use crate::reach::chessboard_reach;
 use crate::tree::{corner_position, trilinear, Cell, LEAF};
 use crate::Adf;
 
-/// Deepest level of the walk grid (64³ cells, 2.25 MB with its links and minima).
-const GRID_DEPTH: u8 = 6;
+/// Deepest level of the walk grid: 128³ cells, 10 bytes each (20 MB) beside the links.
+/// Against 64³ (2.5 MB) it cut the bunny's walk at 1e-4 by about 8 % (one thread, all
+/// pixel-centre rays of `volga bench adf`; `examples/walk_profile.rs`).
+const GRID_DEPTH: u8 = 7;
 
 /// The walk index of an ADF, built lazily (see the module doc).
 #[derive(Default)]
@@ -328,11 +330,12 @@ impl Adf {
             // Empty grid cells (minimum above `iso`) are crossed without locating their
             // leaves, except a lone cell inside one larger leaf, whose own exit may reach
             // farther.
-            let whole_cell = ix.level[k] == ix.depth && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG;
+            let whole_cell =
+                || ix.level[k] == ix.depth && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG;
             if iso <= 0.0 {
                 // The cube of `(2r − 1)³` empty cells around this one, in one step.
                 let r = ix.reach[k];
-                if r >= 2 || (r == 1 && whole_cell) {
+                if r >= 2 || (r == 1 && whole_cell()) {
                     let half = (r - 1) as f64;
                     let cube = (2.0 * half + 1.0) * grid_size;
                     let cmin =
@@ -354,7 +357,7 @@ impl Adf {
                         continue;
                     }
                 }
-                if whole_cell && (ix.lo[k] as f64) > iso {
+                if (ix.lo[k] as f64) > iso && whole_cell() {
                     let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
                     let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
                     t = next_t(t, past(exit, grid_size / scale), grid_size / scale);
