@@ -56,6 +56,7 @@
 //! accuracy figures in `docs/ADF.md` are measured at random points against exact distance.
 
 mod convert;
+mod cubic;
 mod edit;
 mod field;
 mod measure;

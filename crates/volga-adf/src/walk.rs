@@ -29,6 +29,7 @@ use std::sync::OnceLock;
 
 use glam::DVec3;
 
+use crate::cubic::{first_root_of_cubic, newton_on_piece, trilinear_cubic};
 use crate::ray::{cubic_coefficients, first_root_sampled, monotone_cuts, next_t};
 use crate::reach::chessboard_reach;
 use crate::tree::{corner_position, trilinear, Cell, LEAF};
@@ -330,8 +331,7 @@ impl Adf {
             // Empty grid cells (minimum above `iso`) are crossed without locating their
             // leaves, except a lone cell inside one larger leaf, whose own exit may reach
             // farther.
-            let whole_cell =
-                || ix.level[k] == ix.depth && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG;
+            let whole_cell = || ix.level[k] == ix.depth && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG;
             if iso <= 0.0 {
                 // The cube of `(2r − 1)³` empty cells around this one, in one step.
                 let r = ix.reach[k];
@@ -385,13 +385,12 @@ impl Adf {
             }
             let inv_size = 1.0 / size;
             let found = if cell.children == LEAF {
-                let at = |s: f64| {
-                    trilinear(
-                        &corners,
-                        ((origin + dir * s - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE),
-                    ) - iso
-                };
-                first_root_cubic(&at, t, exit)
+                // The cubic from the corners (module `cubic`).
+                let u0 = ((origin + dir * t - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
+                let u1 = ((origin + dir * exit - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
+                let mut c = trilinear_cubic(&corners, u0, u1 - u0);
+                c[0] -= iso;
+                first_root_of_cubic(c, t, exit)
             } else {
                 // A jump leaf: as in the reference walk.
                 let k = cell.jump().expect("a leaf that is not plain is a jump leaf");
@@ -456,49 +455,6 @@ pub(crate) fn first_root_cubic(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Optio
         }
     }
     None
-}
-
-/// The crossing of a monotone piece `[l, r]` of a polynomial `p` with `p(l) > 0 ≥ p(r)`, to
-/// within 1e-12 of the piece: Newton steps from the regula falsi point, kept inside the
-/// bracket (bisection when a step leaves it), and, once a step is below the tolerance, one
-/// probe just past it on the other side to close the bracket. Returns the inside end of
-/// the final bracket (`p ≤ 0` there), like [`crate::ray::bisect`], in fewer evaluations
-/// (quadratic convergence on a simple root).
-fn newton_on_piece(p: &impl Fn(f64) -> f64, dp: impl Fn(f64) -> f64, mut l: f64, mut r: f64) -> f64 {
-    let tol = (r - l) * 1e-12;
-    let (pl, pr) = (p(l), p(r));
-    let mut x = if pl > 0.0 && pr <= 0.0 && pl != pr {
-        l + (r - l) * (pl / (pl - pr))
-    } else {
-        0.5 * (l + r)
-    };
-    for _ in 0..100 {
-        if !(x > l && x < r) {
-            x = 0.5 * (l + r);
-            if !(x > l && x < r) {
-                break;
-            }
-        }
-        let v = p(x);
-        if v <= 0.0 {
-            r = x;
-        } else {
-            l = x;
-        }
-        if r - l <= tol {
-            break;
-        }
-        let step = v / dp(x);
-        let mut next = x - step;
-        if !(next > l && next < r) || !step.is_finite() {
-            next = 0.5 * (l + r);
-        } else if step.abs() < tol {
-            // Converged: probe one tolerance past the root to close the bracket.
-            next = if v > 0.0 { (x + tol).min(r) } else { (x - tol).max(l) };
-        }
-        x = next;
-    }
-    r
 }
 
 /// An ADF rendered through the reference walk ([`Adf::first_crossing_by_descent`]):
