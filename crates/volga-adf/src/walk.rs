@@ -510,3 +510,112 @@ impl volga_core::Field for DescentWalk<'_> {
         volga_core::Field::sample_spacing(self.0)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{AdfOptions, ShapeSource};
+    use volga_core::Aabb;
+    use volga_shapes::Torus;
+
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    fn torus_adf(centre: DVec3, max_depth: u8) -> Adf {
+        let torus = Torus::new(centre, DVec3::new(0.3, 1.0, 0.2).normalize(), 0.55, 0.18).unwrap();
+        let options = AdfOptions {
+            tolerance: 1e-3,
+            max_depth,
+            ..AdfOptions::default()
+        };
+        Adf::build(&ShapeSource(torus), options).unwrap()
+    }
+
+    /// The grid cell `(x, y, z)`'s world box.
+    fn cell_box(adf: &Adf, ix: &WalkIndex, x: isize, y: isize, z: isize) -> Aabb {
+        let g = adf.cell_size(ix.depth);
+        let min = adf.root_min + DVec3::new(x as f64, y as f64, z as f64) * g;
+        Aabb::new(min, min + DVec3::splat(g))
+    }
+
+    /// The reach against brute force: each cell's conservative minimum recomputed from the
+    /// leaves in its interior (`Adf::range` over the cell shrunk by 1e-9 of it), and the
+    /// chessboard distance to the nearest cell whose minimum is ≤ 0 by scanning all cells.
+    #[test]
+    fn the_reach_is_the_brute_force_distance_to_cells_that_may_hold_the_surface() {
+        let adf = torus_adf(DVec3::new(0.05, -0.1, 0.02), 5);
+        let ix = adf.walk_index();
+        let n = ix.n as isize;
+        assert_eq!(ix.n, 32, "grid at the depth reached");
+        let mut occupied = Vec::new();
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let b = cell_box(&adf, ix, x, y, z);
+                    let shrink = DVec3::splat(b.size().x * 1e-9);
+                    let (lo, _) = adf.range(&Aabb::new(b.min + shrink, b.max - shrink));
+                    if lo <= 0.0 {
+                        occupied.push((x, y, z));
+                    }
+                }
+            }
+        }
+        assert!(occupied.len() > 100, "{}", occupied.len());
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let brute = occupied
+                        .iter()
+                        .map(|&(a, b, c)| (a - x).abs().max((b - y).abs()).max((c - z).abs()))
+                        .min()
+                        .unwrap();
+                    let k = (x + n * (y + n * z)) as usize;
+                    assert_eq!(ix.reach[k] as isize, brute, "cell {x} {y} {z}");
+                }
+            }
+        }
+    }
+
+    /// What a step relies on: in the cube of `(2r − 1)³` cells around a cell of reach `r`,
+    /// the reconstruction is positive at random points (a bound that claimed more than
+    /// the true minimum would let a ray step over the surface). At the 128³ grid of a
+    /// deeper tree, near the origin and at 1e6.
+    #[test]
+    fn the_reconstruction_is_positive_in_every_cube_a_ray_crosses_in_one_step() {
+        for centre in [DVec3::new(0.05, -0.1, 0.02), DVec3::new(1e6, -1e6, 1e6)] {
+            let adf = torus_adf(centre, 8);
+            let ix = adf.walk_index();
+            assert_eq!(ix.depth, GRID_DEPTH);
+            let n = ix.n;
+            let mut rng = Rng(41);
+            let mut checked = 0;
+            // Every 7th cell (all of them at 128³ would take too long), 3 points each.
+            for k in (0..n * n * n).step_by(7) {
+                let r = ix.reach[k] as isize;
+                if r == 0 {
+                    continue;
+                }
+                let (x, y, z) = ((k % n) as isize, ((k / n) % n) as isize, (k / (n * n)) as isize);
+                let lo = cell_box(&adf, ix, x - (r - 1), y - (r - 1), z - (r - 1)).min;
+                let size = (2 * r - 1) as f64 * adf.cell_size(ix.depth);
+                for _ in 0..3 {
+                    let u = DVec3::new(rng.next(), rng.next(), rng.next());
+                    let p = lo + u * size;
+                    if adf.root_box().contains(p) {
+                        let d = adf.distance(p);
+                        assert!(d > 0.0, "reach {r} at cell {x} {y} {z}: value {d} at {p:?}");
+                        checked += 1;
+                    }
+                }
+            }
+            assert!(checked > 100_000, "{checked}");
+        }
+    }
+}
