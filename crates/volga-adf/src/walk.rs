@@ -5,21 +5,27 @@
 //! indexed walk ([`Adf::first_crossing_between`]) adds, built once on the first ray
 //! ([`WalkIndex`]):
 //!
-//! * a **uniform grid** over the root cube at depth `G = min(6, depth reached)` (64³
+//! * a **uniform grid** over the root cube at depth `G = min(7, depth reached)` (128³
 //!   cells at most) holding, per grid cell, the index and depth of the tree node that
 //!   covers it (the node at depth `G`, or the shallower leaf that contains it), so a
 //!   leaf is found by descending at most `depth − G` levels instead of from the root;
 //! * per grid cell a **conservative minimum** of the reconstruction (the smallest corner
 //!   value of every leaf that meets it; `−max |c|` for a jump leaf): a ray crosses a grid
 //!   cell whose minimum is above the iso value in one step, without locating its leaves;
+//! * per grid cell its **reach** (module `reach`): the chessboard distance in grid cells
+//!   to the nearest cell whose minimum is ≤ 0, so for an iso value ≤ 0 a ray crosses the
+//!   whole cube of `(2r − 1)³` empty cells around its cell in one step (sphere tracing on
+//!   the grid, with a bound that is exact for the grid's classification); iso values
+//!   above 0 use 4³ blocks of cells instead;
 //! * a **compact copy of the child links** (4 bytes per cell; the 8 siblings' links in one
 //!   32-byte run), so the descent touches a cache line per level instead of a 36-byte
 //!   cell, and the leaf's corners are read once.
 //!
 //! In a leaf with a corner at or below the iso value the trilinear restriction to the
-//! ray is a cubic; its coefficients come from 4 samples as in the reference walk, and its
-//! first downward root is refined on the polynomial (3 multiply-adds per evaluation)
-//! rather than by re-evaluating the trilinear cell.
+//! ray is a cubic; its coefficients come from the leaf's corners (module `cubic`), a
+//! segment with positive Bernstein coefficients is rejected at once, and otherwise the
+//! first downward root is refined on the polynomial by safeguarded Newton steps. (Jump
+//! leaves fit the cubic through 4 samples of their sign field, as the reference walk.)
 //!
 //! The index is a function of the tree alone (deterministic, the same for any thread
 //! count); it is not part of the ADF's value (`PartialEq` ignores it, a clone rebuilds it
@@ -196,13 +202,15 @@ fn subtree_lo(cells: &[Cell], i: usize) -> f32 {
     }
 }
 
-/// Just past a box's exit parameter (by 1e-9 of the box, `cell_t` in ray units), so the
-/// next point lies in the next box despite rounding instead of costing a step with a
-/// nudge. A crossing in that sliver is found at its end (the next box's start is already
-/// inside), within 1e-9 of the box.
+/// Just past a box's exit parameter, so the next point lies in the next box despite
+/// rounding instead of costing a step with a nudge: by 1e-9 of the box (`cell_t` in ray
+/// units), and at least by `ulp_t`, a few units in the last place of the world
+/// coordinates in ray units (far from the origin, 1e-9 of a small cell is below the
+/// rounding of a position, and the point would land in the same box again). A crossing in
+/// that sliver is found at its end (the next box's start is already inside).
 #[inline]
-fn past(exit: f64, cell_t: f64) -> f64 {
-    exit + cell_t * 1e-9
+fn past(exit: f64, cell_t: f64, ulp_t: f64) -> f64 {
+    exit + (cell_t * 1e-9).max(ulp_t)
 }
 
 /// Where a ray leaves the box `min + [0, size]³`, with `inv` the reciprocal direction
@@ -231,6 +239,12 @@ impl Adf {
     /// size in bytes: the render layout's memory on top of [`Adf::memory_bytes`].
     pub fn walk_index_bytes(&self) -> usize {
         self.walk_index().bytes()
+    }
+
+    /// The part of [`Adf::walk_index_bytes`] that the empty-space reach takes (one byte
+    /// per walk grid cell, module `reach`); builds the index if needed.
+    pub fn walk_reach_bytes(&self) -> usize {
+        self.walk_index().reach.len()
     }
 
     /// The leaf containing `q` (a point of the root cube), found from the walk grid: the
@@ -275,8 +289,9 @@ impl Adf {
     /// The walk of [`Adf::first_crossing_by_descent`] (sphere-tracing steps in leaves
     /// above `iso`, the cubic restriction's first downward root in a leaf with a corner
     /// at or below it) on the walk index (see the module `walk`): leaves are found from a
-    /// 64³ grid of nodes and grid cells whose conservative minimum is above `iso` are
-    /// crossed in one step. A value at `t_start` already at or below `iso` gives
+    /// 128³ grid of nodes, and the empty cubes of grid cells around a ray's cell (its
+    /// reach, for `iso ≤ 0`) or grid cells and blocks whose conservative minimum is above
+    /// `iso` are crossed in one step. A value at `t_start` already at or below `iso` gives
     /// `t_start`.
     pub fn first_crossing_between(
         &self,
@@ -320,6 +335,11 @@ impl Adf {
         let n = ix.n;
         let grid_size = self.cell_size(ix.depth);
         let to_grid = n as f64 / self.root_size;
+        let magnitude = origin
+            .abs()
+            .max_element()
+            .max(self.root_min.abs().max_element() + self.root_size);
+        let ulp_t = 4.0 * f64::EPSILON * magnitude / scale;
         while t <= t_end {
             steps += 1;
             let p = origin + dir * t;
@@ -341,7 +361,7 @@ impl Adf {
                     let cmin =
                         self.root_min + (DVec3::new(gx as f64, gy as f64, gz as f64) - DVec3::splat(half)) * grid_size;
                     let exit = box_exit(origin, dir, inv, cmin, cube).min(t_end).max(t);
-                    t = next_t(t, past(exit, grid_size / scale), grid_size / scale);
+                    t = next_t(t, past(exit, grid_size / scale, ulp_t), grid_size / scale);
                     continue;
                 }
             } else {
@@ -353,14 +373,14 @@ impl Adf {
                         let block = 4.0 * grid_size;
                         let bmin = self.root_min + DVec3::new(bx as f64, by as f64, bz as f64) * block;
                         let exit = box_exit(origin, dir, inv, bmin, block).min(t_end).max(t);
-                        t = next_t(t, past(exit, block / scale), block / scale);
+                        t = next_t(t, past(exit, block / scale, ulp_t), block / scale);
                         continue;
                     }
                 }
                 if (ix.lo[k] as f64) > iso && whole_cell() {
                     let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
                     let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
-                    t = next_t(t, past(exit, grid_size / scale), grid_size / scale);
+                    t = next_t(t, past(exit, grid_size / scale, ulp_t), grid_size / scale);
                     continue;
                 }
             }
@@ -380,7 +400,7 @@ impl Adf {
                     }
                     candidate = exit.max(t + bound / scale);
                 }
-                t = next_t(t, past(candidate, size / scale), size / scale);
+                t = next_t(t, past(candidate, size / scale, ulp_t), size / scale);
                 continue;
             }
             let inv_size = 1.0 / size;
@@ -416,7 +436,7 @@ impl Adf {
             if let Some(hit_t) = found {
                 return (Some(hit_t), steps);
             }
-            t = next_t(t, past(exit, size / scale), size / scale);
+            t = next_t(t, past(exit, size / scale, ulp_t), size / scale);
         }
         (None, steps)
     }

@@ -244,9 +244,6 @@ fn reach_steps_match_the_reference_on_a_deep_tree_near_and_far() {
             }
         }
         assert!(hits > 1000, "{hits} hits at {offset:?}");
-        assert!(
-            fast_steps < slow_steps,
-            "{fast_steps} vs {slow_steps} at {offset:?}"
-        );
+        assert!(fast_steps < slow_steps, "{fast_steps} vs {slow_steps} at {offset:?}");
     }
 }
