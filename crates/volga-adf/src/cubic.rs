@@ -101,7 +101,7 @@ pub(crate) fn newton_on_piece(p: &impl Fn(f64) -> f64, dp: impl Fn(f64) -> f64, 
         }
         let step = v / dp(x);
         let mut next = x - step;
-        if !(next > l && next < r) || !step.is_finite() {
+        if !(next > l && next < r && step.is_finite()) {
             next = 0.5 * (l + r);
         } else if step.abs() < tol {
             // Converged: probe one tolerance past the root to close the bracket.

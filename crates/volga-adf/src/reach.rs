@@ -100,8 +100,8 @@ mod tests {
         for (n, density) in [(1usize, 2u64), (5, 3), (9, 40), (12, 400), (16, 5000), (7, u64::MAX)] {
             let occupied: Vec<bool> = (0..n * n * n).map(|_| rng.next() % density == 0).collect();
             let reach = chessboard_reach(n, |k| occupied[k]);
-            for k in 0..n * n * n {
-                assert_eq!(reach[k], brute(n, &occupied, k), "n {n}, density 1/{density}, cell {k}");
+            for (k, &r) in reach.iter().enumerate() {
+                assert_eq!(r, brute(n, &occupied, k), "n {n}, density 1/{density}, cell {k}");
             }
         }
     }
