@@ -445,7 +445,7 @@ impl Adf {
 /// The first `s ∈ [a, b]` with `g(s) ≤ 0` for a cubic `g` (the trilinear reconstruction
 /// along a segment inside one cell), or `None`: the cubic through 4 samples, split into
 /// monotone pieces at its critical points, the first downward crossing refined on the
-/// polynomial (regula falsi safeguarded by bisection, [`bisect`]).
+/// polynomial (safeguarded Newton steps, [`newton_on_piece`]). Used for jump leaves at iso 0.
 pub(crate) fn first_root_cubic(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
     let ga = g(a);
     if ga <= 0.0 {
