@@ -27,9 +27,10 @@
 //!   raycaster renders it directly; iso rays ask [`volga_core::Field::first_crossing`],
 //!   which the ADF answers with its own leaf walk ([`Adf::first_crossing_between`]),
 //!   other modes sample it and skip empty space with per-cell ranges. The walk runs on an
-//!   index built on the first ray (module `walk`: a 64³ grid of tree nodes with
-//!   conservative minima, 4³-cell blocks, the box of cells that can hold the surface, a
-//!   compact copy of the child links; [`Adf::walk_index_bytes`]); the reference walk
+//!   index built on the first ray (module `walk`: a 128³ grid of tree nodes with
+//!   conservative minima, each cell's chessboard reach to the nearest cell that can hold
+//!   the surface, 4³-cell blocks, the box of cells that can hold the surface, a compact
+//!   copy of the child links; [`Adf::walk_index_bytes`]); the reference walk
 //!   without it is [`Adf::first_crossing_by_descent`] ([`DescentWalk`] renders with it).
 //! * **CSG and edits** ([`Adf::combine`], [`Adf::edit`]): union, intersection and
 //!   difference with another ADF or any source, regenerating only the cells the operation
@@ -56,10 +57,12 @@
 //! accuracy figures in `docs/ADF.md` are measured at random points against exact distance.
 
 mod convert;
+mod cubic;
 mod edit;
 mod field;
 mod measure;
 mod ray;
+mod reach;
 mod source;
 mod tree;
 mod walk;

@@ -5,21 +5,27 @@
 //! indexed walk ([`Adf::first_crossing_between`]) adds, built once on the first ray
 //! ([`WalkIndex`]):
 //!
-//! * a **uniform grid** over the root cube at depth `G = min(6, depth reached)` (64³
+//! * a **uniform grid** over the root cube at depth `G = min(7, depth reached)` (128³
 //!   cells at most) holding, per grid cell, the index and depth of the tree node that
 //!   covers it (the node at depth `G`, or the shallower leaf that contains it), so a
 //!   leaf is found by descending at most `depth − G` levels instead of from the root;
 //! * per grid cell a **conservative minimum** of the reconstruction (the smallest corner
 //!   value of every leaf that meets it; `−max |c|` for a jump leaf): a ray crosses a grid
 //!   cell whose minimum is above the iso value in one step, without locating its leaves;
+//! * per grid cell its **reach** (module `reach`): the chessboard distance in grid cells
+//!   to the nearest cell whose minimum is ≤ 0, so for an iso value ≤ 0 a ray crosses the
+//!   whole cube of `(2r − 1)³` empty cells around its cell in one step (sphere tracing on
+//!   the grid, with a bound that is exact for the grid's classification); iso values
+//!   above 0 use 4³ blocks of cells instead;
 //! * a **compact copy of the child links** (4 bytes per cell; the 8 siblings' links in one
 //!   32-byte run), so the descent touches a cache line per level instead of a 36-byte
 //!   cell, and the leaf's corners are read once.
 //!
 //! In a leaf with a corner at or below the iso value the trilinear restriction to the
-//! ray is a cubic; its coefficients come from 4 samples as in the reference walk, and its
-//! first downward root is refined on the polynomial (3 multiply-adds per evaluation)
-//! rather than by re-evaluating the trilinear cell.
+//! ray is a cubic; its coefficients come from the leaf's corners (module `cubic`), a
+//! segment with positive Bernstein coefficients is rejected at once, and otherwise the
+//! first downward root is refined on the polynomial by safeguarded Newton steps. (Jump
+//! leaves fit the cubic through 4 samples of their sign field, as the reference walk.)
 //!
 //! The index is a function of the tree alone (deterministic, the same for any thread
 //! count); it is not part of the ADF's value (`PartialEq` ignores it, a clone rebuilds it
@@ -29,12 +35,16 @@ use std::sync::OnceLock;
 
 use glam::DVec3;
 
-use crate::ray::{bisect, cubic_coefficients, first_root_sampled, monotone_cuts, next_t};
+use crate::cubic::{first_root_of_cubic, newton_on_piece, trilinear_cubic};
+use crate::ray::{cubic_coefficients, first_root_sampled, monotone_cuts, next_t};
+use crate::reach::chessboard_reach;
 use crate::tree::{corner_position, trilinear, Cell, LEAF};
 use crate::Adf;
 
-/// Deepest level of the walk grid (64³ cells, 2.25 MB with its links and minima).
-const GRID_DEPTH: u8 = 6;
+/// Deepest level of the walk grid: 128³ cells, 10 bytes each (20 MB) beside the links.
+/// Against 64³ (2.5 MB) it cut the bunny's walk at 1e-4 by about 8 % (one thread, all
+/// pixel-centre rays of `volga bench adf`; `examples/walk_profile.rs`).
+const GRID_DEPTH: u8 = 7;
 
 /// The walk index of an ADF, built lazily (see the module doc).
 #[derive(Default)]
@@ -77,8 +87,12 @@ pub(crate) struct WalkIndex {
     /// everywhere else, so a ray's interval is clipped to this box first.
     active: Option<(DVec3, DVec3)>,
     /// A coarser grid of `(n / 4)³` blocks of 4³ grid cells (when `G ≥ 2`): the minimum
-    /// of their minima, so a ray crosses an empty block in one step.
+    /// of their minima, so a ray crosses an empty block in one step (iso values > 0).
     block_lo: Vec<f32>,
+    /// Per grid cell, the chessboard distance in grid cells to the nearest cell whose
+    /// minimum is ≤ 0 (module `reach`): for an iso value ≤ 0 a ray crosses the
+    /// `(2k − 1)³` cube of empty cells around its cell in one step.
+    reach: Vec<u8>,
 }
 
 impl WalkIndex {
@@ -94,8 +108,10 @@ impl WalkIndex {
             lo: vec![0.0; n * n * n],
             active: None,
             block_lo: Vec::new(),
+            reach: Vec::new(),
         };
         index.fill(adf, 0, 0, [0; 3]);
+        index.reach = chessboard_reach(n, |k| index.lo[k] <= 0.0);
         if depth >= 2 {
             let m = n / 4;
             index.block_lo = vec![f32::INFINITY; m * m * m];
@@ -161,7 +177,12 @@ impl WalkIndex {
     }
 
     fn bytes(&self) -> usize {
-        self.links.len() * 4 + self.node.len() * 4 + self.level.len() + self.lo.len() * 4 + self.block_lo.len() * 4
+        self.links.len() * 4
+            + self.node.len() * 4
+            + self.level.len()
+            + self.lo.len() * 4
+            + self.block_lo.len() * 4
+            + self.reach.len()
     }
 }
 
@@ -181,13 +202,15 @@ fn subtree_lo(cells: &[Cell], i: usize) -> f32 {
     }
 }
 
-/// Just past a box's exit parameter (by 1e-9 of the box, `cell_t` in ray units), so the
-/// next point lies in the next box despite rounding instead of costing a step with a
-/// nudge. A crossing in that sliver is found at its end (the next box's start is already
-/// inside), within 1e-9 of the box.
+/// Just past a box's exit parameter, so the next point lies in the next box despite
+/// rounding instead of costing a step with a nudge: by 1e-9 of the box (`cell_t` in ray
+/// units), and at least by `ulp_t`, a few units in the last place of the world
+/// coordinates in ray units (far from the origin, 1e-9 of a small cell is below the
+/// rounding of a position, and the point would land in the same box again). A crossing in
+/// that sliver is found at its end (the next box's start is already inside).
 #[inline]
-fn past(exit: f64, cell_t: f64) -> f64 {
-    exit + cell_t * 1e-9
+fn past(exit: f64, cell_t: f64, ulp_t: f64) -> f64 {
+    exit + (cell_t * 1e-9).max(ulp_t)
 }
 
 /// Where a ray leaves the box `min + [0, size]³`, with `inv` the reciprocal direction
@@ -216,6 +239,12 @@ impl Adf {
     /// size in bytes: the render layout's memory on top of [`Adf::memory_bytes`].
     pub fn walk_index_bytes(&self) -> usize {
         self.walk_index().bytes()
+    }
+
+    /// The part of [`Adf::walk_index_bytes`] that the empty-space reach takes (one byte
+    /// per walk grid cell, module `reach`); builds the index if needed.
+    pub fn walk_reach_bytes(&self) -> usize {
+        self.walk_index().reach.len()
     }
 
     /// The leaf containing `q` (a point of the root cube), found from the walk grid: the
@@ -260,8 +289,9 @@ impl Adf {
     /// The walk of [`Adf::first_crossing_by_descent`] (sphere-tracing steps in leaves
     /// above `iso`, the cubic restriction's first downward root in a leaf with a corner
     /// at or below it) on the walk index (see the module `walk`): leaves are found from a
-    /// 64³ grid of nodes and grid cells whose conservative minimum is above `iso` are
-    /// crossed in one step. A value at `t_start` already at or below `iso` gives
+    /// 128³ grid of nodes, and the empty cubes of grid cells around a ray's cell (its
+    /// reach, for `iso ≤ 0`) or grid cells and blocks whose conservative minimum is above
+    /// `iso` are crossed in one step. A value at `t_start` already at or below `iso` gives
     /// `t_start`.
     pub fn first_crossing_between(
         &self,
@@ -305,35 +335,54 @@ impl Adf {
         let n = ix.n;
         let grid_size = self.cell_size(ix.depth);
         let to_grid = n as f64 / self.root_size;
+        let magnitude = origin
+            .abs()
+            .max_element()
+            .max(self.root_min.abs().max_element() + self.root_size);
+        let ulp_t = 4.0 * f64::EPSILON * magnitude / scale;
         while t <= t_end {
             steps += 1;
             let p = origin + dir * t;
             let q = p.clamp(self.root_min, root_max);
-            // A grid cell whose minimum is above `iso` (and that is not one leaf, whose
-            // own exit may reach farther) is crossed in one step.
             let g = (q - self.root_min) * to_grid;
             let cell = |v: f64| (v.max(0.0) as usize).min(n - 1);
             let (gx, gy, gz) = (cell(g.x), cell(g.y), cell(g.z));
             let k = gx + n * (gy + n * gz);
-            if ix.depth >= 2 && ix.level[k] >= ix.depth - 2 {
-                let m = n / 4;
-                let (bx, by, bz) = (gx / 4, gy / 4, gz / 4);
-                if (ix.block_lo[bx + m * (by + m * bz)] as f64) > iso {
-                    let block = 4.0 * grid_size;
-                    let bmin = self.root_min + DVec3::new(bx as f64, by as f64, bz as f64) * block;
-                    let exit = box_exit(origin, dir, inv, bmin, block).min(t_end).max(t);
-                    t = next_t(t, past(exit, block / scale), block / scale);
+            // Empty grid cells (minimum above `iso`) are crossed without locating their
+            // leaves, except a lone cell inside one larger leaf, whose own exit may reach
+            // farther.
+            let whole_cell = || ix.level[k] == ix.depth && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG;
+            if iso <= 0.0 {
+                // The cube of `(2r − 1)³` empty cells around this one, in one step.
+                let r = ix.reach[k];
+                if r >= 2 || (r == 1 && whole_cell()) {
+                    let half = (r - 1) as f64;
+                    let cube = (2.0 * half + 1.0) * grid_size;
+                    let cmin =
+                        self.root_min + (DVec3::new(gx as f64, gy as f64, gz as f64) - DVec3::splat(half)) * grid_size;
+                    let exit = box_exit(origin, dir, inv, cmin, cube).min(t_end).max(t);
+                    t = next_t(t, past(exit, grid_size / scale, ulp_t), grid_size / scale);
                     continue;
                 }
-            }
-            if ix.level[k] == ix.depth
-                && (ix.lo[k] as f64) > iso
-                && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG
-            {
-                let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
-                let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
-                t = next_t(t, past(exit, grid_size / scale), grid_size / scale);
-                continue;
+            } else {
+                // A 4³ block whose minimum is above `iso`, or this grid cell, in one step.
+                if ix.depth >= 2 && ix.level[k] >= ix.depth - 2 {
+                    let m = n / 4;
+                    let (bx, by, bz) = (gx / 4, gy / 4, gz / 4);
+                    if (ix.block_lo[bx + m * (by + m * bz)] as f64) > iso {
+                        let block = 4.0 * grid_size;
+                        let bmin = self.root_min + DVec3::new(bx as f64, by as f64, bz as f64) * block;
+                        let exit = box_exit(origin, dir, inv, bmin, block).min(t_end).max(t);
+                        t = next_t(t, past(exit, block / scale, ulp_t), block / scale);
+                        continue;
+                    }
+                }
+                if (ix.lo[k] as f64) > iso && whole_cell() {
+                    let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
+                    let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
+                    t = next_t(t, past(exit, grid_size / scale, ulp_t), grid_size / scale);
+                    continue;
+                }
             }
             let (index, min, size) = self.locate_indexed(ix, q);
             let exit = box_exit(origin, dir, inv, min, size).min(t_end).max(t);
@@ -351,18 +400,17 @@ impl Adf {
                     }
                     candidate = exit.max(t + bound / scale);
                 }
-                t = next_t(t, past(candidate, size / scale), size / scale);
+                t = next_t(t, past(candidate, size / scale, ulp_t), size / scale);
                 continue;
             }
             let inv_size = 1.0 / size;
             let found = if cell.children == LEAF {
-                let at = |s: f64| {
-                    trilinear(
-                        &corners,
-                        ((origin + dir * s - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE),
-                    ) - iso
-                };
-                first_root_cubic(&at, t, exit)
+                // The cubic from the corners (module `cubic`).
+                let u0 = ((origin + dir * t - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
+                let u1 = ((origin + dir * exit - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
+                let mut c = trilinear_cubic(&corners, u0, u1 - u0);
+                c[0] -= iso;
+                first_root_of_cubic(c, t, exit)
             } else {
                 // A jump leaf: as in the reference walk.
                 let k = cell.jump().expect("a leaf that is not plain is a jump leaf");
@@ -388,7 +436,7 @@ impl Adf {
             if let Some(hit_t) = found {
                 return (Some(hit_t), steps);
             }
-            t = next_t(t, past(exit, size / scale), size / scale);
+            t = next_t(t, past(exit, size / scale, ulp_t), size / scale);
         }
         (None, steps)
     }
@@ -397,7 +445,7 @@ impl Adf {
 /// The first `s ∈ [a, b]` with `g(s) ≤ 0` for a cubic `g` (the trilinear reconstruction
 /// along a segment inside one cell), or `None`: the cubic through 4 samples, split into
 /// monotone pieces at its critical points, the first downward crossing refined on the
-/// polynomial (regula falsi safeguarded by bisection, [`bisect`]).
+/// polynomial (safeguarded Newton steps, [`newton_on_piece`]). Used for jump leaves at iso 0.
 pub(crate) fn first_root_cubic(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
     let ga = g(a);
     if ga <= 0.0 {
@@ -422,7 +470,7 @@ pub(crate) fn first_root_cubic(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Optio
     let cuts = &cuts[..m];
     for w in cuts.windows(2) {
         if poly(w[1]) <= 0.0 {
-            let u = bisect(&poly, w[0], w[1]);
+            let u = newton_on_piece(&poly, |u| c1 + u * (2.0 * c2 + u * 3.0 * c3), w[0], w[1]);
             return Some((a + u * h).min(b));
         }
     }
@@ -480,5 +528,114 @@ impl volga_core::Field for DescentWalk<'_> {
     }
     fn sample_spacing(&self) -> f64 {
         volga_core::Field::sample_spacing(self.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{AdfOptions, ShapeSource};
+    use volga_core::Aabb;
+    use volga_shapes::Torus;
+
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    fn torus_adf(centre: DVec3, max_depth: u8) -> Adf {
+        let torus = Torus::new(centre, DVec3::new(0.3, 1.0, 0.2).normalize(), 0.55, 0.18).unwrap();
+        let options = AdfOptions {
+            tolerance: 1e-3,
+            max_depth,
+            ..AdfOptions::default()
+        };
+        Adf::build(&ShapeSource(torus), options).unwrap()
+    }
+
+    /// The grid cell `(x, y, z)`'s world box.
+    fn cell_box(adf: &Adf, ix: &WalkIndex, x: isize, y: isize, z: isize) -> Aabb {
+        let g = adf.cell_size(ix.depth);
+        let min = adf.root_min + DVec3::new(x as f64, y as f64, z as f64) * g;
+        Aabb::new(min, min + DVec3::splat(g))
+    }
+
+    /// The reach against brute force: each cell's conservative minimum recomputed from the
+    /// leaves in its interior (`Adf::range` over the cell shrunk by 1e-9 of it), and the
+    /// chessboard distance to the nearest cell whose minimum is ≤ 0 by scanning all cells.
+    #[test]
+    fn the_reach_is_the_brute_force_distance_to_cells_that_may_hold_the_surface() {
+        let adf = torus_adf(DVec3::new(0.05, -0.1, 0.02), 5);
+        let ix = adf.walk_index();
+        let n = ix.n as isize;
+        assert_eq!(ix.n, 32, "grid at the depth reached");
+        let mut occupied = Vec::new();
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let b = cell_box(&adf, ix, x, y, z);
+                    let shrink = DVec3::splat(b.size().x * 1e-9);
+                    let (lo, _) = adf.range(&Aabb::new(b.min + shrink, b.max - shrink));
+                    if lo <= 0.0 {
+                        occupied.push((x, y, z));
+                    }
+                }
+            }
+        }
+        assert!(occupied.len() > 100, "{}", occupied.len());
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let brute = occupied
+                        .iter()
+                        .map(|&(a, b, c)| (a - x).abs().max((b - y).abs()).max((c - z).abs()))
+                        .min()
+                        .unwrap();
+                    let k = (x + n * (y + n * z)) as usize;
+                    assert_eq!(ix.reach[k] as isize, brute, "cell {x} {y} {z}");
+                }
+            }
+        }
+    }
+
+    /// What a step relies on: in the cube of `(2r − 1)³` cells around a cell of reach `r`,
+    /// the reconstruction is positive at random points (a bound that claimed more than
+    /// the true minimum would let a ray step over the surface). At the 128³ grid of a
+    /// deeper tree, near the origin and at 1e6.
+    #[test]
+    fn the_reconstruction_is_positive_in_every_cube_a_ray_crosses_in_one_step() {
+        for centre in [DVec3::new(0.05, -0.1, 0.02), DVec3::new(1e6, -1e6, 1e6)] {
+            let adf = torus_adf(centre, 8);
+            let ix = adf.walk_index();
+            assert_eq!(ix.depth, GRID_DEPTH);
+            let n = ix.n;
+            let mut rng = Rng(41);
+            let mut checked = 0;
+            // Every 7th cell (all of them at 128³ would take too long), 3 points each.
+            for k in (0..n * n * n).step_by(7) {
+                let r = ix.reach[k] as isize;
+                if r == 0 {
+                    continue;
+                }
+                let (x, y, z) = ((k % n) as isize, ((k / n) % n) as isize, (k / (n * n)) as isize);
+                let lo = cell_box(&adf, ix, x - (r - 1), y - (r - 1), z - (r - 1)).min;
+                let size = (2 * r - 1) as f64 * adf.cell_size(ix.depth);
+                for _ in 0..3 {
+                    let u = DVec3::new(rng.next(), rng.next(), rng.next());
+                    let p = lo + u * size;
+                    if adf.root_box().contains(p) {
+                        let d = adf.distance(p);
+                        assert!(d > 0.0, "reach {r} at cell {x} {y} {z}: value {d} at {p:?}");
+                        checked += 1;
+                    }
+                }
+            }
+            assert!(checked > 100_000, "{checked}");
+        }
     }
 }

@@ -196,3 +196,54 @@ fn the_index_finds_the_same_leaves_and_gradients() {
     // The index is not part of the ADF's value.
     assert_eq!(adf, fresh);
 }
+
+/// The reach steps (empty cubes of the 128³ grid crossed at once) and the cubic from the
+/// corners on a tree deep enough to use the whole grid: a torus ∪ sphere at depth 10,
+/// 3,000 random and grazing rays from outside, 500 from a camera inside the root cube, at
+/// the origin and at 1e6, against the reference walk.
+#[test]
+fn reach_steps_match_the_reference_on_a_deep_tree_near_and_far() {
+    use volga_adf::{Csg, CsgOp};
+    for offset in [DVec3::ZERO, DVec3::new(1e6, 1e6, -1e6)] {
+        let torus = Torus::new(offset + DVec3::new(0.0, 0.1, 0.0), DVec3::Y, 0.6, 0.2).unwrap();
+        let sphere = Sphere::new(offset + DVec3::new(0.3, -0.2, 0.1), 0.35).unwrap();
+        let source = Csg {
+            op: CsgOp::Union,
+            a: ShapeSource(torus),
+            b: ShapeSource(sphere),
+        };
+        let adf = Adf::build(&source, options(1e-4, 10)).unwrap();
+        assert!(adf.stats().depth_reached >= 8);
+        // Far from the origin `t` is resolved to the rounding of 1e6, not of 1.
+        let eps = if offset == DVec3::ZERO { 1e-9 } else { 1e-7 };
+        let mut rng = Rng(77);
+        let (mut hits, mut fast_steps, mut slow_steps) = (0, 0u64, 0u64);
+        for k in 0..3500 {
+            let origin = if k < 3000 {
+                offset + rng.unit() * 2.5
+            } else {
+                // Inside the root cube, outside or inside the surface.
+                offset + rng.unit() * 0.9 * rng.next()
+            };
+            let dir = if k % 3 == 0 {
+                // Grazing: towards a point at distance r ± a sliver from the torus's axis.
+                let side = rng.unit().cross(DVec3::Y).normalize();
+                let aim = offset
+                    + DVec3::new(0.0, 0.1 + 0.2 * (rng.next() - 0.5), 0.0)
+                    + side * (0.8 + (rng.next() - 0.5) * 4e-4);
+                (aim - origin).normalize()
+            } else {
+                (offset + rng.unit() * 0.7 - origin).normalize()
+            };
+            if agree(&adf, origin, dir, 0.0, eps).is_some() {
+                hits += 1;
+            }
+            if let Some((t0, t1)) = adf.root_box().ray_interval(origin, dir) {
+                fast_steps += adf.first_crossing_between(origin, dir, t0, t1, 0.0).1 as u64;
+                slow_steps += adf.first_crossing_by_descent(origin, dir, t0, t1, 0.0).1 as u64;
+            }
+        }
+        assert!(hits > 1000, "{hits} hits at {offset:?}");
+        assert!(fast_steps < slow_steps, "{fast_steps} vs {slow_steps} at {offset:?}");
+    }
+}

@@ -231,6 +231,7 @@ pub fn bench(args: AdfBenchArgs) -> Result<(), Failure> {
     let (index_s, index_bytes) = timed_cpu(|| built.adf.walk_index_bytes());
     value["walk_index_build_s"] = json!(index_s.0);
     value["walk_index_bytes"] = json!(index_bytes);
+    value["walk_reach_bytes"] = json!(built.adf.walk_reach_bytes());
     // The reference walk (no index), rendered in the same run for a before/after ratio.
     let descent = DescentWalk(&built.adf);
     let (descent_frames, descent_cpu, _) = time_frames(&descent, &iso, &settings, &cam, args.frames)?;
