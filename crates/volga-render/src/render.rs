@@ -219,7 +219,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         };
 
         let iso_mask = match (&packed, integrator.packed_iso_value()) {
-            (Some(p), Some(iso)) => Some(crate::iso_packed::IsoCellMask::build(p, kind.inward_sign(), iso)),
+            // Empty-space skipping off: the packed iso walk reads every cell.
+            (Some(p), Some(iso)) if settings.sampling.empty_space_skipping => {
+                Some(crate::iso_packed::IsoCellMask::build(p, kind.inward_sign(), iso))
+            }
             _ => None,
         };
         let sampling = &settings.sampling;

@@ -104,7 +104,6 @@ impl Integrator for Iso {
                 self.value,
                 interval,
                 m.tol,
-                m.grid,
                 m.iso_mask,
                 background_below,
                 stats,
