@@ -510,42 +510,44 @@ impl Dda {
             // (`plane` is monotone in `k`, so each loop ends; bounded all the same).
             let x = p[a].clamp(-1e9, 1e9);
             let mut k = x as i32 - ((x as i32 as f64) > x) as i32;
+            // The planes of cell k's faces at index k (`low`) and k + 1 (`high`).
+            let (mut low, mut high) = (self.plane(a, k), self.plane(a, k + 1));
             if s > 0 {
-                // The largest k with plane(k) < tau.
+                // The cell with plane(k) < tau ≤ plane(k + 1).
                 for _ in 0..64 {
-                    if self.plane(a, k + 1) < tau {
-                        k += 1;
-                    } else {
+                    if high >= tau {
                         break;
                     }
+                    k += 1;
+                    (low, high) = (high, self.plane(a, k + 1));
                 }
                 for _ in 0..64 {
-                    if self.plane(a, k) >= tau {
-                        k -= 1;
-                    } else {
+                    if low < tau {
                         break;
                     }
+                    k -= 1;
+                    (low, high) = (self.plane(a, k), low);
                 }
+                (self.enter[a], self.exit[a]) = (low, high);
             } else {
-                // Planes fall as k rises: the largest k with plane(k) ≥ tau.
+                // Planes fall as k rises: the cell with plane(k + 1) < tau ≤ plane(k).
                 for _ in 0..64 {
-                    if self.plane(a, k + 1) >= tau {
-                        k += 1;
-                    } else {
+                    if high < tau {
                         break;
                     }
+                    k += 1;
+                    (low, high) = (high, self.plane(a, k + 1));
                 }
                 for _ in 0..64 {
-                    if self.plane(a, k) < tau {
-                        k -= 1;
-                    } else {
+                    if low >= tau {
                         break;
                     }
+                    k -= 1;
+                    (low, high) = (self.plane(a, k), low);
                 }
+                (self.enter[a], self.exit[a]) = (high, low);
             }
             self.base[a] = k;
-            self.enter[a] = self.plane(a, k + (s < 0) as i32);
-            self.exit[a] = self.plane(a, k + (s > 0) as i32);
         }
     }
 
