@@ -55,6 +55,15 @@ use crate::{Ray, RenderStats};
 mod skip;
 pub(crate) use skip::IsoCellMask;
 
+// Per view: where each ray can first meet a cell that is not outside.
+#[path = "iso_starts.rs"]
+mod starts;
+pub(crate) use starts::IsoStarts;
+
+/// Least block reach worth a jump: a block of reach 1 is crossed in a few cell steps,
+/// each cheaper than placing the walk after a jump.
+const MIN_JUMP_REACH: u8 = 2;
+
 /// The packed volume to find iso crossings in, when this path applies to `m`: the field
 /// is a packed view and the shading casts no shadow rays and has no point lights (the
 /// renderer hands out a packed view only when [`packet_path_allowed`](crate::packet)
@@ -73,8 +82,9 @@ pub(crate) fn iso_packed<'m, F: Field + ?Sized>(m: &'m March<'_, F>) -> Option<&
 /// enters the bounds from outside (`t0 > 0`), comes from outside the surface (`None`:
 /// unknown, the first cell decides, as for a camera inside the volume). `tol` is the
 /// refinement tolerance in `t`. `mask` (empty-space skipping, `iso_skip.rs`) passes
-/// cells known to be outside without reading them; the hit is the same bits with and
-/// without it.
+/// cells known to be outside without reading them, and `start` (with a mask only: from
+/// the view's [`IsoStarts`], `−∞` when unknown) is a ray parameter before which every
+/// cell is outside (`+∞`: every cell); the hit is the same bits with and without them.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn march_iso_packed(
     packed: &PackedVolume,
@@ -84,6 +94,7 @@ pub(crate) fn march_iso_packed(
     (t0, t1): (f64, f64),
     tol: f64,
     mask: Option<&IsoCellMask>,
+    start: f64,
     background_below: Option<bool>,
     stats: &mut RenderStats,
 ) -> Option<f64> {
@@ -111,6 +122,8 @@ pub(crate) fn march_iso_packed(
             return None;
         };
         let (box_in, box_out) = box_interval(a0, inv, lo, hi);
+        // The view's start bound, local (NaN-safe: only a comparison true moves it).
+        let box_in = if start - t0 > box_in { start - t0 } else { box_in };
         if !(box_in <= box_out && box_in <= tau_end && box_out >= 0.0) {
             stats.cells_skipped += 1;
             return None;
@@ -152,7 +165,7 @@ pub(crate) fn march_iso_packed(
                 if slot.word != word {
                     word = slot.word;
                     let r = m.reach(word);
-                    if r > 0 {
+                    if r >= MIN_JUMP_REACH {
                         // A cube of outside blocks around this one: jump to its exit.
                         let tau_x = v.cube_exit(IsoCellMask::cube_planes(v.base, r));
                         if tau_x > v.exit_min() {

@@ -48,6 +48,9 @@ pub(crate) struct IsoCellMask {
     /// Smallest and largest base of a cell that is not outside; `None` when every
     /// cell is (no ray can cross the iso-surface).
     active: Option<(IVec3, IVec3)>,
+    /// The blocks holding a cell that is not outside (block coordinates, in word
+    /// order): what a view's start map (`iso_starts.rs`) projects.
+    active_blocks: Vec<IVec3>,
 }
 
 /// Where cell `base` sits in the mask: its word and its bit in the word.
@@ -82,11 +85,16 @@ impl IsoCellMask {
             .collect();
         let reach = empty_reach(blocks, &words);
         let active = active_box(blocks, &words);
+        let active_blocks = (0..n)
+            .filter(|&w| words[w] != u64::MAX)
+            .map(|w| delinearize(blocks, w))
+            .collect();
         IsoCellMask {
             blocks,
             words,
             reach,
             active,
+            active_blocks,
         }
     }
 
@@ -138,6 +146,12 @@ impl IsoCellMask {
                 (hi + IVec3::ONE).as_dvec3() + ACTIVE_BOX_MARGIN,
             )
         })
+    }
+
+    /// The blocks holding a cell that is not outside; block `b` spans the index box
+    /// `[4b − 1, 4b + 3]` (the cells with bases `4b − 1 ..= 4b + 2`).
+    pub(crate) fn active_blocks(&self) -> &[IVec3] {
+        &self.active_blocks
     }
 
     /// Blocks per axis (for the tests' brute-force references).

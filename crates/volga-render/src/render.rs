@@ -279,6 +279,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             preint: self.preint.as_ref(),
             light_volumes: &self.light_volumes,
             iso_mask: self.iso_mask.as_ref(),
+            iso_starts: None,
         }
     }
 
@@ -302,7 +303,14 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 field: self.field,
                 packed,
             };
-            return self.render_march(&self.march(&field), camera, progress);
+            // The packed iso path's start map: part of the view, so built per frame.
+            let image = &self.settings.image;
+            let starts = self.iso_mask.as_ref().and_then(|mask| {
+                crate::iso_packed::IsoStarts::build(mask, &packed.grid().transform, camera, image.width, image.height)
+            });
+            let mut march = self.march(&field);
+            march.iso_starts = starts.as_ref();
+            return self.render_march(&march, camera, progress);
         }
         match &self.prepared {
             Some(p) => self.render_march(&self.march(&**p), camera, progress),

@@ -105,6 +105,7 @@ impl Integrator for Iso {
                 interval,
                 m.tol,
                 m.iso_mask,
+                m.iso_starts.map_or(f64::NEG_INFINITY, |s| s.start(ray)),
                 background_below,
                 stats,
             );
