@@ -48,7 +48,7 @@ use glam::{DVec3, IVec3};
 use volga_core::{Field, PackedVolume};
 
 use crate::integrators::March;
-use crate::{Ray, RenderStats};
+use crate::{Camera, Ray, RenderStats};
 
 // The cell mask and the skip structure over it.
 #[path = "iso_skip.rs"]
@@ -74,6 +74,19 @@ pub(crate) fn iso_packed<'m, F: Field + ?Sized>(m: &'m March<'_, F>) -> Option<&
         return None;
     }
     m.field.packed()
+}
+
+impl<F: Field + ?Sized> March<'_, F> {
+    /// Whether every ray through the pixels `x0..x1 × y0..y1` of `camera`'s
+    /// `width × height` image is known to miss the iso-surface on the packed iso path
+    /// (its view's [`IsoStarts`] covers the tile with no active box), so the renderer
+    /// can fill the tile with the background: what each of those rays would give.
+    pub(crate) fn iso_tile_misses(&self, camera: &Camera, tile: (u32, u32, u32, u32), image: (u32, u32)) -> bool {
+        match (self.iso_starts, iso_packed(self)) {
+            (Some(starts), Some(_)) => starts.misses_pixels(camera, tile, image),
+            _ => false,
+        }
+    }
 }
 
 /// The exact first crossing from outside to inside of the oriented iso level

@@ -12,7 +12,7 @@
 //! least depth of the box's corners (depth is linear, the box convex). Its image-plane
 //! point `(u, v)` (`(x/z, y/z)` in the camera frame for a perspective camera, `(x, y)`
 //! for an orthographic one) lies in the convex hull of the corners' points, so in their
-//! bounding rectangle, which is grown by one image cell against rounding. Every cell the
+//! bounding rectangle, which is grown by a thousandth of an image cell against rounding. Every cell the
 //! walk passes before the least such `t` over the boxes lies in a block that is wholly
 //! outside, which is what the walk would find by reading it; the depth is rounded down
 //! to `f32` and the start moved [`START_MARGIN_VOXELS`] earlier, so rounding can only
@@ -34,6 +34,9 @@ const START_MARGIN_VOXELS: f64 = 2.0;
 
 /// Image cells per side at most (larger images share cells between pixels).
 const MAX_CELLS_PER_SIDE: u32 = 2048;
+
+/// How far (in image cells) a box's rectangle is grown on every side.
+const CELL_SLACK: f64 = 1e-3;
 
 /// Rows of image cells per parallel band.
 const BAND_ROWS: usize = 8;
@@ -181,13 +184,22 @@ impl IsoStarts {
             // Wholly behind the eye: no forward ray meets it at t ≥ 0.
             return if z_hi < 0.0 { Some(None) } else { None };
         }
-        let cell = |value: f64, origin: f64, per: f64, n: usize| {
+        // The image cells the rectangle touches, grown by `CELL_SLACK` of a cell: far
+        // more than the rounding of these coordinates and of a ray's (relative 1e-15
+        // of at most `MAX_CELLS_PER_SIDE` cells).
+        let cell = |value: f64, origin: f64, per: f64, n: usize, slack: f64| {
             // Clamped before the conversion (NaN, ±∞ and far values included).
-            let c = ((value - origin) * per).floor();
+            let c = ((value - origin) * per + slack).floor();
             c.clamp(-1.0, n as f64) as i64
         };
-        let (x0, x1) = (cell(u_lo, self.u0, self.cells_per_u, self.width) - 1, cell(u_hi, self.u0, self.cells_per_u, self.width) + 1);
-        let (y0, y1) = (cell(v_lo, self.v0, self.cells_per_v, self.height) - 1, cell(v_hi, self.v0, self.cells_per_v, self.height) + 1);
+        let (x0, x1) = (
+            cell(u_lo, self.u0, self.cells_per_u, self.width, -CELL_SLACK),
+            cell(u_hi, self.u0, self.cells_per_u, self.width, CELL_SLACK),
+        );
+        let (y0, y1) = (
+            cell(v_lo, self.v0, self.cells_per_v, self.height, -CELL_SLACK),
+            cell(v_hi, self.v0, self.cells_per_v, self.height, CELL_SLACK),
+        );
         let (w, h) = (self.width as i64, self.height as i64);
         if x1 < 0 || y1 < 0 || x0 >= w || y0 >= h || !(u_lo <= u_hi && v_lo <= v_hi) {
             return Some(None);
@@ -222,6 +234,41 @@ impl IsoStarts {
             return f64::NEG_INFINITY;
         }
         (z as f64 - (ray.origin - self.eye).dot(self.forward)) / along - self.margin
+    }
+}
+
+impl IsoStarts {
+    /// Whether every ray through the pixels `x0..x1 × y0..y1` (and their sub-pixels)
+    /// of `camera`'s `width × height` image meets no active box: every image cell their
+    /// image-plane points can fall in (the rectangle of the tile's corner rays, which
+    /// bounds them: image-plane coordinates are affine in the pixel coordinates) holds
+    /// `+∞`. False where the tile reaches beyond the map.
+    pub(crate) fn misses_pixels(&self, camera: &Camera, (x0, y0, x1, y1): (u32, u32, u32, u32), (width, height): (u32, u32)) -> bool {
+        let (mut u_lo, mut u_hi, mut v_lo, mut v_hi) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for (px, py) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+            let ray = camera.ray(px as f64 - 0.5, py as f64 - 0.5, width, height);
+            let Some((u, v)) = self.ray_uv(&ray) else {
+                return false;
+            };
+            (u_lo, u_hi, v_lo, v_hi) = (u_lo.min(u), u_hi.max(u), v_lo.min(v), v_hi.max(v));
+        }
+        let (cx0, cx1) = (
+            ((u_lo - self.u0) * self.cells_per_u - CELL_SLACK).floor(),
+            ((u_hi - self.u0) * self.cells_per_u + CELL_SLACK).floor(),
+        );
+        let (cy0, cy1) = (
+            ((v_lo - self.v0) * self.cells_per_v - CELL_SLACK).floor(),
+            ((v_hi - self.v0) * self.cells_per_v + CELL_SLACK).floor(),
+        );
+        if !(cx0 >= 0.0 && cy0 >= 0.0 && cx1 < self.width as f64 && cy1 < self.height as f64) {
+            return false;
+        }
+        let (cx0, cx1, cy0, cy1) = (cx0 as usize, cx1 as usize, cy0 as usize, cy1 as usize);
+        (cy0..=cy1).all(|y| {
+            self.depth[y * self.width + cx0..=y * self.width + cx1]
+                .iter()
+                .all(|z| *z == f32::INFINITY)
+        })
     }
 }
 

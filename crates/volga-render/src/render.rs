@@ -382,9 +382,18 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 let (x1, y1) = ((x0 + ts).min(w), (y0 + ts).min(h));
                 let mut stats = RenderStats::default();
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        px.push(trace(x, y, &mut stats));
+                if march.iso_tile_misses(camera, (x0, y0, x1, y1), (w, h)) {
+                    // Every ray of the tile misses (the packed iso path's start map):
+                    // each pixel is what `trace_pixel` gives a ray that meets nothing.
+                    let k = self.settings.image.supersampling.max(1) as u64;
+                    stats.rays += ((x1 - x0) * (y1 - y0)) as u64 * k * k;
+                    let bg = over_background(self.settings.image.background, glam::Vec3::ZERO, 0.0);
+                    px.resize(((x1 - x0) * (y1 - y0)) as usize, bg);
+                } else {
+                    for y in y0..y1 {
+                        for x in x0..x1 {
+                            px.push(trace(x, y, &mut stats));
+                        }
                     }
                 }
                 progress.inc(1);
