@@ -184,7 +184,7 @@ pub(crate) fn march_iso_packed(
                         if tau_x > v.exit_min() {
                             stats.cells_skipped += 1;
                             below = Some(true);
-                            if !(tau_x < limit) {
+                            if tau_x.is_nan() || tau_x >= limit {
                                 return None;
                             }
                             v.advance_to(tau_x);

@@ -153,12 +153,6 @@ impl IsoCellMask {
     pub(crate) fn active_blocks(&self) -> &[IVec3] {
         &self.active_blocks
     }
-
-    /// Blocks per axis (for the tests' brute-force references).
-    #[cfg(test)]
-    pub(crate) fn blocks(&self) -> [u32; 3] {
-        self.blocks
-    }
 }
 
 /// The base of cell `bit` of word `w`.
@@ -184,7 +178,10 @@ fn delinearize(blocks: [u32; 3], w: usize) -> IVec3 {
 /// the thread count.
 pub(crate) fn empty_reach(blocks: [u32; 3], words: &[u64]) -> Vec<u8> {
     let [nx, ny, nz] = blocks.map(|n| n as usize);
-    let mut d: Vec<u8> = words.iter().map(|w| if *w == u64::MAX { MAX_REACH } else { 0 }).collect();
+    let mut d: Vec<u8> = words
+        .iter()
+        .map(|w| if *w == u64::MAX { MAX_REACH } else { 0 })
+        .collect();
     for axis in 0..3 {
         let (n, stride, lines) = [(nx, 1, ny * nz), (ny, nx, nx * nz), (nz, nx * ny, nx * ny)][axis];
         // The first element of every line along this axis.
@@ -295,7 +292,7 @@ mod tests {
                 })
                 .collect();
             let reach = empty_reach(blocks, &words);
-            for w in 0..n {
+            for (w, &r) in reach.iter().enumerate() {
                 let x = delinearize(blocks, w);
                 let mut want = MAX_REACH as i32;
                 for (v, &word) in words.iter().enumerate() {
@@ -304,7 +301,7 @@ mod tests {
                         want = want.min((x - y).abs().max_element());
                     }
                 }
-                assert_eq!(reach[w] as i32, want, "{blocks:?} block {x}");
+                assert_eq!(r as i32, want, "{blocks:?} block {x}");
             }
         }
     }

@@ -103,7 +103,8 @@ impl IsoStarts {
         // edges: every pixel's and sub-pixel's ray lies within).
         let (fw, fh) = (width.max(1) as f64, height.max(1) as f64);
         let corners = [(-0.5, -0.5), (fw - 0.5, -0.5), (-0.5, fh - 0.5), (fw - 0.5, fh - 0.5)];
-        let (mut u_lo, mut u_hi, mut v_lo, mut v_hi) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        let (mut u_lo, mut u_hi, mut v_lo, mut v_hi) =
+            (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
         for (px, py) in corners {
             let (u, v) = map.ray_uv(&camera.ray(px, py, width, height))?;
             (u_lo, u_hi, v_lo, v_hi) = (u_lo.min(u), u_hi.max(u), v_lo.min(v), v_hi.max(v));
@@ -166,7 +167,8 @@ impl IsoStarts {
     fn footprint(&self, transform: &Transform, b: IVec3) -> Option<Option<Footprint>> {
         let lo = transform.index_to_world((b * 4 - IVec3::ONE).as_dvec3());
         let hi = transform.index_to_world((b * 4 + IVec3::splat(3)).as_dvec3());
-        let (mut u_lo, mut u_hi, mut v_lo, mut v_hi) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        let (mut u_lo, mut u_hi, mut v_lo, mut v_hi) =
+            (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
         let (mut z_lo, mut z_hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for corner in 0..8 {
             let p = DVec3::new(
@@ -180,7 +182,7 @@ impl IsoStarts {
             let (u, v) = if self.perspective { (x / z, y / z) } else { (x, y) };
             (u_lo, u_hi, v_lo, v_hi) = (u_lo.min(u), u_hi.max(u), v_lo.min(v), v_hi.max(v));
         }
-        if self.perspective && !(z_lo > 0.0) {
+        if self.perspective && (z_lo.is_nan() || z_lo <= 0.0) {
             // Wholly behind the eye: no forward ray meets it at t ≥ 0.
             return if z_hi < 0.0 { Some(None) } else { None };
         }
@@ -230,7 +232,7 @@ impl IsoStarts {
             return f64::INFINITY;
         }
         let along = ray.dir.dot(self.forward);
-        if !(along > 0.0) {
+        if along.is_nan() || along <= 0.0 {
             return f64::NEG_INFINITY;
         }
         (z as f64 - (ray.origin - self.eye).dot(self.forward)) / along - self.margin
@@ -243,8 +245,14 @@ impl IsoStarts {
     /// image-plane points can fall in (the rectangle of the tile's corner rays, which
     /// bounds them: image-plane coordinates are affine in the pixel coordinates) holds
     /// `+∞`. False where the tile reaches beyond the map.
-    pub(crate) fn misses_pixels(&self, camera: &Camera, (x0, y0, x1, y1): (u32, u32, u32, u32), (width, height): (u32, u32)) -> bool {
-        let (mut u_lo, mut u_hi, mut v_lo, mut v_hi) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    pub(crate) fn misses_pixels(
+        &self,
+        camera: &Camera,
+        (x0, y0, x1, y1): (u32, u32, u32, u32),
+        (width, height): (u32, u32),
+    ) -> bool {
+        let (mut u_lo, mut u_hi, mut v_lo, mut v_hi) =
+            (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
         for (px, py) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
             let ray = camera.ray(px as f64 - 0.5, py as f64 - 0.5, width, height);
             let Some((u, v)) = self.ray_uv(&ray) else {
