@@ -9,13 +9,17 @@
 //! octrees, ADFs, CVG trees, analytic fields) and every image with shadows or point
 //! lights keeps the general [`march_iso`](crate::march) path.
 //!
-//! **The walk.** The ray, clipped to the field's bounds, is walked through the macro
-//! cells ([`MacroGrid`], as the general path), and inside every active macro cell
-//! through the voxel cells (the unit cubes between eight voxel centres) with a 3D DDA in
-//! index space (Amanatides and Woo). Each cell's parameter interval is computed from its
-//! own face planes, never accumulated, so a cell and its polynomial are a function of
-//! the ray and the cell alone: the hit does not depend on how the walk reached the cell
-//! (skipping on = off bit for bit, any thread count).
+//! **The walk.** The ray, clipped to the field's bounds, is walked through the voxel
+//! cells (the unit cubes between eight voxel centres) with a 3D DDA in index space
+//! (Amanatides and Woo). Each cell's parameter interval is computed from its own face
+//! planes, never accumulated, so a cell and its polynomial are a function of the ray
+//! and the cell alone. With empty-space skipping on, the cell mask of `iso_skip.rs`
+//! passes cells whose corners are all outside without reading them, a ray that misses
+//! the box of the other cells ends at once, and a ray entering a block of 4³ cells
+//! around which a cube of blocks is all outside jumps to the cube's exit: the walk is
+//! put in the cell it would be in just before that exit by the same plane comparisons
+//! a step makes ([`Dda::advance_to`]), so it goes on exactly as if it had stepped
+//! through every cell (skipping on = off bit for bit, any thread count).
 //!
 //! **The root.** Along a ray the trilinear interpolant of one cell is a cubic in the ray
 //! parameter (survey §5: trilinear reconstruction is the tensor product of three linear
@@ -36,15 +40,29 @@
 //! grazing silhouettes and thin features (measured in `tests/iso_packed.rs`).
 //!
 //! Work counters: `samples` counts voxel cells whose corners were read (eight voxels
-//! each), `cells_skipped` macro cells crossed without reading, `gradient_evaluations`
-//! the one packed gradient per hit.
+//! each), `cells_skipped` the skips (a jump over a cube of outside blocks, a ray ended
+//! or advanced by the active box), `gradient_evaluations` the one packed gradient per
+//! hit.
 
 use glam::{DVec3, IVec3};
 use volga_core::{Field, PackedVolume};
 
 use crate::integrators::March;
-use crate::march::MacroGrid;
-use crate::{CellClass, Ray, RenderStats};
+use crate::{Camera, Ray, RenderStats};
+
+// The cell mask and the skip structure over it.
+#[path = "iso_skip.rs"]
+mod skip;
+pub(crate) use skip::IsoCellMask;
+
+// Per view: where each ray can first meet a cell that is not outside.
+#[path = "iso_starts.rs"]
+mod starts;
+pub(crate) use starts::IsoStarts;
+
+/// Least block reach worth a jump: a block of reach 1 is crossed in a few cell steps,
+/// each cheaper than placing the walk after a jump.
+const MIN_JUMP_REACH: u8 = 2;
 
 /// The packed volume to find iso crossings in, when this path applies to `m`: the field
 /// is a packed view and the shading casts no shadow rays and has no point lights (the
@@ -58,12 +76,28 @@ pub(crate) fn iso_packed<'m, F: Field + ?Sized>(m: &'m March<'_, F>) -> Option<&
     m.field.packed()
 }
 
+impl<F: Field + ?Sized> March<'_, F> {
+    /// Whether every ray through the pixels `x0..x1 × y0..y1` of `camera`'s
+    /// `width × height` image is known to miss the iso-surface on the packed iso path
+    /// (its view's [`IsoStarts`] covers the tile with no active box), so the renderer
+    /// can fill the tile with the background: what each of those rays would give.
+    pub(crate) fn iso_tile_misses(&self, camera: &Camera, tile: (u32, u32, u32, u32), image: (u32, u32)) -> bool {
+        match (self.iso_starts, iso_packed(self)) {
+            (Some(starts), Some(_)) => starts.misses_pixels(camera, tile, image),
+            _ => false,
+        }
+    }
+}
+
 /// The exact first crossing from outside to inside of the oriented iso level
 /// (`inward·v ≥ inward·iso` is inside) of `packed`'s trilinear reconstruction along
 /// `ray` within `[t0, t1]`, or `None`. `background_below` is whether the ray, when it
 /// enters the bounds from outside (`t0 > 0`), comes from outside the surface (`None`:
 /// unknown, the first cell decides, as for a camera inside the volume). `tol` is the
-/// refinement tolerance in `t`.
+/// refinement tolerance in `t`. `mask` (empty-space skipping, `iso_skip.rs`) passes
+/// cells known to be outside without reading them, and `start` (with a mask only: from
+/// the view's [`IsoStarts`], `−∞` when unknown) is a ray parameter before which every
+/// cell is outside (`+∞`: every cell); the hit is the same bits with and without them.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn march_iso_packed(
     packed: &PackedVolume,
@@ -72,8 +106,8 @@ pub(crate) fn march_iso_packed(
     iso: f64,
     (t0, t1): (f64, f64),
     tol: f64,
-    grid: Option<&MacroGrid>,
     mask: Option<&IsoCellMask>,
+    start: f64,
     background_below: Option<bool>,
     stats: &mut RenderStats,
 ) -> Option<f64> {
@@ -89,67 +123,82 @@ pub(crate) fn march_iso_packed(
         return None;
     }
     let tau_end = t1 - t0;
-    // The voxel walk, (re)started lazily at `pos` where a macro cell must be read.
-    let mut dda: Option<Dda> = None;
+    // Past `limit` every cell is outside: the walk ends there without a hit.
+    let mut limit = tau_end;
     let mut below = background_below;
-    let mut walk = grid.map(|g| MacroWalk::new(g, ray, t0));
-    // The current macro cell's class, valid for ray parameters below `macro_exit`.
-    let mut macro_class = CellClass::Active;
-    let mut macro_exit = f64::NEG_INFINITY;
-    // Ray parameter reached: cells are classified from here on (never backwards).
-    let mut pos = t0;
-    let bg = inward * packed.background() as f64;
+    let inv = DVec3::ONE / d;
+    // The active box: a ray that misses it meets only outside cells.
+    let mut enter_box = 0.0;
+    if let Some(m) = mask {
+        let Some((lo, hi)) = m.active_index_box() else {
+            stats.cells_skipped += 1;
+            return None;
+        };
+        let (box_in, box_out) = box_interval(a0, inv, lo, hi);
+        // The view's start bound, local (NaN-safe: only a comparison true moves it).
+        let box_in = if start - t0 > box_in { start - t0 } else { box_in };
+        if !(box_in <= box_out && box_in <= tau_end && box_out >= 0.0) {
+            stats.cells_skipped += 1;
+            return None;
+        }
+        limit = limit.min(box_out);
+        enter_box = box_in;
+    }
+    let mut v = Dda::new(a0, d, inv, 0.0);
+    // Skip a cell the start only touches (its exit at or before it).
+    while v.exit_min() <= 0.0 {
+        v.step();
+    }
+    if enter_box > v.exit_min() {
+        // Every cell before the grown box is outside: continue from the one the ray is
+        // in just before entering it (outside too), as the walk would have reached it.
+        stats.cells_skipped += 1;
+        below = Some(true);
+        v.advance_to(enter_box);
+        v.step();
+    }
     // A safety bound on the walk (a ray crosses at most Σ|Δijk| + 3 cells).
     let max_cells = {
         let span = (d * tau_end).abs();
         (span.x + span.y + span.z) as u64 + 8
     };
     let mut visited = 0u64;
+    let bg = inward * packed.background() as f64;
+    // The mask word of the last cell whose block was considered for a jump.
+    let mut word = usize::MAX;
     loop {
-        if let Some(w) = &mut walk {
-            let q = match &dda {
-                Some(v) => (t0 + v.segment(tau_end).0).max(pos),
-                None => pos,
-            };
-            if q >= macro_exit {
-                // Just past `q`: a cell starting on a macro face belongs to the next one.
-                let (class, exit) = w.class_at(next_up(q));
-                macro_class = class;
-                macro_exit = exit.max(next_up(q));
-            }
-            let skip = match macro_class {
-                CellClass::Active => false,
-                CellClass::Outside => true,
-                // Entering an inside cell from outside: the crossing is in it or at
-                // its face; walk its voxel cells to find it.
-                CellClass::Inside => below != Some(true),
-            };
-            if skip {
-                stats.cells_skipped += 1;
-                below = Some(macro_class == CellClass::Outside);
-                if macro_exit >= t1 {
-                    return None;
-                }
-                pos = macro_exit;
-                dda = None;
-                continue;
-            }
-        }
-        let v = dda.get_or_insert_with(|| {
-            let tau = pos - t0;
-            let mut v = Dda::new(a0, d, tau);
-            // Skip a cell `pos` only touches (its exit at or before `pos`).
-            while v.exit_min() <= tau {
-                v.step();
-            }
-            v
-        });
         let (tau_a, tau_b) = v.segment(tau_end);
-        if tau_a > tau_end || visited > max_cells {
+        if tau_a > limit || visited > max_cells {
             return None;
         }
         visited += 1;
-        if mask.is_some_and(|m| m.outside(v.base)) {
+        let outside = match mask.and_then(|m| m.slot(v.base).map(|s| (m, s))) {
+            None => false,
+            Some((m, slot)) => {
+                if slot.word != word {
+                    word = slot.word;
+                    let r = m.reach(word);
+                    if r >= MIN_JUMP_REACH {
+                        // A cube of outside blocks around this one: jump to its exit.
+                        let tau_x = v.cube_exit(IsoCellMask::cube_planes(v.base, r));
+                        if tau_x > v.exit_min() {
+                            stats.cells_skipped += 1;
+                            below = Some(true);
+                            if tau_x.is_nan() || tau_x >= limit {
+                                return None;
+                            }
+                            v.advance_to(tau_x);
+                            // The cell just before the exit is in the cube (outside).
+                            word = m.slot(v.base).map_or(usize::MAX, |s| s.word);
+                            v.step();
+                            continue;
+                        }
+                    }
+                }
+                m.outside_at(slot)
+            }
+        };
+        if outside {
             // All eight corners outside (what `cell_crossing` would find reading them).
             below = Some(true);
         } else if tau_b >= tau_a {
@@ -160,7 +209,6 @@ pub(crate) fn march_iso_packed(
                 Crossing::End(b) => below = b,
             }
         }
-        pos = pos.max(t0 + tau_b);
         if tau_b >= tau_end {
             return None;
         }
@@ -168,196 +216,22 @@ pub(crate) fn march_iso_packed(
     }
 }
 
-/// A walk over the macro cells along one ray (Amanatides and Woo), like
-/// [`MacroGrid::walk`] but with the ray's inverse direction and inverse cell size
-/// precomputed (multiplications where that walk divides), for the packed iso loop.
-/// Face parameters are computed from the face planes; a point within rounding of a
-/// face may be given either cell, which the cells' one-spacing margin covers.
-struct MacroWalk<'g> {
-    grid: &'g MacroGrid,
-    min: DVec3,
-    max: DVec3,
-    cell: DVec3,
-    inv_cell: DVec3,
-    dims: [usize; 3],
-    origin: DVec3,
-    dir: DVec3,
-    inv_dir: DVec3,
-    ijk: [usize; 3],
-    t_exit: [f64; 3],
-    /// Set after a jump over a block of Outside cells (or leaving the grid by
-    /// rounding): the next query locates its cell afresh.
-    relocate: bool,
-}
-
-impl<'g> MacroWalk<'g> {
-    fn new(grid: &'g MacroGrid, ray: &Ray, t: f64) -> MacroWalk<'g> {
-        let (min, max, cell, dims) = grid.layout();
-        let mut w = MacroWalk {
-            grid,
-            min,
-            max,
-            cell,
-            inv_cell: DVec3::ONE / cell,
-            dims,
-            origin: ray.origin,
-            dir: ray.dir,
-            inv_dir: DVec3::ONE / ray.dir,
-            ijk: [0; 3],
-            t_exit: [f64::INFINITY; 3],
-            relocate: false,
-        };
-        w.locate(t);
-        w
-    }
-
-    /// Starts at the cell holding the point at `t` (clamped to the grid).
-    #[inline]
-    fn locate(&mut self, t: f64) {
-        let p = self.origin + self.dir * t;
-        for a in 0..3 {
-            let f = (p[a] - self.min[a]) * self.inv_cell[a];
-            self.ijk[a] = if f.is_finite() && f > 0.0 {
-                (f as usize).min(self.dims[a] - 1)
-            } else {
-                0
-            };
-            self.t_exit[a] = self.face_t(a, self.ijk[a]);
-        }
-        self.relocate = false;
-    }
-
-    /// Ray parameter where the ray leaves the slab of cells `index` along `a` through
-    /// its far face (∞ when parallel).
-    #[inline(always)]
-    fn face_t(&self, a: usize, index: usize) -> f64 {
-        let d = self.dir[a];
-        if d > 0.0 {
-            let plane = if index + 1 >= self.dims[a] {
-                self.max[a]
-            } else {
-                self.min[a] + (index + 1) as f64 * self.cell[a]
-            };
-            (plane - self.origin[a]) * self.inv_dir[a]
-        } else if d < 0.0 {
-            (self.min[a] + index as f64 * self.cell[a] - self.origin[a]) * self.inv_dir[a]
-        } else {
-            f64::INFINITY
+/// The parameter interval `(enter, exit)` of the line `a0 + τ·d` (`inv = 1/d`) in the
+/// box `[lo, hi]` (empty when `enter > exit`; NaN-free for finite inputs: an axis the
+/// line is parallel to either holds it throughout or excludes it).
+#[inline(always)]
+fn box_interval(a0: DVec3, inv: DVec3, lo: DVec3, hi: DVec3) -> (f64, f64) {
+    let (mut enter, mut exit) = (f64::NEG_INFINITY, f64::INFINITY);
+    for a in 0..3 {
+        if inv[a].is_finite() {
+            let (p, q) = ((lo[a] - a0[a]) * inv[a], (hi[a] - a0[a]) * inv[a]);
+            enter = enter.max(p.min(q));
+            exit = exit.min(p.max(q));
+        } else if !(a0[a] >= lo[a] && a0[a] <= hi[a]) {
+            return (f64::INFINITY, f64::NEG_INFINITY);
         }
     }
-
-    /// The class of the cell holding the point at `t` (non-decreasing from call to
-    /// call) and the ray parameter up to which that class holds: the cell's exit, or
-    /// for an Outside cell whose Outside block reaches `r ≥ 2` cells on every side, the
-    /// block's exit. Leaving the grid (rounding at the bounds): Active to the end.
-    #[inline]
-    fn class_at(&mut self, t: f64) -> (CellClass, f64) {
-        if self.relocate {
-            self.locate(t);
-        }
-        loop {
-            let exit = self.t_exit[0].min(self.t_exit[1]).min(self.t_exit[2]);
-            if exit >= t || exit.is_nan() {
-                break;
-            }
-            let a = if self.t_exit[0] == exit {
-                0
-            } else if self.t_exit[1] == exit {
-                1
-            } else {
-                2
-            };
-            let forward = self.dir[a] > 0.0;
-            if (forward && self.ijk[a] + 1 >= self.dims[a]) || (!forward && self.ijk[a] == 0) {
-                self.relocate = true;
-                return (CellClass::Active, f64::INFINITY);
-            }
-            if forward {
-                self.ijk[a] += 1;
-            } else {
-                self.ijk[a] -= 1;
-            }
-            self.t_exit[a] = self.face_t(a, self.ijk[a]);
-        }
-        let exit = self.t_exit[0].min(self.t_exit[1]).min(self.t_exit[2]);
-        let [nx, ny, _] = self.dims;
-        let lin = self.ijk[0] + nx * (self.ijk[1] + ny * self.ijk[2]);
-        let (class, r) = self.grid.class_and_reach(lin);
-        let r = r as usize;
-        if class != CellClass::Outside || r < 2 {
-            return (class, exit);
-        }
-        let mut block_exit = f64::INFINITY;
-        for a in 0..3 {
-            let index = if self.dir[a] > 0.0 {
-                (self.ijk[a] + r).min(self.dims[a] - 1)
-            } else {
-                self.ijk[a].saturating_sub(r)
-            };
-            block_exit = block_exit.min(self.face_t(a, index));
-        }
-        self.relocate = true;
-        (class, block_exit.max(exit))
-    }
-}
-
-/// Per voxel cell of a packed volume, one bit: set when its eight corners are all
-/// finite and outside the oriented iso value (`inward·v < inward·iso`), so the walk
-/// passes it without reading them (the same decision `cell_crossing` takes from the
-/// corners). Cells are grouped 4×4×4 per `u64` so a ray's consecutive cells share
-/// words. Built once per renderer (iso value and orientation fixed).
-pub(crate) struct IsoCellMask {
-    /// Blocks of 4³ cells per axis; cell `base` is at `base + 1` (bases from −1 on).
-    blocks: [u32; 3],
-    words: Vec<u64>,
-}
-
-impl IsoCellMask {
-    /// The mask of `packed` for the oriented iso level (in parallel; the same bits for
-    /// any thread count).
-    pub(crate) fn build(packed: &PackedVolume, inward: f64, iso: f64) -> IsoCellMask {
-        use rayon::prelude::*;
-        let dims = packed.grid().dims();
-        // Cells with bases −1 ..= dims − 1: dims + 1 per axis.
-        let blocks = [dims.x, dims.y, dims.z].map(|n| (n + 1).div_ceil(4));
-        let n = blocks[0] as usize * blocks[1] as usize * blocks[2] as usize;
-        let iso = inward * iso;
-        let bg = inward * packed.background() as f64;
-        let words = (0..n)
-            .into_par_iter()
-            .map(|w| {
-                let (bx, by, bz) = (
-                    w % blocks[0] as usize,
-                    (w / blocks[0] as usize) % blocks[1] as usize,
-                    w / (blocks[0] as usize * blocks[1] as usize),
-                );
-                let mut word = 0u64;
-                for bit in 0..64usize {
-                    let local = IVec3::new((bit & 3) as i32, ((bit >> 2) & 3) as i32, (bit >> 4) as i32);
-                    let base = IVec3::new(bx as i32, by as i32, bz as i32) * 4 + local - IVec3::ONE;
-                    let c = cell_corners(packed, base, inward, bg);
-                    if c.iter().all(|v| *v < iso) {
-                        word |= 1 << bit;
-                    }
-                }
-                word
-            })
-            .collect();
-        IsoCellMask { blocks, words }
-    }
-
-    /// Whether cell `base` is known to lie wholly outside (false where not covered).
-    #[inline(always)]
-    fn outside(&self, base: IVec3) -> bool {
-        let s = (base + IVec3::ONE).as_uvec3();
-        let b: glam::UVec3 = s >> 2u32;
-        if !(b.x < self.blocks[0] && b.y < self.blocks[1] && b.z < self.blocks[2]) {
-            return false;
-        }
-        let w = b.x as usize + self.blocks[0] as usize * (b.y as usize + self.blocks[1] as usize * b.z as usize);
-        let bit = (s.x & 3) | ((s.y & 3) << 2) | ((s.z & 3) << 4);
-        self.words[w] >> bit & 1 == 1
-    }
+    (enter, exit)
 }
 
 /// The oriented corner values (`inward·v`, x fastest) of the voxel cell at `base`.
@@ -512,46 +386,45 @@ impl Cubic {
         }
     }
 
-    /// A root in `[lo, hi]` where `g(lo) < 0 ≤ g(hi)` and `g` is monotone: regula falsi
-    /// with the Illinois down-weighting, a bisection whenever a step fails to halve the
-    /// bracket, until it is narrower than `tol`; returns its midpoint.
+    /// The value and the slope at `s`.
+    #[inline(always)]
+    fn eval_with_slope(&self, s: f64) -> (f64, f64) {
+        let [_, k1, k2, k3] = self.k;
+        (self.eval(s), (3.0 * k3 * s + 2.0 * k2) * s + k1)
+    }
+
+    /// A root in `[lo, hi]` where `g(lo) < 0 ≤ g(hi)` and `g` is monotone, bracketed to
+    /// within `tol`: Newton's method from the regula falsi point, every evaluated point
+    /// narrowing the bracket, a bisection where a step would leave it; once a Newton
+    /// step is below `tol/4`, the next point is `tol/4` past the new estimate, on the
+    /// other side of the root from the last point, which closes the bracket (to at most
+    /// `tol/2`) when the estimate is that close. Returns the bracket's midpoint, within
+    /// `tol/2` of the root. (Regula falsi with bisections took 23 evaluations per hit
+    /// on the benchmark volumes, this 4–5: quadratic convergence from the first step.)
     #[inline]
-    fn refine(&self, mut lo: f64, mut hi: f64, mut g_lo: f64, mut g_hi: f64, tol: f64) -> f64 {
-        let mut kept = 0i8;
-        let mut bisect_next = false;
+    fn refine(&self, mut lo: f64, mut hi: f64, g_lo: f64, g_hi: f64, tol: f64) -> f64 {
+        let mut x = lo + (hi - lo) * (g_lo / (g_lo - g_hi));
         for _ in 0..128 {
-            let width = hi - lo;
-            if width <= tol {
+            if hi - lo <= tol {
                 break;
             }
-            let mut mid = if bisect_next {
-                0.5 * (lo + hi)
-            } else {
-                lo + width * (g_lo / (g_lo - g_hi))
-            };
-            if !(mid > lo && mid < hi) {
-                mid = 0.5 * (lo + hi);
-                if !(mid > lo && mid < hi) {
+            if !(x > lo && x < hi) {
+                x = 0.5 * (lo + hi);
+                if !(x > lo && x < hi) {
                     break;
                 }
             }
-            let gm = self.eval(mid);
-            if gm >= 0.0 {
-                hi = mid;
-                g_hi = gm;
-                if kept == 1 {
-                    g_lo *= 0.5;
-                }
-                kept = 1;
+            let (g, slope) = self.eval_with_slope(x);
+            if g >= 0.0 {
+                hi = x;
             } else {
-                lo = mid;
-                g_lo = gm;
-                if kept == -1 {
-                    g_hi *= 0.5;
-                }
-                kept = -1;
+                lo = x;
             }
-            bisect_next = hi - lo > 0.5 * width;
+            let step = g / slope;
+            x -= step;
+            if step.abs() <= 0.25 * tol {
+                x += if g >= 0.0 { -0.25 * tol } else { 0.25 * tol };
+            }
         }
         0.5 * (lo + hi)
     }
@@ -563,6 +436,7 @@ impl Cubic {
 struct Dda {
     base: IVec3,
     a0: DVec3,
+    d: DVec3,
     inv: DVec3,
     /// Per axis `+1`, `−1` or `0` (parallel).
     dir: IVec3,
@@ -574,7 +448,7 @@ impl Dda {
     /// The cell holding the point at `tau` (a point on a face belongs to the cell the
     /// ray enters there).
     #[inline]
-    fn new(a0: DVec3, d: DVec3, tau: f64) -> Dda {
+    fn new(a0: DVec3, d: DVec3, inv: DVec3, tau: f64) -> Dda {
         let p = a0 + d * tau;
         let dir = IVec3::new(sign(d.x), sign(d.y), sign(d.z));
         let mut base = IVec3::ZERO;
@@ -592,7 +466,8 @@ impl Dda {
         let mut dda = Dda {
             base,
             a0,
-            inv: DVec3::ONE / d,
+            d,
+            inv,
             dir,
             enter: DVec3::ZERO,
             exit: DVec3::ZERO,
@@ -628,6 +503,79 @@ impl Dda {
         self.exit.min_element()
     }
 
+    /// The parameter where the ray leaves the box of cells between index planes
+    /// `low` and `high` (the faces ahead of it, per axis; parallel axes never limit).
+    #[inline(always)]
+    fn cube_exit(&self, (low, high): (IVec3, IVec3)) -> f64 {
+        let mut t = f64::INFINITY;
+        for a in 0..3 {
+            match self.dir[a] {
+                0 => {}
+                s => t = t.min(self.plane(a, if s > 0 { high[a] } else { low[a] })),
+            }
+        }
+        t
+    }
+
+    /// Puts the walk in the cell it is in just before parameter `tau` (finite, ahead
+    /// of the current cell): per axis the cell whose entry plane is crossed before
+    /// `tau` and whose exit plane at or after it, by the same plane parameters
+    /// [`Dda::step`] compares, so the walk then goes on exactly as if it had stepped
+    /// through every cell in between (ties included: `tau` on several planes at once
+    /// leaves those steps to `step`, in its order).
+    #[inline]
+    fn advance_to(&mut self, tau: f64) {
+        let p = self.a0 + self.d * tau;
+        for a in 0..3 {
+            let s = self.dir[a];
+            if s == 0 {
+                continue;
+            }
+            // A first guess within rounding of the answer, then the exact plane tests
+            // (`plane` is monotone in `k`, so each loop ends; bounded all the same).
+            let x = p[a].clamp(-1e9, 1e9);
+            let mut k = x as i32 - ((x as i32 as f64) > x) as i32;
+            // The planes of cell k's faces at index k (`low`) and k + 1 (`high`).
+            let (mut low, mut high) = (self.plane(a, k), self.plane(a, k + 1));
+            if s > 0 {
+                // The cell with plane(k) < tau ≤ plane(k + 1).
+                for _ in 0..64 {
+                    if high >= tau {
+                        break;
+                    }
+                    k += 1;
+                    (low, high) = (high, self.plane(a, k + 1));
+                }
+                for _ in 0..64 {
+                    if low < tau {
+                        break;
+                    }
+                    k -= 1;
+                    (low, high) = (self.plane(a, k), low);
+                }
+                (self.enter[a], self.exit[a]) = (low, high);
+            } else {
+                // Planes fall as k rises: the cell with plane(k + 1) < tau ≤ plane(k).
+                for _ in 0..64 {
+                    if high < tau {
+                        break;
+                    }
+                    k += 1;
+                    (low, high) = (high, self.plane(a, k + 1));
+                }
+                for _ in 0..64 {
+                    if low >= tau {
+                        break;
+                    }
+                    k -= 1;
+                    (low, high) = (self.plane(a, k), low);
+                }
+                (self.enter[a], self.exit[a]) = (high, low);
+            }
+            self.base[a] = k;
+        }
+    }
+
     /// Steps into the next cell through the face crossed first.
     #[inline(always)]
     fn step(&mut self) {
@@ -642,20 +590,6 @@ impl Dda {
         self.base[a] += self.dir[a];
         self.enter[a] = self.exit[a];
         self.exit[a] = self.plane(a, self.base[a] + (self.dir[a] > 0) as i32);
-    }
-}
-
-/// The least `f64` above `x` (`f64::next_up`, stable only after this crate's MSRV).
-#[inline(always)]
-fn next_up(x: f64) -> f64 {
-    if x.is_nan() || x == f64::INFINITY {
-        x
-    } else if x == 0.0 {
-        f64::from_bits(1)
-    } else if x > 0.0 {
-        f64::from_bits(x.to_bits() + 1)
-    } else {
-        f64::from_bits(x.to_bits() - 1)
     }
 }
 
@@ -697,16 +631,6 @@ mod tests {
             let want = tri(p.x, p.y, p.z) - 0.25;
             assert!((g.eval(s) - want).abs() < 1e-14, "{s}: {} vs {want}", g.eval(s));
         }
-    }
-
-    /// `next_up` is the least float above.
-    #[test]
-    fn next_up_steps_one_ulp() {
-        assert_eq!(next_up(1.0), 1.0 + f64::EPSILON);
-        assert_eq!(next_up(-1.0), -1.0 + f64::EPSILON / 2.0);
-        assert!(next_up(0.0) > 0.0 && next_up(-0.0) > 0.0);
-        assert_eq!(next_up(f64::INFINITY), f64::INFINITY);
-        assert_eq!(next_up(f64::NEG_INFINITY), f64::MIN);
     }
 
     /// Critical points are where the derivative vanishes.

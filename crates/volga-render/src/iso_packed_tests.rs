@@ -30,7 +30,18 @@ fn packed_hit(field: &dyn Field, inward: f64, ray: &Ray, iso: f64) -> Option<f64
     let bg = field.background();
     let below = (t0 > 0.0).then_some(inward * bg < inward * iso);
     let mut stats = RenderStats::default();
-    let hit = march_iso_packed(&packed, ray, inward, iso, (t0, t1), 1e-9, None, None, below, &mut stats);
+    let hit = march_iso_packed(
+        &packed,
+        ray,
+        inward,
+        iso,
+        (t0, t1),
+        1e-9,
+        None,
+        f64::NEG_INFINITY,
+        below,
+        &mut stats,
+    );
     // The cell mask only spares reads: the same hit, bit for bit, with fewer cells read.
     let mask = IsoCellMask::build(&packed, inward, iso);
     let mut masked = RenderStats::default();
@@ -41,8 +52,8 @@ fn packed_hit(field: &dyn Field, inward: f64, ray: &Ray, iso: f64) -> Option<f64
         iso,
         (t0, t1),
         1e-9,
-        None,
         Some(&mask),
+        f64::NEG_INFINITY,
         below,
         &mut masked,
     );

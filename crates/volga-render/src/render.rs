@@ -219,7 +219,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         };
 
         let iso_mask = match (&packed, integrator.packed_iso_value()) {
-            (Some(p), Some(iso)) => Some(crate::iso_packed::IsoCellMask::build(p, kind.inward_sign(), iso)),
+            // Empty-space skipping off: the packed iso walk reads every cell.
+            (Some(p), Some(iso)) if settings.sampling.empty_space_skipping => {
+                Some(crate::iso_packed::IsoCellMask::build(p, kind.inward_sign(), iso))
+            }
             _ => None,
         };
         let sampling = &settings.sampling;
@@ -276,6 +279,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             preint: self.preint.as_ref(),
             light_volumes: &self.light_volumes,
             iso_mask: self.iso_mask.as_ref(),
+            iso_starts: None,
         }
     }
 
@@ -299,7 +303,14 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 field: self.field,
                 packed,
             };
-            return self.render_march(&self.march(&field), camera, progress);
+            // The packed iso path's start map: part of the view, so built per frame.
+            let image = &self.settings.image;
+            let starts = self.iso_mask.as_ref().and_then(|mask| {
+                crate::iso_packed::IsoStarts::build(mask, &packed.grid().transform, camera, image.width, image.height)
+            });
+            let mut march = self.march(&field);
+            march.iso_starts = starts.as_ref();
+            return self.render_march(&march, camera, progress);
         }
         match &self.prepared {
             Some(p) => self.render_march(&self.march(&**p), camera, progress),
@@ -371,9 +382,18 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 let (x1, y1) = ((x0 + ts).min(w), (y0 + ts).min(h));
                 let mut stats = RenderStats::default();
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        px.push(trace(x, y, &mut stats));
+                if march.iso_tile_misses(camera, (x0, y0, x1, y1), (w, h)) {
+                    // Every ray of the tile misses (the packed iso path's start map):
+                    // each pixel is what `trace_pixel` gives a ray that meets nothing.
+                    let k = self.settings.image.supersampling.max(1) as u64;
+                    stats.rays += ((x1 - x0) * (y1 - y0)) as u64 * k * k;
+                    let bg = over_background(self.settings.image.background, glam::Vec3::ZERO, 0.0);
+                    px.resize(((x1 - x0) * (y1 - y0)) as usize, bg);
+                } else {
+                    for y in y0..y1 {
+                        for x in x0..x1 {
+                            px.push(trace(x, y, &mut stats));
+                        }
                     }
                 }
                 progress.inc(1);

@@ -104,8 +104,8 @@ impl Integrator for Iso {
                 self.value,
                 interval,
                 m.tol,
-                m.grid,
                 m.iso_mask,
+                m.iso_starts.map_or(f64::NEG_INFINITY, |s| s.start(ray)),
                 background_below,
                 stats,
             );

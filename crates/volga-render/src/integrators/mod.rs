@@ -198,6 +198,8 @@ pub struct March<'a, F: ?Sized> {
     pub(crate) light_volumes: &'a [Option<crate::light_volume::LightVolume>],
     /// The packed iso path's cell mask, when the renderer built one.
     pub(crate) iso_mask: Option<&'a crate::iso_packed::IsoCellMask>,
+    /// The packed iso path's start map of the view, when the renderer built one.
+    pub(crate) iso_starts: Option<&'a crate::iso_packed::IsoStarts>,
 }
 
 impl<F: Field + ?Sized> March<'_, F> {
