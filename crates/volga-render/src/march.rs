@@ -177,6 +177,18 @@ impl MacroGrid {
         reach
     }
 
+    /// The grid's box minimum and maximum, cell size and cells per axis (for walks
+    /// written elsewhere: `sample_walk.rs`).
+    pub(crate) fn layout(&self) -> (DVec3, DVec3, DVec3, [usize; 3]) {
+        (self.min, self.max, self.cell, self.dims)
+    }
+
+    /// The class and Outside reach of cell `lin` (`x + nx·(y + ny·z)`).
+    #[inline(always)]
+    pub(crate) fn class_and_reach(&self, lin: usize) -> (CellClass, u8) {
+        (self.class[lin], self.reach[lin])
+    }
+
     /// Number of macro cells.
     pub(crate) fn len(&self) -> usize {
         self.class.len()
