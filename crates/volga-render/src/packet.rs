@@ -334,7 +334,7 @@ impl RayPackets<'_> {
         }
         // A packet with no visible sample needs no shading (the compositing skips
         // invisible lanes whatever their colour).
-        if out.alpha.iter().all(|a| !(*a > 0.0)) {
+        if !out.alpha.iter().any(|a| *a > 0.0) {
             return out;
         }
         // Blinn-Phong with the outward normal flipped towards the viewer (two-sided).
