@@ -115,20 +115,8 @@ pub(crate) fn newton_on_piece(p: &impl Fn(f64) -> f64, dp: impl Fn(f64) -> f64, 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Rng;
     use crate::tree::trilinear;
-
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn point(&mut self) -> DVec3 {
-            DVec3::new(self.next(), self.next(), self.next())
-        }
-    }
 
     #[test]
     fn the_cubic_is_the_trilinear_cell_along_the_segment() {

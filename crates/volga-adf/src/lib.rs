@@ -64,6 +64,8 @@ mod measure;
 mod ray;
 mod reach;
 mod source;
+#[cfg(test)]
+mod test_rng;
 mod tree;
 mod walk;
 

@@ -69,16 +69,7 @@ pub(crate) fn chessboard_reach(n: usize, occupied: impl Fn(usize) -> bool) -> Ve
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
-    }
+    use crate::test_rng::Rng;
 
     /// The brute-force chessboard distance to the nearest occupied cell.
     fn brute(n: usize, occupied: &[bool], k: usize) -> u8 {
@@ -98,7 +89,7 @@ mod tests {
     fn the_two_pass_transform_equals_the_brute_force_distance() {
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         for (n, density) in [(1usize, 2u64), (5, 3), (9, 40), (12, 400), (16, 5000), (7, u64::MAX)] {
-            let occupied: Vec<bool> = (0..n * n * n).map(|_| rng.next() % density == 0).collect();
+            let occupied: Vec<bool> = (0..n * n * n).map(|_| rng.bits() % density == 0).collect();
             let reach = chessboard_reach(n, |k| occupied[k]);
             for (k, &r) in reach.iter().enumerate() {
                 assert_eq!(r, brute(n, &occupied, k), "n {n}, density 1/{density}, cell {k}");

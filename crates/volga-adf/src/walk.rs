@@ -534,19 +534,10 @@ impl volga_core::Field for DescentWalk<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::Rng;
     use crate::{AdfOptions, ShapeSource};
     use volga_core::Aabb;
     use volga_shapes::Torus;
-
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
 
     fn torus_adf(centre: DVec3, max_depth: u8) -> Adf {
         let torus = Torus::new(centre, DVec3::new(0.3, 1.0, 0.2).normalize(), 0.55, 0.18).unwrap();
