@@ -5,7 +5,7 @@
 //! own error), for densities and signed distances, near the origin and at 10⁶.
 
 use glam::{DVec3, UVec3};
-use volga_core::{ChannelKind, Field, Filter, Grid, Sampled, SparseVolume, Transform};
+use volga_core::{ChannelKind, Field, Filter, Grid, PackedVolume, Sampled, SparseVolume, Transform};
 
 use super::{march_iso_packed, IsoCellMask, IsoStarts};
 use crate::{Ray, RenderStats};
@@ -20,6 +20,24 @@ fn volume(origin: DVec3, kind: ChannelKind, background: f32, f: impl Fn(DVec3) -
     v
 }
 
+/// One packed iso walk with the renderer's tolerance (1e-9 voxel): the hit and the
+/// counters.
+#[allow(clippy::too_many_arguments)]
+fn walk(
+    packed: &PackedVolume,
+    ray: &Ray,
+    inward: f64,
+    iso: f64,
+    interval: (f64, f64),
+    mask: Option<&IsoCellMask>,
+    start: f64,
+    below: Option<bool>,
+) -> (Option<f64>, RenderStats) {
+    let mut stats = RenderStats::default();
+    let hit = march_iso_packed(packed, ray, inward, iso, interval, 1e-9, mask, start, below, &mut stats);
+    (hit, stats)
+}
+
 /// The packed path's first crossing along `ray` (the renderer's clip and tolerance).
 /// `inward` is the sign of the inside (`−1`: a signed distance; sampled volumes are
 /// densities to `Field::kind`, so the orientation is passed as the renderer would).
@@ -29,33 +47,18 @@ fn packed_hit(field: &dyn Field, inward: f64, ray: &Ray, iso: f64) -> Option<f64
     let t0 = t0.max(0.0);
     let bg = field.background();
     let below = (t0 > 0.0).then_some(inward * bg < inward * iso);
-    let mut stats = RenderStats::default();
-    let hit = march_iso_packed(
-        &packed,
-        ray,
-        inward,
-        iso,
-        (t0, t1),
-        1e-9,
-        None,
-        f64::NEG_INFINITY,
-        below,
-        &mut stats,
-    );
+    let (hit, stats) = walk(&packed, ray, inward, iso, (t0, t1), None, f64::NEG_INFINITY, below);
     // The cell mask only spares reads: the same hit, bit for bit, with fewer cells read.
     let mask = IsoCellMask::build(&packed, inward, iso);
-    let mut masked = RenderStats::default();
-    let with_mask = march_iso_packed(
+    let (with_mask, masked) = walk(
         &packed,
         ray,
         inward,
         iso,
         (t0, t1),
-        1e-9,
         Some(&mask),
         f64::NEG_INFINITY,
         below,
-        &mut masked,
     );
     assert_eq!(hit.map(f64::to_bits), with_mask.map(f64::to_bits));
     assert!(masked.samples <= stats.samples);
@@ -280,32 +283,8 @@ fn starts_jumps_and_clip_never_drop_a_hit() {
                     let t0 = t0.max(0.0);
                     let below = (t0 > 0.0).then_some(0.0 < iso);
                     let start = starts.as_ref().map_or(f64::NEG_INFINITY, |s| s.start(&ray));
-                    let mut plain_stats = RenderStats::default();
-                    let plain = march_iso_packed(
-                        &packed,
-                        &ray,
-                        inward,
-                        iso,
-                        (t0, t1),
-                        1e-9,
-                        None,
-                        f64::NEG_INFINITY,
-                        below,
-                        &mut plain_stats,
-                    );
-                    let mut stats = RenderStats::default();
-                    let skipped = march_iso_packed(
-                        &packed,
-                        &ray,
-                        inward,
-                        iso,
-                        (t0, t1),
-                        1e-9,
-                        Some(&mask),
-                        start,
-                        below,
-                        &mut stats,
-                    );
+                    let (plain, _) = walk(&packed, &ray, inward, iso, (t0, t1), None, f64::NEG_INFINITY, below);
+                    let (skipped, _) = walk(&packed, &ray, inward, iso, (t0, t1), Some(&mask), start, below);
                     assert_eq!(
                         plain.map(f64::to_bits),
                         skipped.map(f64::to_bits),

@@ -30,6 +30,16 @@ pub struct Iso {
     pub colour: SurfaceColour,
 }
 
+impl Iso {
+    /// The surface colour at hit point `p`.
+    fn colour_at<F: Field + ?Sized>(&self, field: &F, p: glam::DVec3) -> Vec3 {
+        match &self.colour {
+            SurfaceColour::Constant(c) => *c,
+            SurfaceColour::FromField => field_colour(field, p),
+        }
+    }
+}
+
 impl Integrator for Iso {
     fn name(&self) -> &'static str {
         "iso"
@@ -113,10 +123,7 @@ impl Integrator for Iso {
                 None => (Vec3::ZERO, 0.0),
                 Some(t) => {
                     let p = ray.at(t);
-                    let co = match &self.colour {
-                        SurfaceColour::Constant(c) => *c,
-                        SurfaceColour::FromField => field_colour(m.field, p),
-                    };
+                    let co = self.colour_at(m.field, p);
                     (m.shade_at(co, p, ray, stats), 1.0)
                 }
             };
@@ -141,10 +148,7 @@ impl Integrator for Iso {
             None => (Vec3::ZERO, 0.0),
             Some(t) => {
                 let p = ray.at(t);
-                let co = match &self.colour {
-                    SurfaceColour::Constant(c) => *c,
-                    SurfaceColour::FromField => field_colour(m.field, p),
-                };
+                let co = self.colour_at(m.field, p);
                 if m.shader.is_general() {
                     // Point lights or shadows: the surface occludes its shadow rays.
                     stats.gradient_evaluations += 1;
