@@ -48,9 +48,13 @@ pub(crate) struct IsoCellMask {
     /// Smallest and largest base of a cell that is not outside; `None` when every
     /// cell is (no ray can cross the iso-surface).
     active: Option<(IVec3, IVec3)>,
-    /// The blocks holding a cell that is not outside (block coordinates, in word
-    /// order): what a view's start map (`iso_starts.rs`) projects.
-    active_blocks: Vec<IVec3>,
+    /// The blocks holding a cell that is neither outside nor inside (corners on both
+    /// sides of the iso value, or NaN): block coordinates, in word order. What a
+    /// view's start map (`iso_starts.rs`) projects.
+    front_blocks: Vec<IVec3>,
+    /// The other blocks holding a cell that is not outside (all such cells inside):
+    /// a walk meets one first only where it starts in it (see `iso_starts.rs`).
+    inside_blocks: Vec<IVec3>,
 }
 
 /// Where cell `base` sits in the mask: its word and its bit in the word.
@@ -70,31 +74,41 @@ impl IsoCellMask {
         let n = blocks[0] as usize * blocks[1] as usize * blocks[2] as usize;
         let iso = inward * iso;
         let bg = inward * packed.background() as f64;
-        let words: Vec<u64> = (0..n)
+        // Per word: its outside bits, and whether the block holds a cell that is
+        // neither outside nor inside (all corners finite and at or above the iso value).
+        let classified: Vec<(u64, bool)> = (0..n)
             .into_par_iter()
             .map(|w| {
-                let mut word = 0u64;
+                let (mut word, mut mixed) = (0u64, false);
                 for bit in 0..64u32 {
                     let c = super::cell_corners(packed, cell_base(blocks, w, bit), inward, bg);
                     if c.iter().all(|v| *v < iso) {
                         word |= 1 << bit;
+                    } else if !c.iter().all(|v| *v >= iso) {
+                        mixed = true;
                     }
                 }
-                word
+                (word, mixed)
             })
             .collect();
+        let words: Vec<u64> = classified.iter().map(|c| c.0).collect();
         let reach = empty_reach(blocks, &words);
         let active = active_box(blocks, &words);
-        let active_blocks = (0..n)
-            .filter(|&w| words[w] != u64::MAX)
-            .map(|w| delinearize(blocks, w))
-            .collect();
+        let (mut front_blocks, mut inside_blocks) = (Vec::new(), Vec::new());
+        for (w, &(word, mixed)) in classified.iter().enumerate() {
+            match (word != u64::MAX, mixed) {
+                (false, _) => {}
+                (true, true) => front_blocks.push(delinearize(blocks, w)),
+                (true, false) => inside_blocks.push(delinearize(blocks, w)),
+            }
+        }
         IsoCellMask {
             blocks,
             words,
             reach,
             active,
-            active_blocks,
+            front_blocks,
+            inside_blocks,
         }
     }
 
@@ -148,10 +162,16 @@ impl IsoCellMask {
         })
     }
 
-    /// The blocks holding a cell that is not outside; block `b` spans the index box
-    /// `[4b − 1, 4b + 3]` (the cells with bases `4b − 1 ..= 4b + 2`).
-    pub(crate) fn active_blocks(&self) -> &[IVec3] {
-        &self.active_blocks
+    /// The blocks holding a cell with corners on both sides of the iso value (or a
+    /// NaN corner); block `b` spans the index box `[4b − 1, 4b + 3]` (the cells with
+    /// bases `4b − 1 ..= 4b + 2`).
+    pub(crate) fn front_blocks(&self) -> &[IVec3] {
+        &self.front_blocks
+    }
+
+    /// The blocks whose cells are all outside or inside, at least one inside.
+    pub(crate) fn inside_blocks(&self) -> &[IVec3] {
+        &self.inside_blocks
     }
 }
 

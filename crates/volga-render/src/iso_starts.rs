@@ -1,6 +1,7 @@
 //! Per view, where each ray of the packed iso path can first meet a cell that is not
-//! outside: the boxes of the cell mask's active blocks (`iso_skip.rs`) projected onto
-//! the image plane, keeping per image cell the least depth of the boxes that cover it.
+//! outside: the boxes of the cell mask's front blocks (`iso_skip.rs`: blocks holding a
+//! cell with corners on both sides of the iso value) projected onto the image plane,
+//! keeping per image cell the least depth of the boxes that cover it.
 //! The front faces of a volume's non-empty bricks rasterized to give each ray its start
 //! (Krüger and Westermann, "Acceleration techniques for GPU-based volume rendering",
 //! 2003), here in software and as a bound: a ray starts its walk just before that depth,
@@ -15,8 +16,18 @@
 //! bounding rectangle, which is grown by a thousandth of an image cell against rounding. Every cell the
 //! walk passes before the least such `t` over the boxes lies in a block that is wholly
 //! outside, which is what the walk would find by reading it; the depth is rounded down
-//! to `f32` and the start moved [`START_MARGIN_VOXELS`] earlier, so rounding can only
-//! make the walk read more.
+//! to `f32` and the start moved [`START_MARGIN_VOXELS`] plus a billionth of the view's
+//! scale earlier (f64 rounding of the depths and parameters is ~1e-15 of that scale),
+//! so rounding can only make the walk read more.
+//!
+//! **Why front blocks suffice.** The walk steps between cells that share a face. If a
+//! cell is outside (all eight corners below the iso value) the next one shares four
+//! corners below it, so it is not inside (all corners at or above): the first cell
+//! that is not outside, after an outside one, holds corners on both sides — it lies in
+//! a front block. Only the walk's first cell has no predecessor; it holds the ray's
+//! start, a point of the field's bounds or the ray's origin, so the inside-only blocks
+//! within a cell of the bounds' faces or reaching the eye's plane are projected too.
+//! The solid interior of a volume (most of its non-empty blocks) is never projected.
 //!
 //! Built once per [`Renderer::render`](crate::Renderer::render) call (the view is part
 //! of the frame, so a benchmark frame pays for it), in parallel by bands of image rows;
@@ -24,13 +35,19 @@
 
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
-use volga_core::Transform;
+use volga_core::{Aabb, Transform};
 
 use super::IsoCellMask;
 use crate::{Camera, Projection, Ray};
 
-/// How far before the bound a ray's walk starts, in voxels (of the largest spacing).
-const START_MARGIN_VOXELS: f64 = 2.0;
+/// How far before the bound a ray's walk starts, in voxels (of the largest spacing),
+/// besides [`START_MARGIN_RELATIVE`] of the view's scale.
+const START_MARGIN_VOXELS: f64 = 0.05;
+
+/// The start margin's part relative to the view's scale (the largest distance of the
+/// active box's corners from the eye): about 10⁶ times the f64 rounding of the
+/// depths and ray parameters the bound is computed from.
+const START_MARGIN_RELATIVE: f64 = 1e-9;
 
 /// Image cells per side at most (larger images share cells between pixels).
 const MAX_CELLS_PER_SIDE: u32 = 2048;
@@ -72,12 +89,14 @@ struct Footprint {
 }
 
 impl IsoStarts {
-    /// The map of `mask`'s active blocks (a grid with `transform`) for `camera`'s
-    /// `width × height` image; `None` when it cannot bound anything (a box straddling
-    /// the eye's plane of a perspective camera, a degenerate image plane).
+    /// The map of `mask`'s front blocks (a grid with `transform`, rays clipped to
+    /// `bounds`) for `camera`'s `width × height` image; `None` when it cannot bound
+    /// anything (a box straddling the eye's plane of a perspective camera, a
+    /// degenerate image plane).
     pub(crate) fn build(
         mask: &IsoCellMask,
         transform: &Transform,
+        bounds: &Aabb,
         camera: &Camera,
         width: u32,
         height: u32,
@@ -116,9 +135,13 @@ impl IsoStarts {
         map.cells_per_u = map.width as f64 / (u_hi - u_lo);
         map.cells_per_v = map.height as f64 / (v_hi - v_lo);
 
+        map.margin += START_MARGIN_RELATIVE * map.view_scale(mask, transform)?;
+
+        let starts_in = map.walk_start_region(transform, bounds);
         let prints: Vec<Option<Option<Footprint>>> = mask
-            .active_blocks()
+            .front_blocks()
             .par_iter()
+            .chain(mask.inside_blocks().par_iter().filter(|&&b| starts_in(b)))
             .map(|&b| map.footprint(transform, b))
             .collect();
         let mut bands: Vec<Vec<Footprint>> = vec![Vec::new(); map.height.div_ceil(BAND_ROWS)];
@@ -147,6 +170,53 @@ impl IsoStarts {
             });
         map.depth = depth;
         Some(map)
+    }
+
+    /// The largest distance (any axis of the camera frame) of the active box's corners
+    /// and of the image's corner rays' origins from the eye: what the rounding of this
+    /// view's depths and ray parameters is relative to. `None` when not finite.
+    fn view_scale(&self, mask: &IsoCellMask, transform: &Transform) -> Option<f64> {
+        let (lo, hi) = mask.active_index_box()?;
+        let (lo, hi) = (transform.index_to_world(lo), transform.index_to_world(hi));
+        let mut scale = self.u0.abs().max(self.v0.abs());
+        if !self.perspective {
+            scale = scale
+                .max((self.u0 + self.width as f64 / self.cells_per_u).abs())
+                .max((self.v0 + self.height as f64 / self.cells_per_v).abs());
+        }
+        for corner in 0..8 {
+            let p = DVec3::new(
+                if corner & 1 == 0 { lo.x } else { hi.x },
+                if corner & 2 == 0 { lo.y } else { hi.y },
+                if corner & 4 == 0 { lo.z } else { hi.z },
+            );
+            scale = scale.max((p - self.eye).abs().max_element());
+        }
+        scale.is_finite().then_some(scale)
+    }
+
+    /// Whether a walk can start in inside-only block `b`: its box (grown by a cell)
+    /// reaches a face of `bounds` (where clipped rays start) or the eye's plane (where
+    /// orthographic rays start; a perspective camera's eye is on it).
+    fn walk_start_region<'t>(&self, transform: &'t Transform, bounds: &Aabb) -> impl Fn(IVec3) -> bool + Sync + 't {
+        let (eye, forward, margin) = (self.eye, self.forward, self.margin);
+        let (a, b) = (transform.world_to_index(bounds.min), transform.world_to_index(bounds.max));
+        // Index planes of the bounds, one cell inwards; a box wholly between them
+        // holds no point of the faces.
+        let (inner_lo, inner_hi) = (a.min(b) + 1.0, a.max(b) - 1.0);
+        move |block: IVec3| {
+            let lo = (block * 4 - IVec3::ONE).as_dvec3() - 1.0;
+            let hi = (block * 4 + IVec3::splat(3)).as_dvec3() + 1.0;
+            if !(lo.cmpgt(inner_lo).all() && hi.cmplt(inner_hi).all()) {
+                return true;
+            }
+            // The box's least depth: at its centre less the half extents along the view.
+            let (w_lo, w_hi) = (transform.index_to_world(lo), transform.index_to_world(hi));
+            let centre = (w_lo + w_hi) * 0.5 - eye;
+            let half = (w_hi - w_lo).abs() * 0.5;
+            let z_lo = centre.dot(forward) - half.dot(forward.abs());
+            !(z_lo > margin)
+        }
     }
 
     /// Image-plane coordinates of a camera ray (`None` if it does not look forward).

@@ -306,7 +306,14 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             // The packed iso path's start map: part of the view, so built per frame.
             let image = &self.settings.image;
             let starts = self.iso_mask.as_ref().and_then(|mask| {
-                crate::iso_packed::IsoStarts::build(mask, &packed.grid().transform, camera, image.width, image.height)
+                crate::iso_packed::IsoStarts::build(
+                    mask,
+                    &packed.grid().transform,
+                    &self.bounds,
+                    camera,
+                    image.width,
+                    image.height,
+                )
             });
             let mut march = self.march(&field);
             march.iso_starts = starts.as_ref();
