@@ -48,10 +48,10 @@ pub(crate) struct IsoCellMask {
     /// Smallest and largest base of a cell that is not outside; `None` when every
     /// cell is (no ray can cross the iso-surface).
     active: Option<(IVec3, IVec3)>,
-    /// The blocks holding a cell that is neither outside nor inside (corners on both
-    /// sides of the iso value, or NaN): block coordinates, in word order. What a
-    /// view's start map (`iso_starts.rs`) projects.
-    front_blocks: Vec<IVec3>,
+    /// Per block holding a cell that is neither outside nor inside (corners on both
+    /// sides of the iso value, or NaN), in word order: the least and largest base of
+    /// those cells. What a view's start map (`iso_starts.rs`) projects.
+    front_blocks: Vec<(IVec3, IVec3)>,
     /// The other blocks holding a cell that is not outside (all such cells inside):
     /// a walk meets one first only where it starts in it (see `iso_starts.rs`).
     inside_blocks: Vec<IVec3>,
@@ -74,18 +74,18 @@ impl IsoCellMask {
         let n = blocks[0] as usize * blocks[1] as usize * blocks[2] as usize;
         let iso = inward * iso;
         let bg = inward * packed.background() as f64;
-        // Per word: its outside bits, and whether the block holds a cell that is
-        // neither outside nor inside (all corners finite and at or above the iso value).
-        let classified: Vec<(u64, bool)> = (0..n)
+        // Per word: its outside bits, and its mixed bits (cells neither outside nor
+        // inside: some corner below the iso value and some not, or a NaN corner).
+        let classified: Vec<(u64, u64)> = (0..n)
             .into_par_iter()
             .map(|w| {
-                let (mut word, mut mixed) = (0u64, false);
+                let (mut word, mut mixed) = (0u64, 0u64);
                 for bit in 0..64u32 {
                     let c = super::cell_corners(packed, cell_base(blocks, w, bit), inward, bg);
                     if c.iter().all(|v| *v < iso) {
                         word |= 1 << bit;
                     } else if !c.iter().all(|v| *v >= iso) {
-                        mixed = true;
+                        mixed |= 1 << bit;
                     }
                 }
                 (word, mixed)
@@ -96,9 +96,9 @@ impl IsoCellMask {
         let active = active_box(blocks, &words);
         let (mut front_blocks, mut inside_blocks) = (Vec::new(), Vec::new());
         for (w, &(word, mixed)) in classified.iter().enumerate() {
-            match (word != u64::MAX, mixed) {
+            match (word != u64::MAX, mixed != 0) {
                 (false, _) => {}
-                (true, true) => front_blocks.push(delinearize(blocks, w)),
+                (true, true) => front_blocks.push(bases_box(blocks, w, mixed)),
                 (true, false) => inside_blocks.push(delinearize(blocks, w)),
             }
         }
@@ -162,10 +162,11 @@ impl IsoCellMask {
         })
     }
 
-    /// The blocks holding a cell with corners on both sides of the iso value (or a
-    /// NaN corner); block `b` spans the index box `[4b − 1, 4b + 3]` (the cells with
-    /// bases `4b − 1 ..= 4b + 2`).
-    pub(crate) fn front_blocks(&self) -> &[IVec3] {
+    /// Per block holding a cell with corners on both sides of the iso value (or a
+    /// NaN corner), the least and largest base of such cells: the index box
+    /// `[lo, hi + 1]` holds every one of them (block `b` spans `[4b − 1, 4b + 3]`,
+    /// the cells with bases `4b − 1 ..= 4b + 2`).
+    pub(crate) fn front_blocks(&self) -> &[(IVec3, IVec3)] {
         &self.front_blocks
     }
 
@@ -173,6 +174,19 @@ impl IsoCellMask {
     pub(crate) fn inside_blocks(&self) -> &[IVec3] {
         &self.inside_blocks
     }
+}
+
+/// The least and largest base of the cells of word `w` whose bits are set in `bits`
+/// (not zero).
+fn bases_box(blocks: [u32; 3], w: usize, bits: u64) -> (IVec3, IVec3) {
+    let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
+    let mut rest = bits;
+    while rest != 0 {
+        let base = cell_base(blocks, w, rest.trailing_zeros());
+        rest &= rest - 1;
+        (lo, hi) = (lo.min(base), hi.max(base));
+    }
+    (lo, hi)
 }
 
 /// The base of cell `bit` of word `w`.

@@ -138,11 +138,14 @@ impl IsoStarts {
         map.margin += START_MARGIN_RELATIVE * map.view_scale(mask, transform)?;
 
         let starts_in = map.walk_start_region(transform, bounds);
+        // Index boxes: the front blocks' mixed cells, the whole inside-only blocks.
+        let whole = |b: IVec3| (b * 4 - IVec3::ONE, b * 4 + IVec3::splat(3));
         let prints: Vec<Option<Option<Footprint>>> = mask
             .front_blocks()
             .par_iter()
-            .chain(mask.inside_blocks().par_iter().filter(|&&b| starts_in(b)))
-            .map(|&b| map.footprint(transform, b))
+            .map(|&(lo, hi)| (lo, hi + IVec3::ONE))
+            .chain(mask.inside_blocks().par_iter().map(|&b| whole(b)).filter(|&b| starts_in(b)))
+            .map(|(lo, hi)| map.footprint(transform, lo, hi))
             .collect();
         let mut bands: Vec<Vec<Footprint>> = vec![Vec::new(); map.height.div_ceil(BAND_ROWS)];
         for p in prints {
@@ -195,18 +198,21 @@ impl IsoStarts {
         scale.is_finite().then_some(scale)
     }
 
-    /// Whether a walk can start in inside-only block `b`: its box (grown by a cell)
+    /// Whether a walk can start in an inside-only block's index box: the box (grown by a cell)
     /// reaches a face of `bounds` (where clipped rays start) or the eye's plane (where
     /// orthographic rays start; a perspective camera's eye is on it).
-    fn walk_start_region<'t>(&self, transform: &'t Transform, bounds: &Aabb) -> impl Fn(IVec3) -> bool + Sync + 't {
+    fn walk_start_region<'t>(
+        &self,
+        transform: &'t Transform,
+        bounds: &Aabb,
+    ) -> impl Fn((IVec3, IVec3)) -> bool + Sync + 't {
         let (eye, forward, margin) = (self.eye, self.forward, self.margin);
         let (a, b) = (transform.world_to_index(bounds.min), transform.world_to_index(bounds.max));
         // Index planes of the bounds, one cell inwards; a box wholly between them
         // holds no point of the faces.
         let (inner_lo, inner_hi) = (a.min(b) + 1.0, a.max(b) - 1.0);
-        move |block: IVec3| {
-            let lo = (block * 4 - IVec3::ONE).as_dvec3() - 1.0;
-            let hi = (block * 4 + IVec3::splat(3)).as_dvec3() + 1.0;
+        move |(lo, hi): (IVec3, IVec3)| {
+            let (lo, hi) = (lo.as_dvec3() - 1.0, hi.as_dvec3() + 1.0);
             if !(lo.cmpgt(inner_lo).all() && hi.cmplt(inner_hi).all()) {
                 return true;
             }
@@ -231,12 +237,12 @@ impl IsoStarts {
         }
     }
 
-    /// The image-cell rectangle and least depth of block `b`'s box; `Some(None)` when
-    /// it covers no image cell or lies wholly behind the eye, `None` when it straddles
-    /// the eye's plane (perspective).
-    fn footprint(&self, transform: &Transform, b: IVec3) -> Option<Option<Footprint>> {
-        let lo = transform.index_to_world((b * 4 - IVec3::ONE).as_dvec3());
-        let hi = transform.index_to_world((b * 4 + IVec3::splat(3)).as_dvec3());
+    /// The image-cell rectangle and least depth of the index box `[lo, hi]`;
+    /// `Some(None)` when it covers no image cell or lies wholly behind the eye, `None`
+    /// when it straddles the eye's plane (perspective).
+    fn footprint(&self, transform: &Transform, lo: IVec3, hi: IVec3) -> Option<Option<Footprint>> {
+        let lo = transform.index_to_world(lo.as_dvec3());
+        let hi = transform.index_to_world(hi.as_dvec3());
         let (mut u_lo, mut u_hi, mut v_lo, mut v_hi) =
             (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
         let (mut z_lo, mut z_hi) = (f64::INFINITY, f64::NEG_INFINITY);
