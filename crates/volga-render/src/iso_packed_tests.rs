@@ -244,7 +244,10 @@ fn starts_jumps_and_clip_never_drop_a_hit() {
     // the bounds, where clipped rays start.
     for (origin, background) in [(DVec3::ZERO, 0.0), (DVec3::splat(1e6), 0.0), (DVec3::ZERO, 1.0)] {
         let v = volume(origin, ChannelKind::Density, background, |p| {
-            let d = blobs.iter().map(|b| (p - *b).length() - 4.5).fold(f64::INFINITY, f64::min);
+            let d = blobs
+                .iter()
+                .map(|b| (p - *b).length() - 4.5)
+                .fold(f64::INFINITY, f64::min);
             let d = d.min((p - big).length() - big_radius);
             1.0 / (1.0 + (d / 1.2).exp())
         });
@@ -266,23 +269,23 @@ fn starts_jumps_and_clip_never_drop_a_hit() {
                 8 => (origin + blobs[1], Projection::Perspective { fov_y_deg: 60.0 }),
                 9 => (origin + big, Projection::Orthographic { height_world: 40.0 }),
                 _ => match k % 4 {
-                0 => (
-                    centre + DVec3::new(a.cos(), 0.6, a.sin()) * 90.0,
-                    Projection::Orthographic { height_world: 60.0 },
-                ),
-                1 => (
-                    centre + DVec3::new(a.cos(), -0.4, a.sin()) * 80.0,
-                    Projection::Perspective { fov_y_deg: 40.0 },
-                ),
-                // Eyes inside the volume: the map may know nothing, and must not lie.
-                2 => (
-                    origin + DVec3::new(20.0, 20.0, 20.0),
-                    Projection::Perspective { fov_y_deg: 70.0 },
-                ),
-                _ => (
-                    centre + DVec3::new(0.0, 1.0, 1e-3) * 70.0,
-                    Projection::Orthographic { height_world: 45.0 },
-                ),
+                    0 => (
+                        centre + DVec3::new(a.cos(), 0.6, a.sin()) * 90.0,
+                        Projection::Orthographic { height_world: 60.0 },
+                    ),
+                    1 => (
+                        centre + DVec3::new(a.cos(), -0.4, a.sin()) * 80.0,
+                        Projection::Perspective { fov_y_deg: 40.0 },
+                    ),
+                    // Eyes inside the volume: the map may know nothing, and must not lie.
+                    2 => (
+                        origin + DVec3::new(20.0, 20.0, 20.0),
+                        Projection::Perspective { fov_y_deg: 70.0 },
+                    ),
+                    _ => (
+                        centre + DVec3::new(0.0, 1.0, 1e-3) * 70.0,
+                        Projection::Orthographic { height_world: 45.0 },
+                    ),
                 },
             };
             let target = centre + DVec3::new(0.3 * a.sin(), 0.2, -0.1) * 10.0;

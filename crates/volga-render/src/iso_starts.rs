@@ -144,7 +144,12 @@ impl IsoStarts {
             .front_blocks()
             .par_iter()
             .map(|&(lo, hi)| (lo, hi + IVec3::ONE))
-            .chain(mask.inside_blocks().par_iter().map(|&b| whole(b)).filter(|&b| starts_in(b)))
+            .chain(
+                mask.inside_blocks()
+                    .par_iter()
+                    .map(|&b| whole(b))
+                    .filter(|&b| starts_in(b)),
+            )
             .map(|(lo, hi)| map.footprint(transform, lo, hi))
             .collect();
         let mut bands: Vec<Vec<Footprint>> = vec![Vec::new(); map.height.div_ceil(BAND_ROWS)];
@@ -207,7 +212,10 @@ impl IsoStarts {
         bounds: &Aabb,
     ) -> impl Fn((IVec3, IVec3)) -> bool + Sync + 't {
         let (eye, forward, margin) = (self.eye, self.forward, self.margin);
-        let (a, b) = (transform.world_to_index(bounds.min), transform.world_to_index(bounds.max));
+        let (a, b) = (
+            transform.world_to_index(bounds.min),
+            transform.world_to_index(bounds.max),
+        );
         // Index planes of the bounds, one cell inwards; a box wholly between them
         // holds no point of the faces.
         let (inner_lo, inner_hi) = (a.min(b) + 1.0, a.max(b) - 1.0);
@@ -221,7 +229,7 @@ impl IsoStarts {
             let centre = (w_lo + w_hi) * 0.5 - eye;
             let half = (w_hi - w_lo).abs() * 0.5;
             let z_lo = centre.dot(forward) - half.dot(forward.abs());
-            !(z_lo > margin)
+            z_lo.is_nan() || z_lo <= margin
         }
     }
 
