@@ -1,11 +1,22 @@
 //! Per view, where each ray of the packed iso path can first meet a cell that is not
-//! outside: the boxes of the cell mask's front blocks (`iso_skip.rs`: blocks holding a
-//! cell with corners on both sides of the iso value) projected onto the image plane,
-//! keeping per image cell the least depth of the boxes that cover it.
-//! The front faces of a volume's non-empty bricks rasterized to give each ray its start
-//! (Krüger and Westermann, "Acceleration techniques for GPU-based volume rendering",
-//! 2003), here in software and as a bound: a ray starts its walk just before that depth,
-//! and a ray no box covers ends at once.
+//! outside: per front block of the cell mask (`iso_skip.rs`: a block holding a cell
+//! with corners on both sides of the iso value, a **mixed** cell) the box of its mixed
+//! cells, projected onto the image plane, keeping per image cell the least depth of
+//! the boxes that cover it. The front faces of a volume's non-empty bricks rasterized
+//! to give each ray its start (Krüger and Westermann, "Acceleration techniques for
+//! GPU-based volume rendering", 2003), here in software and as a bound: a ray starts
+//! its walk just before that depth, and a ray no box covers ends at once.
+//!
+//! **Why the first cell that is not outside is mixed.** The walk steps between cells
+//! that share a face. If a cell is outside (all eight corners below the iso value) the
+//! next one shares four corners below it, so it is not inside (all corners at or
+//! above): the first cell that is not outside, after an outside one, is mixed (or has a
+//! NaN corner, which counts as mixed). Only the walk's first cell has no predecessor;
+//! it holds the ray's start, a point of the field's bounds or the ray's origin, so the
+//! blocks of inside cells only that come within a cell of the bounds' faces or reach
+//! the eye's plane are projected too (whole). The solid interior of a volume (most of
+//! its non-empty blocks) is never projected, and a front block projects only the box of
+//! its mixed cells, which is what brings a ray's start close to its first mixed cell.
 //!
 //! **Why the bound holds.** A ray `o + t·d` (unit `d`, `d·f > 0` for the camera's
 //! forward `f`) that meets a box at `t` meets it at a point of depth
@@ -13,21 +24,12 @@
 //! least depth of the box's corners (depth is linear, the box convex). Its image-plane
 //! point `(u, v)` (`(x/z, y/z)` in the camera frame for a perspective camera, `(x, y)`
 //! for an orthographic one) lies in the convex hull of the corners' points, so in their
-//! bounding rectangle, which is grown by a thousandth of an image cell against rounding. Every cell the
-//! walk passes before the least such `t` over the boxes lies in a block that is wholly
-//! outside, which is what the walk would find by reading it; the depth is rounded down
-//! to `f32` and the start moved [`START_MARGIN_VOXELS`] plus a billionth of the view's
-//! scale earlier (f64 rounding of the depths and parameters is ~1e-15 of that scale),
-//! so rounding can only make the walk read more.
-//!
-//! **Why front blocks suffice.** The walk steps between cells that share a face. If a
-//! cell is outside (all eight corners below the iso value) the next one shares four
-//! corners below it, so it is not inside (all corners at or above): the first cell
-//! that is not outside, after an outside one, holds corners on both sides — it lies in
-//! a front block. Only the walk's first cell has no predecessor; it holds the ray's
-//! start, a point of the field's bounds or the ray's origin, so the inside-only blocks
-//! within a cell of the bounds' faces or reaching the eye's plane are projected too.
-//! The solid interior of a volume (most of its non-empty blocks) is never projected.
+//! bounding rectangle, which is grown by a thousandth of an image cell against
+//! rounding. So every cell the walk passes before the least such `t` over the boxes is
+//! outside, which is what the walk would find by reading it. The depth is rounded down
+//! to `f32` and the start moved [`START_MARGIN_VOXELS`] plus [`START_MARGIN_RELATIVE`]
+//! of the view's scale earlier (f64 rounding of the depths and parameters is ~1e-15 of
+//! that scale), so rounding can only make the walk read more.
 //!
 //! Built once per [`Renderer::render`](crate::Renderer::render) call (the view is part
 //! of the frame, so a benchmark frame pays for it), in parallel by bands of image rows;
