@@ -223,7 +223,8 @@ fn plane_hits_are_exact() {
 
 /// The cube jumps, the active-box clip and the per-view start map never drop or move a
 /// hit, ray by ray: over every pixel of random views of scattered blobs (orthographic and
-/// perspective, eyes outside and inside the volume, the grid at the origin and at 1e6), the
+/// perspective, eyes outside and inside the volume and inside a blob's solid interior, the
+/// grid at the origin and at 1e6, an inside background meeting a blob cut by the bounds), the
 /// masked walk started at the map's bound returns the same hit bits as the walk with
 /// neither; the bound is never past the exact first crossing (`brute_hit`); and a tile the
 /// map declares missed has no hit in any of its pixels.

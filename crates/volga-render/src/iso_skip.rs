@@ -18,6 +18,10 @@
 //! * the **active box**: the cell bases of every cell that is not outside, so a ray that
 //!   misses the box (grown by [`ACTIVE_BOX_MARGIN`] cells) is decided by a box test.
 //!
+//! * the **front blocks**: per block holding a mixed cell (corners on both sides of the
+//!   iso value, or NaN), the box of those cells, and the blocks of inside cells only:
+//!   what a view's start map (`iso_starts.rs`) projects.
+//!
 //! None of these changes a hit: the walk over the cells is the same; they only pass
 //! cells whose reading would say "outside" (tests: `iso_packed_tests.rs`).
 
