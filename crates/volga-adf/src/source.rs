@@ -78,6 +78,19 @@ pub trait DistanceSource: Sync {
         None
     }
 
+    /// [`DistanceSource::side_of_empty_cell`] given the parent cell's candidates
+    /// (`parent`, `None` at the top), whose certified bounds may prove the side without a
+    /// query. Must return `None` or the same side (the default calls
+    /// `side_of_empty_cell`).
+    fn side_of_empty_cell_in(
+        &self,
+        cell: &Aabb,
+        corner: (DVec3, &Sample),
+        _parent: Option<&CellCandidates>,
+    ) -> Option<bool> {
+        self.side_of_empty_cell(cell, corner)
+    }
+
     /// Whether the sign may change away from any surface (an open mesh's inside across a
     /// hole). Then a cell far from the surface is pruned only if its test points confirm
     /// its corners' sign.
@@ -160,6 +173,14 @@ macro_rules! forward_distance_source {
             }
             fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
                 (**self).sign_field_at(p, sample)
+            }
+            fn side_of_empty_cell_in(
+                &self,
+                cell: &Aabb,
+                corner: (DVec3, &Sample),
+                parent: Option<&CellCandidates>,
+            ) -> Option<bool> {
+                (**self).side_of_empty_cell_in(cell, corner, parent)
             }
             fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
                 (**self).inside_in_empty_cell(p, near)
@@ -433,9 +454,16 @@ impl DistanceSource for MeshSource {
         Some(CellCandidates {
             ids,
             lower,
-            sign_bounds: self
-                .winding
-                .caps_range_over_ball(cell.center(), 0.5 * cell.size().length() * (1.0 + 1e-9)),
+            sign_bounds: match parent.and_then(|p| p.sign_bounds) {
+                // The parent's ball holds this cell's (a child's centre is half the
+                // parent's radius from the parent's, its radius half of it), so its
+                // bounds hold here; they decide every threshold `I − ½` its own would
+                // decide when they hold no half-integer.
+                Some((lo, hi)) if (lo + 0.5).ceil() > hi + 0.5 => Some((lo, hi)),
+                _ => self
+                    .winding
+                    .caps_range_over_ball(cell.center(), 0.5 * cell.size().length() * (1.0 + 1e-9)),
+            },
         })
     }
 
@@ -516,6 +544,30 @@ impl DistanceSource for MeshSource {
         }
         self.winding
             .inside_over_ball(cell.center(), radius * (1.0 + 1e-9), corner.1.region?)
+    }
+
+    /// The parent's certified bounds of `w_C` (over a ball holding the cell and meeting
+    /// no cap) decide the side when they clear the corner's `I − ½`: no mesh sheet meets
+    /// the cell (the corner is farther than its diagonal) and no cap does, so `I` is the
+    /// corner's everywhere in it. Otherwise [`DistanceSource::side_of_empty_cell`].
+    fn side_of_empty_cell_in(
+        &self,
+        cell: &Aabb,
+        corner: (DVec3, &Sample),
+        parent: Option<&CellCandidates>,
+    ) -> Option<bool> {
+        if let (Some((lo, hi)), Some(integer)) = (parent.and_then(|p| p.sign_bounds), corner.1.region) {
+            let threshold = integer as f64 - 0.5;
+            if corner.1.value.abs() > cell.size().length() {
+                if hi < threshold {
+                    return Some(true);
+                }
+                if lo > threshold {
+                    return Some(false);
+                }
+            }
+        }
+        self.side_of_empty_cell(cell, corner)
     }
 
     /// No mesh triangle meets the cell, so `I` changes only across the caps between

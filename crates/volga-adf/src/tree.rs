@@ -368,9 +368,19 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
     /// Whether the source proves cheaply that all 19 test points of a cell no surface
     /// meets have the corners' sign (`outside`: all positive): the same answer as sampling
     /// them ([`DistanceSource::inside_in_empty_cell`]); `false` when it cannot tell.
-    fn signs_confirmed(&self, min: DVec3, size: f64, samples: &[Sample; 8], outside: bool) -> bool {
+    fn signs_confirmed(
+        &self,
+        min: DVec3,
+        size: f64,
+        samples: &[Sample; 8],
+        outside: bool,
+        parent_candidates: Option<&CellCandidates>,
+    ) -> bool {
         let cell = Aabb::new(min, min + DVec3::splat(size));
-        if let Some(inside) = self.source.side_of_empty_cell(&cell, (min, &samples[0])) {
+        if let Some(inside) = self
+            .source
+            .side_of_empty_cell_in(&cell, (min, &samples[0]), parent_candidates)
+        {
             return inside != outside;
         }
         let half = size * 0.5;
@@ -464,7 +474,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             stats.leaf(true, false, jump.is_some());
             return Ok(Decision::Leaf(corners, jump));
         }
-        if prunable && self.signs_confirmed(min, size, samples, positive == 8) {
+        if prunable && self.signs_confirmed(min, size, samples, positive == 8, parent_candidates) {
             stats.leaf(false, true, false);
             return Ok(Decision::Leaf(corners, None));
         }
