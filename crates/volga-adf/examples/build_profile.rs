@@ -7,13 +7,16 @@
 //! Prints one JSON line: wall and process CPU seconds of the build, the build's counters,
 //! and `fingerprint`, a hash of every leaf (minimum, size, depth) and of the
 //! reconstruction's bits at 2¹⁶ pseudo-random points of the root cube and at every leaf's
-//! minimum corner.
+//! minimum corner; `distinct_corners`, the distinct corner points of the leaves (the
+//! fewest exact evaluations any build of these cells needs); `leaf_eval_ns`, the time of
+//! one evaluation at the centre of a deepest leaf among its candidate list (the build's
+//! path), and `leaf_eval_bvh_ns`, the same through the BVH.
 
 use std::hash::{Hash, Hasher};
 use std::time::Instant;
 
 use glam::DVec3;
-use volga_adf::{Adf, AdfOptions, MeshSource};
+use volga_adf::{Adf, AdfOptions, DistanceSource, MeshSource};
 
 /// CPU seconds of this process so far (user + system, `/proc/self/stat`), 0 where not
 /// readable.
@@ -66,11 +69,66 @@ fn main() {
         let p = root.min + t * root.size();
         adf.distance(p).to_bits().hash(&mut h);
     }
+    // Distinct leaf corners: every stored corner value is one of them, so an ADF of these
+    // cells needs at least this many exact evaluations (the rest of `evaluations` are test
+    // points of leaves and of pruned cells' sign checks).
+    let unit = adf.cell_size(adf.stats().depth_reached);
+    let mut corners = rustc_hash::FxHashSet::default();
+    for &(min, size, _) in &leaves {
+        let k = ((min - root.min) / unit).round();
+        let n = (size / unit).round() as u64;
+        for b in 0..8u64 {
+            let key = [
+                k.x as u64 + (b & 1) * n,
+                k.y as u64 + ((b >> 1) & 1) * n,
+                k.z as u64 + ((b >> 2) & 1) * n,
+            ];
+            corners.insert(key);
+        }
+    }
+    let distinct_corners = corners.len();
+    drop(corners);
+    // The cost of one exact evaluation at a leaf as the build makes it: at the centre of
+    // up to 20,000 leaves of the deepest level, among the leaf's candidate list, carried
+    // from its minimum corner (lists and corner samples prepared untimed; one thread).
+    let deepest = adf.stats().depth_reached;
+    let cells: Vec<(DVec3, f64)> = leaves
+        .iter()
+        .filter(|l| l.2 == deepest)
+        .step_by((leaves.len() / 20_000).max(1))
+        .take(20_000)
+        .map(|l| (l.0, l.1))
+        .collect();
+    let prepared: Vec<_> = cells
+        .iter()
+        .map(|&(min, size)| {
+            let corner = source.sample(min, None);
+            let cell = volga_core::Aabb::new(min, min + DVec3::splat(size));
+            let list = source
+                .candidates(&cell, corner.value.abs() + size * 3f64.sqrt(), None)
+                .expect("a mesh narrows");
+            (min, size, corner, list)
+        })
+        .collect();
+    let timer = Instant::now();
+    let mut checksum = 0.0;
+    for (min, size, corner, list) in &prepared {
+        let p = *min + DVec3::splat(size * 0.5);
+        checksum += source.sample_among(p, Some((*min, corner)), list).value;
+    }
+    let leaf_eval_ns = timer.elapsed().as_secs_f64() * 1e9 / prepared.len().max(1) as f64;
+    let timer = Instant::now();
+    for (min, size, corner, _) in &prepared {
+        let p = *min + DVec3::splat(size * 0.5);
+        checksum -= source.sample(p, Some((*min, corner))).value;
+    }
+    let leaf_eval_bvh_ns = timer.elapsed().as_secs_f64() * 1e9 / prepared.len().max(1) as f64;
+    assert!(checksum.abs() < 1e-9, "scan and BVH agree");
     let s = adf.stats();
     println!(
         "{{\"build_s\": {wall:.3}, \"cpu_s\": {cpu:.2}, \"cells\": {}, \"leaves\": {}, \"pruned\": {}, \
          \"max_depth_leaves\": {}, \"jump_leaves\": {}, \"evaluations\": {}, \"source_queries\": {}, \
-         \"integer_queries\": {}, \"fingerprint\": \"{:016x}\"}}",
+         \"integer_queries\": {}, \"distinct_corners\": {distinct_corners}, \"leaf_eval_ns\": {leaf_eval_ns:.0}, \"leaf_eval_bvh_ns\": {leaf_eval_bvh_ns:.0}, \"fingerprint\": \"{:016x}\"}}",
         s.cells,
         s.leaves,
         s.pruned_leaves,

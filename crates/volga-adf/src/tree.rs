@@ -341,8 +341,14 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                         continue;
                     }
                     let p = min + DVec3::new(i as f64, j as f64, k as f64) * half;
+                    // The centre is strictly inside the cell and at an odd multiple of
+                    // its children's half size: no other cell's lattice holds it (its
+                    // descendants get it as a corner from this lattice), so it is neither
+                    // looked up nor kept.
+                    let centre = l == lattice_index(1, 1, 1);
+                    let cache_here = if centre { None } else { cache.as_deref_mut() };
                     let key = self.lattice_key(p);
-                    if let Some(s) = cache.as_deref().and_then(|c| c.samples.get(&key)) {
+                    if let Some(s) = cache_here.as_deref().and_then(|c| c.samples.get(&key)) {
                         lattice[l] = Some(*s);
                         continue;
                     }
@@ -355,7 +361,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                         Some(c) => self.eval_among(p, near, c)?,
                         None => self.eval(p, near)?,
                     };
-                    if let Some(c) = cache.as_deref_mut() {
+                    if let Some(c) = cache_here {
                         c.samples.insert(key, s);
                     }
                     lattice[l] = Some(s);
