@@ -42,7 +42,10 @@ fn main() {
     let mesh = volga_mesh::load_mesh(path).expect("mesh");
     let source = MeshSource::new(&mesh).expect("source");
     let options = AdfOptions::relative(tolerance, &mesh.bounds());
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("pool");
     let cpu0 = process_cpu_s();
     let start = Instant::now();
     let adf = pool.install(|| Adf::build(&source, options)).expect("build");

@@ -110,7 +110,11 @@ fn check(name: &str, mesh: &TriMesh, rng: &mut Rng) {
                 assert_eq!(scanned.region, plain.region, "{name}: cell {cell_index} at {p}");
                 // Without a neighbour: the scan's first bound is infinite.
                 let alone = source.sample_among(p, None, list);
-                assert_eq!(alone.value.to_bits(), source.sample(p, None).value.to_bits(), "{name} at {p}");
+                assert_eq!(
+                    alone.value.to_bits(),
+                    source.sample(p, None).value.to_bits(),
+                    "{name} at {p}"
+                );
             }
         }
     }
@@ -118,7 +122,7 @@ fn check(name: &str, mesh: &TriMesh, rng: &mut Rng) {
 
 #[test]
 fn sorted_scans_equal_the_bvh() {
-    let mut rng = Rng(0x5eed_ad_fb);
+    let mut rng = Rng(0x5eed_adfb);
     let mut corpus = unclean::corpus();
     corpus.push(("slivers", slivers()));
     let sphere = unclean::uv_sphere(DVec3::ZERO, 1.0, 12, 24);
