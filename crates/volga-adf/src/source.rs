@@ -78,6 +78,19 @@ pub trait DistanceSource: Sync {
         None
     }
 
+    /// [`DistanceSource::side_of_empty_cell`] given the parent cell's candidates
+    /// (`parent`, `None` at the top), whose certified bounds may prove the side without a
+    /// query. Must return `None` or the same side (the default calls
+    /// `side_of_empty_cell`).
+    fn side_of_empty_cell_in(
+        &self,
+        cell: &Aabb,
+        corner: (DVec3, &Sample),
+        _parent: Option<&CellCandidates>,
+    ) -> Option<bool> {
+        self.side_of_empty_cell(cell, corner)
+    }
+
     /// Whether the sign may change away from any surface (an open mesh's inside across a
     /// hole). Then a cell far from the surface is pruned only if its test points confirm
     /// its corners' sign.
@@ -98,9 +111,28 @@ pub struct CellCandidates {
     /// Ids of the primitives (a mesh: triangle indices) that can hold the nearest surface
     /// point of any point of the cell.
     pub ids: Vec<u32>,
+    /// When as long as `ids`: a lower bound, for every point of the cell, of the squared
+    /// distance to each primitive, ascending (`ids` in that order), so a scan for the
+    /// nearest one stops at the first bound above its best (a mesh: the squared gap
+    /// between the cell and the triangle's box). Empty: `ids` in no particular order.
+    pub lower: Vec<f64>,
     /// Certified bounds over the cell of a quantity the source decides signs with (a mesh
     /// with holes: the caps' winding number `w_C`), when it could bound it.
     pub sign_bounds: Option<(f64, f64)>,
+}
+
+impl CellCandidates {
+    /// The ids whose bound is 0 when the list is sorted (`lower`), else all: with a
+    /// mesh, every triangle that meets the cell (its box meets the cell's), which is all
+    /// a segment inside the cell can cross. Exactly the listed triangles whose boxes meet
+    /// the cell, so a count of crossings filtered by the segment's box sees the same ones.
+    pub fn meeting_cell(&self) -> &[u32] {
+        if self.lower.len() == self.ids.len() {
+            &self.ids[..self.lower.partition_point(|&g| g <= 0.0)]
+        } else {
+            &self.ids
+        }
+    }
 }
 
 /// A distance and what the source learnt computing it.
@@ -141,6 +173,14 @@ macro_rules! forward_distance_source {
             }
             fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
                 (**self).sign_field_at(p, sample)
+            }
+            fn side_of_empty_cell_in(
+                &self,
+                cell: &Aabb,
+                corner: (DVec3, &Sample),
+                parent: Option<&CellCandidates>,
+            ) -> Option<bool> {
+                (**self).side_of_empty_cell_in(cell, corner, parent)
             }
             fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
                 (**self).inside_in_empty_cell(p, near)
@@ -187,6 +227,12 @@ pub struct MeshSource {
     /// Triangle corners and boxes by mesh id, for scans of a cell's candidate list.
     triangles: Vec<[DVec3; 3]>,
     boxes: Vec<(DVec3, DVec3)>,
+    /// Unit normals by mesh id for the plane lower bound of scans
+    /// ([`MeshSource::sample_among`]); zero for triangles too thin for it.
+    normals: Vec<DVec3>,
+    /// Absolute slack (world units) subtracted from the plane lower bounds: covers the
+    /// rounding of the bound and of `closest_point_on_triangle` with a wide margin.
+    plane_slack: f64,
     winding: CappedWinding,
     bounds: Aabb,
     queries: AtomicU64,
@@ -209,10 +255,15 @@ impl MeshSource {
             .iter()
             .map(|&[a, b, c]| (a.min(b).min(c), a.max(b).max(c)))
             .collect();
+        let normals = triangles.iter().map(|&t| scan_normal(t)).collect();
+        let extent = bounds.min.abs().max(bounds.max.abs()).max_element();
+        let plane_slack = 1e-9 * bounds.size().length() + 1e-12 * extent;
         Ok(MeshSource {
             bvh: Bvh::build(mesh),
             triangles,
             boxes,
+            normals,
+            plane_slack,
             winding: CappedWinding::new(mesh),
             bounds,
             queries: AtomicU64::new(0),
@@ -252,8 +303,9 @@ impl MeshSource {
 
 /// Candidate lists longer than this are narrowed with the BVH, not by filtering.
 const NARROW_FROM_BVH: usize = 4096;
-/// Candidate lists longer than this are not scanned: the point asks the BVH.
-const SCAN_LIMIT: usize = 512;
+/// Candidate lists longer than this are not scanned: the point asks the BVH. (Sorted
+/// scans stop early, so the whole narrowed list is worth scanning.)
+const SCAN_LIMIT: usize = NARROW_FROM_BVH;
 
 /// The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
 #[inline]
@@ -284,7 +336,7 @@ impl MeshSource {
         }
         let known = near.and_then(|(q, s)| {
             s.region.and_then(|i| match candidates {
-                Some(c) => self.winding.integer_along_among(q, i, p, &c.ids),
+                Some(c) => self.winding.integer_along_among(q, i, p, c.meeting_cell()),
                 None => self.winding.integer_along(q, i, p),
             })
         });
@@ -313,6 +365,42 @@ impl MeshSource {
     }
 }
 
+/// The unit normal of a triangle whose double area is at least 1e-3 of its longest edge
+/// squared, else zero (no plane bound: the nearest point of a thin triangle may lie off
+/// the plane computed from its corners by more than rounding).
+fn scan_normal([a, b, c]: [DVec3; 3]) -> DVec3 {
+    let n = (b - a).cross(c - a);
+    let longest = (b - a)
+        .length_squared()
+        .max((c - b).length_squared())
+        .max((a - c).length_squared());
+    let area2 = n.length();
+    if area2.is_finite() && area2 >= 1e-3 * longest && area2 > 0.0 {
+        n / area2
+    } else {
+        DVec3::ZERO
+    }
+}
+
+impl MeshSource {
+    /// A lower bound of the squared distance `closest_point_on_triangle` computes from `p`
+    /// to triangle `id`, below it by more than rounding: the squared gap to the triangle's
+    /// box (what the scan always pruned by), or the squared distance to its plane less
+    /// `plane_slack` when that is larger. A candidate whose bound exceeds the best squared
+    /// distance so far cannot lower it, so skipping it leaves the minimum unchanged.
+    #[inline]
+    fn lower_bound_squared(&self, p: DVec3, id: u32) -> f64 {
+        let (lo, hi) = self.boxes[id as usize];
+        let gap = (lo - p).max(p - hi).max(DVec3::ZERO).length_squared();
+        let plane = self.normals[id as usize].dot(p - self.triangles[id as usize][0]).abs() - self.plane_slack;
+        if plane > 0.0 {
+            gap.max(plane * plane * (1.0 - 1e-9))
+        } else {
+            gap
+        }
+    }
+}
+
 impl DistanceSource for MeshSource {
     fn distance(&self, p: DVec3) -> f64 {
         self.sample(p, None).value
@@ -337,40 +425,58 @@ impl DistanceSource for MeshSource {
     /// The triangles whose boxes are within `reach` (Euclidean) of the cell: they hold
     /// the nearest point of every point of the cell (its distance is at most `reach`).
     /// From the BVH at the top of the tree (no parent, or a long parent list), else by
-    /// filtering the parent's list.
+    /// filtering the parent's list; sorted by their boxes' gap to the cell (`lower`).
     fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
         // Slack for the rounding of `reach` and of the box distances.
         let reach = reach * (1.0 + 1e-9) + 1e-12 * cell.size().max_element();
         let reach_squared = reach * reach;
-        let near = |id: u32| {
+        let gap_squared = |id: u32| {
             let (lo, hi) = self.boxes[id as usize];
-            let gap = (lo - cell.max).max(cell.min - hi).max(DVec3::ZERO);
-            gap.length_squared() <= reach_squared
+            (lo - cell.max).max(cell.min - hi).max(DVec3::ZERO).length_squared()
         };
-        let ids = match parent {
-            Some(list) if list.ids.len() <= NARROW_FROM_BVH => {
-                list.ids.iter().copied().filter(|&id| near(id)).collect()
-            }
+        let near = |id: u32| {
+            let g = gap_squared(id);
+            (g <= reach_squared).then_some((g, id))
+        };
+        let mut pairs: Vec<(f64, u32)> = match parent {
+            Some(list) if list.ids.len() <= NARROW_FROM_BVH => list.ids.iter().filter_map(|&id| near(id)).collect(),
             _ => {
                 let grown = Aabb::new(cell.min - DVec3::splat(reach), cell.max + DVec3::splat(reach));
                 let mut ids = Vec::new();
                 self.bvh.boxes_overlapping(&grown, &mut ids);
-                ids.retain(|&id| near(id));
-                ids
+                ids.into_iter().filter_map(near).collect()
             }
         };
+        // Nearest boxes first (ties by id: the order is a function of the cell alone).
+        // (Gaps are ≥ 0, so their bits order as the values do.)
+        pairs.sort_unstable_by_key(|&(g, id)| (g.to_bits(), id));
+        let (lower, ids) = pairs.into_iter().unzip();
         Some(CellCandidates {
             ids,
-            sign_bounds: self
-                .winding
-                .caps_range_over_ball(cell.center(), 0.5 * cell.size().length() * (1.0 + 1e-9)),
+            lower,
+            sign_bounds: match parent.and_then(|p| p.sign_bounds) {
+                // The parent's ball holds this cell's (a child's centre is half the
+                // parent's radius from the parent's, its radius half of it), so its
+                // bounds hold here; they decide every threshold `I − ½` its own would
+                // decide when they hold no half-integer.
+                Some((lo, hi)) if (lo + 0.5).ceil() > hi + 0.5 => Some((lo, hi)),
+                _ => self
+                    .winding
+                    .caps_range_over_ball(cell.center(), 0.5 * cell.size().length() * (1.0 + 1e-9)),
+            },
         })
     }
 
-    /// The nearest of the cell's candidates (a scan pruned by the triangles' boxes) when
-    /// the list is short, and the sheets crossed from `near` counted among them; the BVH
-    /// otherwise. The same distance as [`MeshSource::sample`]: the minimum over a set that
-    /// holds the nearest triangle.
+    /// The nearest of the cell's candidates when the list is short, and the sheets
+    /// crossed from `near` counted among them; the BVH otherwise. The same distance as
+    /// [`MeshSource::sample`]: the minimum over a set that holds the nearest triangle.
+    ///
+    /// The scan visits the candidates by their boxes' gap to the cell and stops at the
+    /// first gap above the best squared distance so far (every later triangle is farther
+    /// from any point of the cell); a candidate is skipped when its box or, for a
+    /// well-shaped triangle, its plane is farther from `p` than the best
+    /// ([`MeshSource::lower_bound_squared`]). Only triangles that cannot lower the minimum
+    /// are skipped, so the value is the plain scan's, bit for bit.
     fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
         if candidates.ids.len() > SCAN_LIMIT {
             return self.sample(p, near);
@@ -383,10 +489,13 @@ impl DistanceSource for MeshSource {
             f64::INFINITY
         };
         let mut found = false;
-        for &id in &candidates.ids {
-            let (lo, hi) = self.boxes[id as usize];
-            let gap = (lo - p).max(p - hi).max(DVec3::ZERO);
-            if gap.length_squared() > best {
+        // Ascending cell-box gaps: every later candidate is at least this far from `p`.
+        let sorted = candidates.lower.len() == candidates.ids.len();
+        for (k, &id) in candidates.ids.iter().enumerate() {
+            if sorted && candidates.lower[k] > best {
+                break;
+            }
+            if self.lower_bound_squared(p, id) > best {
                 continue;
             }
             let (q, _) = volga_mesh::closest_point_on_triangle(p, self.triangles[id as usize]);
@@ -435,6 +544,30 @@ impl DistanceSource for MeshSource {
         }
         self.winding
             .inside_over_ball(cell.center(), radius * (1.0 + 1e-9), corner.1.region?)
+    }
+
+    /// The parent's certified bounds of `w_C` (over a ball holding the cell and meeting
+    /// no cap) decide the side when they clear the corner's `I − ½`: no mesh sheet meets
+    /// the cell (the corner is farther than its diagonal) and no cap does, so `I` is the
+    /// corner's everywhere in it. Otherwise [`DistanceSource::side_of_empty_cell`].
+    fn side_of_empty_cell_in(
+        &self,
+        cell: &Aabb,
+        corner: (DVec3, &Sample),
+        parent: Option<&CellCandidates>,
+    ) -> Option<bool> {
+        if let (Some((lo, hi)), Some(integer)) = (parent.and_then(|p| p.sign_bounds), corner.1.region) {
+            let threshold = integer as f64 - 0.5;
+            if corner.1.value.abs() > cell.size().length() {
+                if hi < threshold {
+                    return Some(true);
+                }
+                if lo > threshold {
+                    return Some(false);
+                }
+            }
+        }
+        self.side_of_empty_cell(cell, corner)
     }
 
     /// No mesh triangle meets the cell, so `I` changes only across the caps between

@@ -223,7 +223,14 @@ pub(crate) struct Builder<'a, S: ?Sized> {
 /// the cache changes the work, never the tree.
 #[derive(Default)]
 pub(crate) struct SampleCache {
-    samples: rustc_hash::FxHashMap<[u32; 3], Sample>,
+    ///
+    /// A test point is on the lattice of cells of its own depth only (at an odd multiple
+    /// of their half size in one or two coordinates: every deeper cell has it as a corner,
+    /// from its parent's lattice, and no shallower cell's lattice holds it), so it is
+    /// looked up only by the other cells of that depth around it: one across a face
+    /// centre, three around an edge midpoint. Each entry counts the lookups left and is
+    /// dropped at the last, so the map holds the build's frontier, not every sample.
+    samples: rustc_hash::FxHashMap<[u32; 3], (Sample, u8)>,
     /// Sign-field values at jump leaves' corners ([`DistanceSource::sign_field_at`]).
     sign_fields: rustc_hash::FxHashMap<[u32; 3], Option<f64>>,
 }
@@ -341,10 +348,23 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                         continue;
                     }
                     let p = min + DVec3::new(i as f64, j as f64, k as f64) * half;
+                    // The centre is strictly inside the cell and at an odd multiple of
+                    // its children's half size: no other cell's lattice holds it (its
+                    // descendants get it as a corner from this lattice), so it is neither
+                    // looked up nor kept.
+                    let centre = l == lattice_index(1, 1, 1);
+                    let mut cache_here = if centre { None } else { cache.as_deref_mut() };
                     let key = self.lattice_key(p);
-                    if let Some(s) = cache.as_deref().and_then(|c| c.samples.get(&key)) {
-                        lattice[l] = Some(*s);
-                        continue;
+                    if let Some(c) = cache_here.as_deref_mut() {
+                        if let std::collections::hash_map::Entry::Occupied(mut e) = c.samples.entry(key) {
+                            let (s, left) = e.get_mut();
+                            lattice[l] = Some(*s);
+                            *left -= 1;
+                            if *left == 0 {
+                                e.remove();
+                            }
+                            continue;
+                        }
                     }
                     // The nearest corner that knows its region (the shortest carry).
                     let near = (0..8)
@@ -355,8 +375,12 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
                         Some(c) => self.eval_among(p, near, c)?,
                         None => self.eval(p, near)?,
                     };
-                    if let Some(c) = cache.as_deref_mut() {
-                        c.samples.insert(key, s);
+                    if let Some(c) = cache_here {
+                        // Other cells of this depth sharing the point: 1 across a face
+                        // centre (one coordinate on the cell's boundary), 3 around an
+                        // edge midpoint (two).
+                        let on_boundary = [i, j, k].iter().filter(|&&x| x != 1).count();
+                        c.samples.insert(key, (s, if on_boundary == 1 { 1 } else { 3 }));
                     }
                     lattice[l] = Some(s);
                 }
@@ -368,9 +392,19 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
     /// Whether the source proves cheaply that all 19 test points of a cell no surface
     /// meets have the corners' sign (`outside`: all positive): the same answer as sampling
     /// them ([`DistanceSource::inside_in_empty_cell`]); `false` when it cannot tell.
-    fn signs_confirmed(&self, min: DVec3, size: f64, samples: &[Sample; 8], outside: bool) -> bool {
+    fn signs_confirmed(
+        &self,
+        min: DVec3,
+        size: f64,
+        samples: &[Sample; 8],
+        outside: bool,
+        parent_candidates: Option<&CellCandidates>,
+    ) -> bool {
         let cell = Aabb::new(min, min + DVec3::splat(size));
-        if let Some(inside) = self.source.side_of_empty_cell(&cell, (min, &samples[0])) {
+        if let Some(inside) = self
+            .source
+            .side_of_empty_cell_in(&cell, (min, &samples[0]), parent_candidates)
+        {
             return inside != outside;
         }
         let half = size * 0.5;
@@ -464,7 +498,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
             stats.leaf(true, false, jump.is_some());
             return Ok(Decision::Leaf(corners, jump));
         }
-        if prunable && self.signs_confirmed(min, size, samples, positive == 8) {
+        if prunable && self.signs_confirmed(min, size, samples, positive == 8, parent_candidates) {
             stats.leaf(false, true, false);
             return Ok(Decision::Leaf(corners, None));
         }
