@@ -67,6 +67,7 @@ mod source;
 #[cfg(test)]
 mod test_rng;
 mod tree;
+mod leaf_blocks;
 mod walk;
 
 pub use edit::EditStats;
