@@ -67,7 +67,6 @@ mod source;
 #[cfg(test)]
 mod test_rng;
 mod tree;
-mod leaf_blocks;
 mod walk;
 
 pub use edit::EditStats;

@@ -36,10 +36,9 @@ use std::sync::OnceLock;
 use glam::DVec3;
 
 use crate::cubic::{first_root_of_cubic, newton_on_piece, trilinear_cubic};
-use crate::leaf_blocks::{BlockLeaf, LeafBlocks};
 use crate::ray::{cubic_coefficients, first_root_sampled, monotone_cuts, next_t};
 use crate::reach::chessboard_reach;
-use crate::tree::{corner_position, trilinear, Cell};
+use crate::tree::{corner_position, trilinear, Cell, LEAF};
 use crate::Adf;
 
 /// Deepest level of the walk grid: 128³ cells, 10 bytes each (20 MB) beside the links.
@@ -94,9 +93,6 @@ pub(crate) struct WalkIndex {
     /// minimum is ≤ 0 (module `reach`): for an iso value ≤ 0 a ray crosses the
     /// `(2k − 1)³` cube of empty cells around its cell in one step.
     reach: Vec<u8>,
-    /// The ray-coherent copy of the subtrees of the grid cells whose minimum is ≤ 0
-    /// (module `leaf_blocks`): the leaf steps there read it instead of the tree.
-    pub(crate) blocks: LeafBlocks,
 }
 
 impl WalkIndex {
@@ -113,11 +109,9 @@ impl WalkIndex {
             active: None,
             block_lo: Vec::new(),
             reach: Vec::new(),
-            blocks: LeafBlocks::default(),
         };
         index.fill(adf, 0, 0, [0; 3]);
         index.reach = chessboard_reach(n, |k| index.lo[k] <= 0.0);
-        index.blocks = LeafBlocks::build(&adf.cells, n, depth, &index.node, &index.level, |k| index.lo[k] <= 0.0);
         if depth >= 2 {
             let m = n / 4;
             index.block_lo = vec![f32::INFINITY; m * m * m];
@@ -189,7 +183,6 @@ impl WalkIndex {
             + self.lo.len() * 4
             + self.block_lo.len() * 4
             + self.reach.len()
-            + self.blocks.bytes()
     }
 }
 
@@ -391,31 +384,10 @@ impl Adf {
                     continue;
                 }
             }
-            // The leaf: from the ray-coherent copy where the grid cell has one (the same
-            // leaf and box as the tree's descent), else from the tree.
-            let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
-            let gmax = gmin + DVec3::splat(grid_size);
-            let in_cell = q.cmpge(gmin).all() && (q.cmplt(gmax) | gmax.cmpge(root_max)).all();
-            let leaf = if in_cell {
-                ix.blocks.leaf(k, q, gmin, grid_size, iso <= 0.0)
-            } else {
-                BlockLeaf::Tree
-            };
-            let (corners, min, size, jump) = match leaf {
-                BlockLeaf::Plain(c, min, size) => (c.0, min, size, None),
-                BlockLeaf::Positive(min, size) => {
-                    // All corners > 0 ≥ iso: no crossing here; on to the leaf's exit.
-                    let exit = box_exit(origin, dir, inv, min, size).min(t_end).max(t);
-                    t = next_t(t, past(exit, size / scale, ulp_t), size / scale);
-                    continue;
-                }
-                BlockLeaf::Tree => {
-                    let (index, min, size) = self.locate_indexed(ix, q);
-                    let cell = &self.cells[index];
-                    (cell.corners, min, size, cell.jump())
-                }
-            };
+            let (index, min, size) = self.locate_indexed(ix, q);
             let exit = box_exit(origin, dir, inv, min, size).min(t_end).max(t);
+            let cell = &self.cells[index];
+            let corners = cell.corners;
             let lo = corners.iter().fold(f32::INFINITY, |a, &c| a.min(c)) as f64;
             if lo > iso {
                 let hi = corners.iter().fold(f32::NEG_INFINITY, |a, &c| a.max(c)) as f64;
@@ -432,7 +404,7 @@ impl Adf {
                 continue;
             }
             let inv_size = 1.0 / size;
-            let found = if jump.is_none() {
+            let found = if cell.children == LEAF {
                 // The cubic from the corners (module `cubic`).
                 let u0 = ((origin + dir * t - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
                 let u1 = ((origin + dir * exit - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
@@ -441,7 +413,7 @@ impl Adf {
                 first_root_of_cubic(c, t, exit)
             } else {
                 // A jump leaf: as in the reference walk.
-                let k = jump.expect("a leaf that is not plain is a jump leaf");
+                let k = cell.jump().expect("a leaf that is not plain is a jump leaf");
                 let magnitudes = corners.map(f32::abs);
                 let signs = &self.jumps[k];
                 if iso == 0.0 {
