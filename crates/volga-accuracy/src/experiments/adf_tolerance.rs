@@ -183,3 +183,18 @@ fn run(ctx: &Context) -> KnobResult {
         series,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::max_depth_for;
+
+    #[test]
+    fn the_maximum_depth_follows_the_tolerance() {
+        assert_eq!(max_depth_for(1e-2), 12);
+        assert_eq!(max_depth_for(1e-4), 12);
+        assert_eq!(max_depth_for(5e-5), 13);
+        assert_eq!(max_depth_for(3e-5), 14);
+        assert_eq!(max_depth_for(1e-5), 16);
+        assert_eq!(max_depth_for(1e-12), volga_adf::MAX_SUPPORTED_DEPTH);
+    }
+}
