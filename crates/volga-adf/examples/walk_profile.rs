@@ -56,6 +56,7 @@ fn main() {
     let right = forward.cross(DVec3::Y).normalize();
     let up = right.cross(forward);
     let half = (fov * 0.5).tan();
+    let mut pixel = Vec::new();
     let rays: Vec<(DVec3, f64, f64)> = (0..size * size)
         .filter_map(|k| {
             let (x, y) = ((k % size) as f64 + 0.5, (k / size) as f64 + 0.5);
@@ -63,6 +64,7 @@ fn main() {
             let sy = (1.0 - y / size as f64 * 2.0) * half;
             let dir = (forward + right * sx + up * sy).normalize();
             let (t0, t1) = adf.root_box().ray_interval(eye, dir)?;
+            pixel.push(k);
             Some((dir, t0, t1))
         })
         .collect();
@@ -81,6 +83,47 @@ fn main() {
         times.push(thread_cpu_s() - start);
     }
     times.sort_by(f64::total_cmp);
+    // The same rays split by outcome, and in the renderer's order (16×16 tiles): where
+    // the time goes, and what ray coherence gives.
+    let outcome: Vec<bool> = rays
+        .iter()
+        .map(|&(dir, t0, t1)| adf.first_crossing_between(eye, dir, t0, t1, 0.0).0.is_some())
+        .collect();
+    let pass_over = |subset: &dyn Fn(usize) -> bool| -> f64 {
+        let mut best = Vec::new();
+        for _ in 0..passes.max(1) {
+            let start = thread_cpu_s();
+            for (i, &(dir, t0, t1)) in rays.iter().enumerate() {
+                if subset(i) {
+                    std::hint::black_box(adf.first_crossing_between(eye, dir, t0, t1, 0.0));
+                }
+            }
+            best.push(thread_cpu_s() - start);
+        }
+        best.sort_by(f64::total_cmp);
+        best[best.len() / 2]
+    };
+    let hit_s = pass_over(&|i| outcome[i]);
+    let miss_s = pass_over(&|i| !outcome[i]);
+    let tiled: Vec<usize> = {
+        let mut order: Vec<usize> = (0..rays.len()).collect();
+        order.sort_by_key(|&i| (pixel[i] / size / 16, pixel[i] % size / 16, pixel[i]));
+        order
+    };
+    let mut tile_times = Vec::new();
+    for _ in 0..passes.max(1) {
+        let start = thread_cpu_s();
+        for &i in &tiled {
+            let (dir, t0, t1) = rays[i];
+            std::hint::black_box(adf.first_crossing_between(eye, dir, t0, t1, 0.0));
+        }
+        tile_times.push(thread_cpu_s() - start);
+    }
+    tile_times.sort_by(f64::total_cmp);
+    eprintln!(
+        "{{\"walk_cpu_s_hit_rays\":{hit_s:.4},\"walk_cpu_s_missed_rays\":{miss_s:.4},\"walk_cpu_s_tile_order\":{:.4}}}",
+        tile_times[tile_times.len() / 2]
+    );
     let start = Instant::now();
     let mut differ = 0u64;
     for &(dir, t0, t1) in &rays {

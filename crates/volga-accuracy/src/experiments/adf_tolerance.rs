@@ -4,7 +4,9 @@
 //! octrees; this measures our ratio).
 //!
 //! * **ADF**: `volga_adf::Adf::build` of the mesh (exact distance, certified winding
-//!   sign) at the tolerance (a fraction of the bounding-box diagonal), depth ≤ 12, timed;
+//!   sign) at the tolerance (a fraction of the bounding-box diagonal), timed, with the
+//!   maximum depth following the tolerance ([`max_depth_for`]: 12 down to 1e-4, one level
+//!   more per halving below, 16 at 1e-5);
 //!   errors measured against the exact signed distance at 20,000 points within 2 % of the
 //!   diagonal of the surface, in leaves the tolerance applies to (not pruned).
 //! * **Uniform grid of the same maximum error**: the ADF's largest errors sit in its
@@ -28,6 +30,18 @@ pub const EXPERIMENT: Experiment = Experiment {
     id: "adf_tolerance",
     run,
 };
+
+/// The maximum depth for a tolerance (a fraction of the diagonal): 12 for tolerances
+/// ≥ 1e-4, one more level per halving of the tolerance below (16 at 1e-5). The largest
+/// errors sit in maximum-depth cells on the distance's creases (sharp edges, the bunny's
+/// hole rims), where the trilinear error falls like the cell size, not its square: at
+/// 1e-4 depth 12 leaves them at 0.9× the tolerance, so a tolerance 2^-k smaller needs k
+/// more levels. `error_points_at_max_depth` and `max_error_below_max_depth` in the table
+/// show whether it was enough.
+pub fn max_depth_for(tolerance: f64) -> u8 {
+    let halvings = (1e-4 / tolerance).log2().ceil().max(0.0);
+    (12.0 + halvings).min(volga_adf::MAX_SUPPORTED_DEPTH as f64) as u8
+}
 
 /// Levels counted exactly for the 3-colour octree.
 const EXACT_LEVELS: u8 = 9;
@@ -72,7 +86,7 @@ fn mesh_series(name: &str, mesh: &TriMesh, tolerances: &[f64], points: usize, ct
         .iter()
         .map(|&tolerance| {
             let options = AdfOptions {
-                max_depth: 12,
+                max_depth: max_depth_for(tolerance),
                 ..AdfOptions::relative(tolerance, &bounds)
             };
             let (adf, timing) = timed(|| Adf::build(&source, options).expect("ADF build"));
@@ -86,6 +100,7 @@ fn mesh_series(name: &str, mesh: &TriMesh, tolerances: &[f64], points: usize, ct
                 format!("{tolerance:e}"),
                 &[
                     ("tolerance", tolerance),
+                    ("max_depth", max_depth_for(tolerance) as f64),
                     ("depth_reached", depth as f64),
                     ("three_colour_exact_levels", exact_levels as f64),
                 ],
@@ -94,6 +109,11 @@ fn mesh_series(name: &str, mesh: &TriMesh, tolerances: &[f64], points: usize, ct
             )
             .error("max_error", errors.max / diagonal)
             .error("rms_error", errors.rms / diagonal)
+            .error("max_error_below_max_depth", errors.max_below_max_depth / diagonal)
+            .error(
+                "points_at_max_depth",
+                errors.points_at_max_depth as f64 / errors.points.max(1) as f64,
+            )
             .error("adf_cells", adf.cell_count() as f64)
             .error("three_colour_cells", three)
             .error("uniform_cells", uniform)
@@ -119,41 +139,62 @@ fn run(ctx: &Context) -> KnobResult {
             vec![mesh_series("torus mesh", &torus, &[1e-2, 3e-3], 2000, ctx)]
         }
         crate::experiments::Size::Full => {
-            let tolerances = [1e-2, 3e-3, 1e-3, 3e-4, 1e-4];
+            let tolerances = [1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5];
             ctx.start("ADF tolerance", 2 * tolerances.len());
-            vec![
-                mesh_series(
-                    "Stanford bunny (open)",
-                    &shared_mesh("stanford-bunny.obj"),
-                    &tolerances,
-                    20_000,
-                    ctx,
-                ),
-                mesh_series(
-                    "fandisk (sharp edges)",
-                    &shared_mesh("fandisk.obj"),
-                    &tolerances,
-                    20_000,
-                    ctx,
-                ),
-            ]
+            // fandisk first: the smaller build, so its rows exist even if the bunny's 1e-5
+            // row ran out of memory.
+            let fandisk = mesh_series(
+                "fandisk (sharp edges)",
+                &shared_mesh("fandisk.obj"),
+                &tolerances,
+                20_000,
+                ctx,
+            );
+            let bunny = mesh_series(
+                "Stanford bunny (open)",
+                &shared_mesh("stanford-bunny.obj"),
+                &tolerances,
+                20_000,
+                ctx,
+            );
+            vec![bunny, fandisk]
         }
     };
     ctx.finish();
     KnobResult {
         id: "adf_tolerance",
         title: "ADF tolerance: cells, memory and time against distance error",
-        knob: "ADF tolerance as a fraction of the bounding-box diagonal (labels), maximum depth 12",
+        knob: "ADF tolerance as a fraction of the bounding-box diagonal (labels), maximum depth 12 down to 1e-4 and one more level per halving below (16 at 1e-5)",
         reference: "exact signed distance to the mesh (nearest triangle; sign by the certified generalized winding number) at points within 2 % of the diagonal of the surface, in unpruned leaves",
         timed: "Adf::build from the mesh (BVH and caps built beforehand), all threads",
         metrics: vec![
             Metric { id: "max_error", label: "distance error, max (fraction of the diagonal)" },
             Metric { id: "rms_error", label: "distance error, RMS (fraction of the diagonal)" },
+            Metric {
+                id: "max_error_below_max_depth",
+                label: "max error in leaves above the maximum depth (fraction of the diagonal)",
+            },
+            Metric { id: "points_at_max_depth", label: "fraction of error points in maximum-depth leaves" },
             Metric { id: "adf_cells", label: "ADF cells" },
             Metric { id: "three_colour_cells", label: "3-colour octree cells, same max error" },
             Metric { id: "uniform_cells", label: "uniform grid cells, same max error" },
             Metric { id: "three_colour_over_adf", label: "3-colour octree cells / ADF cells" },
         ],
         series,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::max_depth_for;
+
+    #[test]
+    fn the_maximum_depth_follows_the_tolerance() {
+        assert_eq!(max_depth_for(1e-2), 12);
+        assert_eq!(max_depth_for(1e-4), 12);
+        assert_eq!(max_depth_for(5e-5), 13);
+        assert_eq!(max_depth_for(3e-5), 14);
+        assert_eq!(max_depth_for(1e-5), 16);
+        assert_eq!(max_depth_for(1e-12), volga_adf::MAX_SUPPORTED_DEPTH);
     }
 }
