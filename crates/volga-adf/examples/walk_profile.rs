@@ -12,6 +12,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use volga_adf::{Adf, AdfOptions, MeshSource};
+use volga_core::CrossingRay;
 
 /// CPU seconds of this thread so far (`/proc/thread-self/schedstat`), so the figure does
 /// not follow the machine's load; wall seconds where that is not readable.
@@ -120,6 +121,50 @@ fn main() {
         tile_times.push(thread_cpu_s() - start);
     }
     tile_times.sort_by(f64::total_cmp);
+    // The batched walk (`Adf::first_crossings_between`) over each 16×16 tile's rays,
+    // as the renderer calls it, and its answers against the one-ray walk's.
+    let walk_rays: Vec<CrossingRay> = tiled
+        .iter()
+        .map(|&i| {
+            let (dir, t0, t1) = rays[i];
+            CrossingRay {
+                world_origin: eye,
+                world_dir: dir,
+                t0,
+                t1,
+            }
+        })
+        .collect();
+    let mut batch_out = vec![(None, 0u32); walk_rays.len()];
+    let mut batch_times = Vec::new();
+    for _ in 0..passes.max(1) {
+        let start = thread_cpu_s();
+        let mut from = 0;
+        while from < tiled.len() {
+            // The rays of one tile (tile-ordered, so a tile's rays are consecutive).
+            let tile = |i: usize| (pixel[tiled[i]] / size / 16, pixel[tiled[i]] % size / 16);
+            let mut to = from + 1;
+            while to < tiled.len() && tile(to) == tile(from) {
+                to += 1;
+            }
+            adf.first_crossings_between(&walk_rays[from..to], 0.0, &mut batch_out[from..to]);
+            from = to;
+        }
+        batch_times.push(thread_cpu_s() - start);
+    }
+    batch_times.sort_by(f64::total_cmp);
+    let batch_differ = walk_rays
+        .iter()
+        .zip(&batch_out)
+        .filter(|(r, b)| {
+            let one = adf.first_crossing_between(r.world_origin, r.world_dir, r.t0, r.t1, 0.0);
+            one.0.map(f64::to_bits) != b.0.map(f64::to_bits) || one.1 != b.1
+        })
+        .count();
+    eprintln!(
+        "{{\"walk_cpu_s_batched_tiles\":{:.4},\"batched_rays_differing\":{batch_differ}}}",
+        batch_times[batch_times.len() / 2]
+    );
     eprintln!(
         "{{\"walk_cpu_s_hit_rays\":{hit_s:.4},\"walk_cpu_s_missed_rays\":{miss_s:.4},\"walk_cpu_s_tile_order\":{:.4}}}",
         tile_times[tile_times.len() / 2]

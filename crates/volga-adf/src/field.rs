@@ -1,7 +1,7 @@
 //! An ADF is a [`Field`] of signed-distance kind: the raycaster renders it directly.
 
 use glam::DVec3;
-use volga_core::{Aabb, Crossing, Field, FieldKind, Line};
+use volga_core::{Aabb, Crossing, CrossingRay, Field, FieldKind, Line};
 
 use crate::Adf;
 
@@ -59,14 +59,37 @@ impl Field for Adf {
     /// The leaf walk with exact cubic roots ([`Adf::first_crossing_between`]): a few
     /// leaves per ray instead of a sample every [`Field::sample_spacing`].
     fn first_crossing(&self, world_origin: DVec3, world_dir: DVec3, t0: f64, t1: f64, iso: f64) -> Crossing {
-        if !(world_origin.is_finite() && world_dir.is_finite() && t0.is_finite() && t1.is_finite())
-            || world_dir == DVec3::ZERO
-        {
+        let ray = CrossingRay {
+            world_origin,
+            world_dir,
+            t0,
+            t1,
+        };
+        if !walkable(&ray) {
             return Crossing::NotProvided;
         }
         match self.first_crossing_between(world_origin, world_dir, t0, t1, iso).0 {
             Some(t) => Crossing::At(t),
             None => Crossing::Miss,
+        }
+    }
+
+    /// The batched leaf walk ([`Adf::first_crossings_between`]): the same answers as
+    /// [`Field::first_crossing`] ray by ray, with the rays' memory reads overlapped.
+    fn first_crossings(&self, rays: &[CrossingRay], iso: f64, out: &mut [Crossing]) {
+        let walked: Vec<CrossingRay> = rays.iter().filter(|r| walkable(r)).copied().collect();
+        let mut answers = vec![(None, 0u32); walked.len()];
+        self.first_crossings_between(&walked, iso, &mut answers);
+        let mut answers = answers.into_iter();
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = if !walkable(r) {
+                Crossing::NotProvided
+            } else {
+                match answers.next().expect("one answer per walked ray").0 {
+                    Some(t) => Crossing::At(t),
+                    None => Crossing::Miss,
+                }
+            };
         }
     }
 
@@ -82,6 +105,15 @@ impl Field for Adf {
     fn sample_spacing(&self) -> f64 {
         self.cell_size(self.stats.depth_reached.min(9))
     }
+}
+
+/// A ray the walk answers: finite, with a direction (others are marched by the renderer).
+pub(crate) fn walkable(r: &CrossingRay) -> bool {
+    r.world_origin.is_finite()
+        && r.world_dir.is_finite()
+        && r.t0.is_finite()
+        && r.t1.is_finite()
+        && r.world_dir != DVec3::ZERO
 }
 
 /// Another ADF as a source (its reconstruction; not an exact distance).

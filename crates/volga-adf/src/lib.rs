@@ -74,7 +74,7 @@ pub use measure::{measure_errors, measure_errors_with_probes, ErrorStats, Probe}
 pub use ray::RayHit;
 pub use source::{CellCandidates, Csg, CsgOp, DistanceSource, FieldSource, MeshSource, Sample, ShapeSource};
 pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};
-pub use walk::DescentWalk;
+pub use walk::{DescentWalk, OneRayWalk, WALK_WINDOW};
 
 use volga_core::FieldKind;
 

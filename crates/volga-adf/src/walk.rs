@@ -34,6 +34,7 @@
 use std::sync::OnceLock;
 
 use glam::DVec3;
+use volga_core::CrossingRay;
 
 use crate::cubic::{first_root_of_cubic, newton_on_piece, trilinear_cubic};
 use crate::ray::{cubic_coefficients, first_root_sampled, monotone_cuts, next_t};
@@ -302,19 +303,160 @@ impl Adf {
         iso: f64,
     ) -> (Option<f64>, u32) {
         let ix = self.walk_index();
+        let consts = WalkConsts::new(self, ix);
+        let mut walk = match RayWalk::start(self, ix, &consts, origin, dir, t_start, t_end, iso) {
+            Ok(walk) => walk,
+            Err(done) => return done,
+        };
+        loop {
+            if let Some(done) = walk.advance(self, ix, &consts, iso) {
+                return done;
+            }
+        }
+    }
+
+    /// [`Adf::first_crossing_between`] for many rays at once, with the same answers bit
+    /// for bit: `out[i]` is `first_crossing_between(rays[i].world_origin,
+    /// rays[i].world_dir, rays[i].t0, rays[i].t1, iso)`.
+    ///
+    /// A ray's walk is a chain of dependent memory reads (the grid cell, the links of a
+    /// descent, the leaf's corners), most of them cache misses in a large tree. Here
+    /// [`WALK_WINDOW`] rays are walked in turn, each advanced up to its next read, which
+    /// is prefetched, before the next ray's turn: the misses of different rays overlap
+    /// instead of following one another.
+    pub fn first_crossings_between(&self, rays: &[CrossingRay], iso: f64, out: &mut [(Option<f64>, u32)]) {
+        assert_eq!(rays.len(), out.len(), "one answer per ray");
+        let ix = self.walk_index();
+        let consts = WalkConsts::new(self, ix);
+        let mut slots: [Option<(usize, RayWalk)>; WALK_WINDOW] = [None; WALK_WINDOW];
+        let mut next = 0usize;
+        let mut active = 0usize;
+        loop {
+            for slot in slots.iter_mut() {
+                if let Some((i, walk)) = slot {
+                    match walk.advance(self, ix, &consts, iso) {
+                        None => continue,
+                        Some(done) => {
+                            out[*i] = done;
+                            *slot = None;
+                            active -= 1;
+                        }
+                    }
+                }
+                // An empty slot takes the next ray that needs walking (rays answered at
+                // their start are written at once).
+                while next < rays.len() {
+                    let i = next;
+                    next += 1;
+                    let r = &rays[i];
+                    match RayWalk::start(self, ix, &consts, r.world_origin, r.world_dir, r.t0, r.t1, iso) {
+                        Ok(walk) => {
+                            *slot = Some((i, walk));
+                            active += 1;
+                            break;
+                        }
+                        Err(done) => out[i] = done,
+                    }
+                }
+            }
+            if active == 0 && next == rays.len() {
+                return;
+            }
+        }
+    }
+}
+
+/// Rays walked together by [`Adf::first_crossings_between`].
+pub const WALK_WINDOW: usize = 12;
+
+/// What every ray's walk of one ADF shares.
+struct WalkConsts {
+    root_max: DVec3,
+    n: usize,
+    grid_size: f64,
+    to_grid: f64,
+}
+
+impl WalkConsts {
+    fn new(adf: &Adf, ix: &WalkIndex) -> WalkConsts {
+        WalkConsts {
+            root_max: adf.root_min + DVec3::splat(adf.root_size),
+            n: ix.n,
+            grid_size: adf.cell_size(ix.depth),
+            to_grid: ix.n as f64 / adf.root_size,
+        }
+    }
+}
+
+/// Where a ray's walk stands: the read it waits for (prefetched when it was set).
+#[derive(Clone, Copy, Debug)]
+enum Stage {
+    /// The walk grid's entries of cell `k` (the ray is at `t`, `p`, `q`).
+    Grid { k: usize, g: [usize; 3] },
+    /// The link of node `index` (a cube at `min` of side `size` containing `q`).
+    Descend { index: usize, min: DVec3, size: f64 },
+    /// The corners of leaf `index`.
+    Leaf { index: usize, min: DVec3, size: f64 },
+}
+
+/// One ray's walk of [`Adf::first_crossing_between`], advanced a read at a time
+/// ([`RayWalk::advance`]). The steps and their arithmetic are those of a walk run in one
+/// piece; only the moments between them differ.
+#[derive(Clone, Copy, Debug)]
+struct RayWalk {
+    origin: DVec3,
+    dir: DVec3,
+    inv: DVec3,
+    scale: f64,
+    ulp_t: f64,
+    t: f64,
+    t_end: f64,
+    steps: u32,
+    /// The point at `t` and its clamp to the root cube.
+    p: DVec3,
+    q: DVec3,
+    stage: Stage,
+}
+
+/// Asks for the cache line holding `x` (a hint: no effect on any result).
+#[inline(always)]
+fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch never faults and reads nothing architecturally; `x` is a live
+    // reference. Measured reason: docs/ADF.md (the batched walk, session 24).
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(x as *const T as *const i8)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
+
+impl RayWalk {
+    /// The walk of one ray from `t_start`, or its answer if it has none to walk (an
+    /// iso value ≤ 0 and a ray missing the active box).
+    #[allow(clippy::result_large_err, clippy::too_many_arguments)]
+    fn start(
+        adf: &Adf,
+        ix: &WalkIndex,
+        consts: &WalkConsts,
+        origin: DVec3,
+        dir: DVec3,
+        t_start: f64,
+        t_end: f64,
+        iso: f64,
+    ) -> Result<RayWalk, (Option<f64>, u32)> {
         let mut t = t_start;
         let mut t_end = t_end;
-        let mut steps = 0u32;
         if iso <= 0.0 {
             // Outside the active box the reconstruction is above `iso`.
             let Some((lo, hi)) = ix.active else {
-                return (None, 0);
+                return Err((None, 0));
             };
             for a in 0..3 {
                 let (o, d) = (origin[a], dir[a]);
                 if d == 0.0 {
                     if o < lo[a] || o > hi[a] {
-                        return (None, 0);
+                        return Err((None, 0));
                     }
                     continue;
                 }
@@ -326,119 +468,221 @@ impl Adf {
                 t_end = t_end.min(tb);
             }
             if t > t_end {
-                return (None, 0);
+                return Err((None, 0));
             }
         }
         let scale = dir.length();
-        let inv = DVec3::ONE / dir;
-        let root_max = self.root_min + DVec3::splat(self.root_size);
-        let n = ix.n;
-        let grid_size = self.cell_size(ix.depth);
-        let to_grid = n as f64 / self.root_size;
         let magnitude = origin
             .abs()
             .max_element()
-            .max(self.root_min.abs().max_element() + self.root_size);
-        let ulp_t = 4.0 * f64::EPSILON * magnitude / scale;
-        while t <= t_end {
-            steps += 1;
-            let p = origin + dir * t;
-            let q = p.clamp(self.root_min, root_max);
-            let g = (q - self.root_min) * to_grid;
-            let cell = |v: f64| (v.max(0.0) as usize).min(n - 1);
-            let (gx, gy, gz) = (cell(g.x), cell(g.y), cell(g.z));
-            let k = gx + n * (gy + n * gz);
-            // Empty grid cells (minimum above `iso`) are crossed without locating their
-            // leaves, except a lone cell inside one larger leaf, whose own exit may reach
-            // farther.
-            let whole_cell = || ix.level[k] == ix.depth && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG;
-            if iso <= 0.0 {
-                // The cube of `(2r − 1)³` empty cells around this one, in one step.
-                let r = ix.reach[k];
-                if r >= 2 || (r == 1 && whole_cell()) {
-                    let half = (r - 1) as f64;
-                    let cube = (2.0 * half + 1.0) * grid_size;
-                    let cmin =
-                        self.root_min + (DVec3::new(gx as f64, gy as f64, gz as f64) - DVec3::splat(half)) * grid_size;
-                    let exit = box_exit(origin, dir, inv, cmin, cube).min(t_end).max(t);
-                    t = next_t(t, past(exit, grid_size / scale, ulp_t), grid_size / scale);
-                    continue;
-                }
-            } else {
-                // A 4³ block whose minimum is above `iso`, or this grid cell, in one step.
-                if ix.depth >= 2 && ix.level[k] >= ix.depth - 2 {
-                    let m = n / 4;
-                    let (bx, by, bz) = (gx / 4, gy / 4, gz / 4);
-                    if (ix.block_lo[bx + m * (by + m * bz)] as f64) > iso {
-                        let block = 4.0 * grid_size;
-                        let bmin = self.root_min + DVec3::new(bx as f64, by as f64, bz as f64) * block;
-                        let exit = box_exit(origin, dir, inv, bmin, block).min(t_end).max(t);
-                        t = next_t(t, past(exit, block / scale, ulp_t), block / scale);
-                        continue;
-                    }
-                }
-                if (ix.lo[k] as f64) > iso && whole_cell() {
-                    let gmin = self.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
-                    let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
-                    t = next_t(t, past(exit, grid_size / scale, ulp_t), grid_size / scale);
-                    continue;
-                }
-            }
-            let (index, min, size) = self.locate_indexed(ix, q);
-            let exit = box_exit(origin, dir, inv, min, size).min(t_end).max(t);
-            let cell = &self.cells[index];
-            let corners = cell.corners;
-            let lo = corners.iter().fold(f32::INFINITY, |a, &c| a.min(c)) as f64;
-            if lo > iso {
-                let hi = corners.iter().fold(f32::NEG_INFINITY, |a, &c| a.max(c)) as f64;
-                let mut candidate = exit;
-                if hi - iso > (exit - t) * scale {
-                    let mut bound = f64::NEG_INFINITY;
-                    for (b, &c) in corners.iter().enumerate() {
-                        bound =
-                            bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
-                    }
-                    candidate = exit.max(t + bound / scale);
-                }
-                t = next_t(t, past(candidate, size / scale, ulp_t), size / scale);
-                continue;
-            }
-            let inv_size = 1.0 / size;
-            let found = if cell.children == LEAF {
-                // The cubic from the corners (module `cubic`).
-                let u0 = ((origin + dir * t - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
-                let u1 = ((origin + dir * exit - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
-                let mut c = trilinear_cubic(&corners, u0, u1 - u0);
-                c[0] -= iso;
-                first_root_of_cubic(c, t, exit)
-            } else {
-                // A jump leaf: as in the reference walk.
-                let k = cell.jump().expect("a leaf that is not plain is a jump leaf");
-                let magnitudes = corners.map(f32::abs);
-                let signs = &self.jumps[k];
-                if iso == 0.0 {
-                    let sign_at = |s: f64| {
-                        trilinear(
-                            signs,
-                            ((origin + dir * s - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE),
-                        )
-                    };
-                    first_root_cubic(&sign_at, t, exit)
-                } else {
-                    let at = |s: f64| {
-                        let u = ((origin + dir * s - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
-                        let m = trilinear(&magnitudes, u);
-                        (if trilinear(signs, u) > 0.0 { m } else { -m }) - iso
-                    };
-                    first_root_sampled(&at, t, exit)
-                }
-            };
-            if let Some(hit_t) = found {
-                return (Some(hit_t), steps);
-            }
-            t = next_t(t, past(exit, size / scale, ulp_t), size / scale);
+            .max(adf.root_min.abs().max_element() + adf.root_size);
+        let mut walk = RayWalk {
+            origin,
+            dir,
+            inv: DVec3::ONE / dir,
+            scale,
+            ulp_t: 4.0 * f64::EPSILON * magnitude / scale,
+            t,
+            t_end,
+            steps: 0,
+            p: DVec3::ZERO,
+            q: DVec3::ZERO,
+            stage: Stage::Grid { k: 0, g: [0; 3] },
+        };
+        if !walk.enter_step(adf, ix, consts, iso) {
+            return Err((None, walk.steps));
         }
-        (None, steps)
+        Ok(walk)
+    }
+
+    /// Takes the step at `t` (if `t ≤ t_end`): its point, its walk grid cell, and the
+    /// prefetch of that cell's entries. `false` when the ray has left its interval.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    #[inline(always)]
+    fn enter_step(&mut self, adf: &Adf, ix: &WalkIndex, c: &WalkConsts, iso: f64) -> bool {
+        // Negated so a NaN `t` ends the walk (as `while t <= t_end` would).
+        if !(self.t <= self.t_end) {
+            return false;
+        }
+        self.steps += 1;
+        self.p = self.origin + self.dir * self.t;
+        self.q = self.p.clamp(adf.root_min, c.root_max);
+        let g = (self.q - adf.root_min) * c.to_grid;
+        let n = c.n;
+        let cell = |v: f64| (v.max(0.0) as usize).min(n - 1);
+        let (gx, gy, gz) = (cell(g.x), cell(g.y), cell(g.z));
+        let k = gx + n * (gy + n * gz);
+        if iso <= 0.0 {
+            prefetch(&ix.reach[k]);
+        } else {
+            prefetch(&ix.lo[k]);
+        }
+        prefetch(&ix.level[k]);
+        prefetch(&ix.node[k]);
+        self.stage = Stage::Grid { k, g: [gx, gy, gz] };
+        true
+    }
+
+    /// Moves the walk on past its pending read, up to and including the prefetch of the
+    /// next one; `Some` with the answer (the crossing, if any, and the steps taken) once
+    /// the walk ends.
+    #[inline(always)]
+    fn advance(&mut self, adf: &Adf, ix: &WalkIndex, c: &WalkConsts, iso: f64) -> Option<(Option<f64>, u32)> {
+        match self.stage {
+            Stage::Grid { k, g: [gx, gy, gz] } => {
+                let n = c.n;
+                let (t, t_end, scale, ulp_t) = (self.t, self.t_end, self.scale, self.ulp_t);
+                let (origin, dir, inv) = (self.origin, self.dir, self.inv);
+                let grid_size = c.grid_size;
+                // Empty grid cells (minimum above `iso`) are crossed without locating their
+                // leaves, except a lone cell inside one larger leaf, whose own exit may reach
+                // farther.
+                let whole_cell = || ix.level[k] == ix.depth && ix.links[ix.node[k] as usize] < crate::tree::JUMP_FLAG;
+                let mut skip_to = None;
+                if iso <= 0.0 {
+                    // The cube of `(2r − 1)³` empty cells around this one, in one step.
+                    let r = ix.reach[k];
+                    if r >= 2 || (r == 1 && whole_cell()) {
+                        let half = (r - 1) as f64;
+                        let cube = (2.0 * half + 1.0) * grid_size;
+                        let cmin = adf.root_min
+                            + (DVec3::new(gx as f64, gy as f64, gz as f64) - DVec3::splat(half)) * grid_size;
+                        let exit = box_exit(origin, dir, inv, cmin, cube).min(t_end).max(t);
+                        skip_to = Some(next_t(t, past(exit, grid_size / scale, ulp_t), grid_size / scale));
+                    }
+                } else {
+                    // A 4³ block whose minimum is above `iso`, or this grid cell, in one step.
+                    if ix.depth >= 2 && ix.level[k] >= ix.depth - 2 {
+                        let m = n / 4;
+                        let (bx, by, bz) = (gx / 4, gy / 4, gz / 4);
+                        if (ix.block_lo[bx + m * (by + m * bz)] as f64) > iso {
+                            let block = 4.0 * grid_size;
+                            let bmin = adf.root_min + DVec3::new(bx as f64, by as f64, bz as f64) * block;
+                            let exit = box_exit(origin, dir, inv, bmin, block).min(t_end).max(t);
+                            skip_to = Some(next_t(t, past(exit, block / scale, ulp_t), block / scale));
+                        }
+                    }
+                    if skip_to.is_none() && (ix.lo[k] as f64) > iso && whole_cell() {
+                        let gmin = adf.root_min + DVec3::new(gx as f64, gy as f64, gz as f64) * grid_size;
+                        let exit = box_exit(origin, dir, inv, gmin, grid_size).min(t_end).max(t);
+                        skip_to = Some(next_t(t, past(exit, grid_size / scale, ulp_t), grid_size / scale));
+                    }
+                }
+                if let Some(t) = skip_to {
+                    self.t = t;
+                    return (!self.enter_step(adf, ix, c, iso)).then_some((None, self.steps));
+                }
+                // The leaf containing `q`, from the grid (as `Adf::locate_indexed`).
+                let q = self.q;
+                let level = ix.level[k];
+                let shift = ix.depth - level;
+                let size = adf.cell_size(level);
+                let min =
+                    adf.root_min + DVec3::new((gx >> shift) as f64, (gy >> shift) as f64, (gz >> shift) as f64) * size;
+                let max = min + DVec3::splat(size);
+                let contains = q.cmpge(min).all() && (q.cmplt(max) | max.cmpge(c.root_max)).all();
+                if !contains {
+                    // Rounding put `q` in a neighbouring grid cell: descend from the root.
+                    let (index, min, size, _) = adf.locate(q);
+                    self.wait_for_leaf(adf, index, min, size);
+                    return None;
+                }
+                let index = ix.node[k] as usize;
+                prefetch(&ix.links[index]);
+                self.stage = Stage::Descend { index, min, size };
+                None
+            }
+            Stage::Descend { index, mut min, size } => {
+                let link = ix.links[index];
+                if link >= crate::tree::JUMP_FLAG {
+                    self.wait_for_leaf(adf, index, min, size);
+                    return None;
+                }
+                let size = size * 0.5;
+                let index = link as usize + crate::tree::child_octant(self.q, &mut min, size);
+                prefetch(&ix.links[index]);
+                self.stage = Stage::Descend { index, min, size };
+                None
+            }
+            Stage::Leaf { index, min, size } => {
+                let found = adf.leaf_step(self, index, min, size, iso);
+                if found.is_some() {
+                    return Some((found, self.steps));
+                }
+                (!self.enter_step(adf, ix, c, iso)).then_some((None, self.steps))
+            }
+        }
+    }
+
+    /// Waits next for the corners of leaf `index` (a 36-byte cell: its first and last byte's lines).
+    #[inline(always)]
+    fn wait_for_leaf(&mut self, adf: &Adf, index: usize, min: DVec3, size: f64) {
+        let cell = &adf.cells[index];
+        prefetch(cell);
+        prefetch(&cell.children);
+        self.stage = Stage::Leaf { index, min, size };
+    }
+}
+
+impl Adf {
+    /// The step of a walk in leaf `index` (at `min`, side `size`): the crossing if the
+    /// leaf holds the ray's first one after `t`, else `None` with the walk's `t` moved past
+    /// the leaf (or farther, by the sphere-tracing bound of its corners).
+    #[inline(always)]
+    fn leaf_step(&self, w: &mut RayWalk, index: usize, min: DVec3, size: f64, iso: f64) -> Option<f64> {
+        let (origin, dir, inv, t, scale, ulp_t) = (w.origin, w.dir, w.inv, w.t, w.scale, w.ulp_t);
+        let p = w.p;
+        let exit = box_exit(origin, dir, inv, min, size).min(w.t_end).max(t);
+        let cell = &self.cells[index];
+        let corners = cell.corners;
+        let lo = corners.iter().fold(f32::INFINITY, |a, &c| a.min(c)) as f64;
+        if lo > iso {
+            let hi = corners.iter().fold(f32::NEG_INFINITY, |a, &c| a.max(c)) as f64;
+            let mut candidate = exit;
+            if hi - iso > (exit - t) * scale {
+                let mut bound = f64::NEG_INFINITY;
+                for (b, &c) in corners.iter().enumerate() {
+                    bound = bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
+                }
+                candidate = exit.max(t + bound / scale);
+            }
+            w.t = next_t(t, past(candidate, size / scale, ulp_t), size / scale);
+            return None;
+        }
+        let inv_size = 1.0 / size;
+        let found = if cell.children == LEAF {
+            // The cubic from the corners (module `cubic`).
+            let u0 = ((origin + dir * t - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
+            let u1 = ((origin + dir * exit - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
+            let mut c = trilinear_cubic(&corners, u0, u1 - u0);
+            c[0] -= iso;
+            first_root_of_cubic(c, t, exit)
+        } else {
+            // A jump leaf: as in the reference walk.
+            let k = cell.jump().expect("a leaf that is not plain is a jump leaf");
+            let magnitudes = corners.map(f32::abs);
+            let signs = &self.jumps[k];
+            if iso == 0.0 {
+                let sign_at = |s: f64| {
+                    trilinear(
+                        signs,
+                        ((origin + dir * s - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE),
+                    )
+                };
+                first_root_cubic(&sign_at, t, exit)
+            } else {
+                let at = |s: f64| {
+                    let u = ((origin + dir * s - min) * inv_size).clamp(DVec3::ZERO, DVec3::ONE);
+                    let m = trilinear(&magnitudes, u);
+                    (if trilinear(signs, u) > 0.0 { m } else { -m }) - iso
+                };
+                first_root_sampled(&at, t, exit)
+            }
+        };
+        if found.is_none() {
+            w.t = next_t(t, past(exit, size / scale, ulp_t), size / scale);
+        }
+        found
     }
 }
 
@@ -477,59 +721,84 @@ pub(crate) fn first_root_cubic(g: &impl Fn(f64) -> f64, a: f64, b: f64) -> Optio
     None
 }
 
-/// An ADF rendered through the reference walk ([`Adf::first_crossing_by_descent`]):
-/// every [`Field`](volga_core::Field) method is the ADF's, except that iso crossings are
-/// found without the walk index. For same-run comparisons (`volga bench adf`) and tests.
-#[derive(Clone, Copy, Debug)]
-pub struct DescentWalk<'a>(pub &'a Adf);
+/// A view of an ADF for same-run comparisons (`volga bench adf`) and tests: every
+/// [`Field`](volga_core::Field) method is the ADF's except `first_crossing`, answered by
+/// `$walk`, and `first_crossings`, left at its default (ray by ray).
+macro_rules! walk_view {
+    ($(#[$doc:meta])* $name:ident, $walk:ident) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug)]
+        pub struct $name<'a>(pub &'a Adf);
 
-impl volga_core::Field for DescentWalk<'_> {
-    fn bounds(&self) -> volga_core::Aabb {
-        volga_core::Field::bounds(self.0)
-    }
-    fn kind(&self) -> volga_core::FieldKind {
-        volga_core::Field::kind(self.0)
-    }
-    fn background(&self) -> f64 {
-        volga_core::Field::background(self.0)
-    }
-    fn value(&self, world_pos: DVec3) -> f64 {
-        volga_core::Field::value(self.0, world_pos)
-    }
-    fn values_along(&self, line: &volga_core::Line, first: u64, out: &mut [f64]) {
-        volga_core::Field::values_along(self.0, line, first, out)
-    }
-    fn gradient(&self, world_pos: DVec3) -> DVec3 {
-        volga_core::Field::gradient(self.0, world_pos)
-    }
-    fn gradient_step(&self) -> DVec3 {
-        volga_core::Field::gradient_step(self.0)
-    }
-    fn first_crossing(
-        &self,
-        world_origin: DVec3,
-        world_dir: DVec3,
-        t0: f64,
-        t1: f64,
-        iso: f64,
-    ) -> volga_core::Crossing {
-        if !(world_origin.is_finite() && world_dir.is_finite() && t0.is_finite() && t1.is_finite())
-            || world_dir == DVec3::ZERO
-        {
-            return volga_core::Crossing::NotProvided;
+        impl volga_core::Field for $name<'_> {
+            fn bounds(&self) -> volga_core::Aabb {
+                volga_core::Field::bounds(self.0)
+            }
+            fn kind(&self) -> volga_core::FieldKind {
+                volga_core::Field::kind(self.0)
+            }
+            fn background(&self) -> f64 {
+                volga_core::Field::background(self.0)
+            }
+            fn value(&self, world_pos: DVec3) -> f64 {
+                volga_core::Field::value(self.0, world_pos)
+            }
+            fn values_along(&self, line: &volga_core::Line, first: u64, out: &mut [f64]) {
+                volga_core::Field::values_along(self.0, line, first, out)
+            }
+            fn gradient(&self, world_pos: DVec3) -> DVec3 {
+                volga_core::Field::gradient(self.0, world_pos)
+            }
+            fn gradient_step(&self) -> DVec3 {
+                volga_core::Field::gradient_step(self.0)
+            }
+            fn first_crossing(
+                &self,
+                world_origin: DVec3,
+                world_dir: DVec3,
+                t0: f64,
+                t1: f64,
+                iso: f64,
+            ) -> volga_core::Crossing {
+                let ray = CrossingRay {
+                    world_origin,
+                    world_dir,
+                    t0,
+                    t1,
+                };
+                if !crate::field::walkable(&ray) {
+                    return volga_core::Crossing::NotProvided;
+                }
+                match self.0.$walk(world_origin, world_dir, t0, t1, iso).0 {
+                    Some(t) => volga_core::Crossing::At(t),
+                    None => volga_core::Crossing::Miss,
+                }
+            }
+            fn value_range(&self, world_box: &volga_core::Aabb) -> (f64, f64) {
+                volga_core::Field::value_range(self.0, world_box)
+            }
+            fn sample_spacing(&self) -> f64 {
+                volga_core::Field::sample_spacing(self.0)
+            }
         }
-        match self.0.first_crossing_by_descent(world_origin, world_dir, t0, t1, iso).0 {
-            Some(t) => volga_core::Crossing::At(t),
-            None => volga_core::Crossing::Miss,
-        }
-    }
-    fn value_range(&self, world_box: &volga_core::Aabb) -> (f64, f64) {
-        volga_core::Field::value_range(self.0, world_box)
-    }
-    fn sample_spacing(&self) -> f64 {
-        volga_core::Field::sample_spacing(self.0)
-    }
+    };
 }
+
+walk_view!(
+    /// An ADF rendered through the reference walk ([`Adf::first_crossing_by_descent`]):
+    /// iso crossings are found without the walk index, ray by ray.
+    DescentWalk,
+    first_crossing_by_descent
+);
+
+walk_view!(
+    /// An ADF rendered through the indexed walk one ray at a time
+    /// ([`Adf::first_crossing_between`]) instead of the batched walk
+    /// ([`Adf::first_crossings_between`]) the ADF's own `Field` gives a tile's rays: the
+    /// same image, for measuring what batching gains.
+    OneRayWalk,
+    first_crossing_between
+);
 
 #[cfg(test)]
 mod tests {

@@ -247,3 +247,110 @@ fn reach_steps_match_the_reference_on_a_deep_tree_near_and_far() {
         assert!(fast_steps < slow_steps, "{fast_steps} vs {slow_steps} at {offset:?}");
     }
 }
+
+/// The batched walk (`Adf::first_crossings_between`, several rays advanced in turn) gives
+/// every ray the one-ray walk's answer bit for bit, the crossing and the steps, whatever
+/// the batch's length and split (fewer rays than the window, a window and one, many): on
+/// a torus ∪ box (sharp edges) at the origin and at 1e6, iso values below, at and above 0,
+/// rays from outside, grazing, axis-parallel, from inside the surface (answered at their
+/// start), with empty intervals, and rays missing the active box.
+#[test]
+fn batched_walks_answer_each_ray_as_the_one_ray_walk() {
+    use volga_adf::{Csg, CsgOp, WALK_WINDOW};
+    use volga_core::{Crossing, CrossingRay, Field};
+    use volga_shapes::AxisBox;
+    for offset in [DVec3::ZERO, DVec3::new(1e6, -1e6, 1e6)] {
+        let torus = Torus::new(offset + DVec3::new(0.0, 0.1, 0.0), DVec3::Y, 0.6, 0.2).unwrap();
+        let cube = AxisBox::new(
+            offset + DVec3::new(-0.2, -0.35, -0.2),
+            offset + DVec3::new(0.25, 0.15, 0.3),
+        )
+        .unwrap();
+        let source = Csg {
+            op: CsgOp::Union,
+            a: ShapeSource(torus),
+            b: ShapeSource(cube),
+        };
+        let adf = Adf::build(&source, options(1e-3, 9)).unwrap();
+        let root = adf.root_box();
+        let mut rng = Rng(123);
+        let mut rays = Vec::new();
+        for k in 0..1200 {
+            let origin = match k % 5 {
+                0 => offset + rng.unit() * 0.3 * rng.next(), // inside the box or torus, or near
+                1 => offset + rng.unit() * 0.9 * rng.next(), // inside the root cube
+                _ => offset + rng.unit() * 2.5,
+            };
+            let dir = match k % 7 {
+                0 => [DVec3::X, DVec3::NEG_Y, DVec3::Z][k % 3],
+                1 => {
+                    let side = rng.unit().cross(DVec3::Y).normalize();
+                    (offset + DVec3::new(0.0, 0.1, 0.0) + side * (0.8 + (rng.next() - 0.5) * 1e-3) - origin).normalize()
+                }
+                _ => (offset + rng.unit() * 0.7 - origin).normalize(),
+            };
+            let Some((t0, t1)) = root.ray_interval(origin, dir) else {
+                continue;
+            };
+            // Every 11th interval is empty (its end before its start).
+            let (t0, t1) = if k % 11 == 0 { (t1, t0 - 1.0) } else { (t0, t1) };
+            rays.push(CrossingRay {
+                world_origin: origin,
+                world_dir: dir,
+                t0,
+                t1,
+            });
+        }
+        for iso in [-0.05, 0.0, 0.04, -10.0] {
+            let one: Vec<(Option<f64>, u32)> = rays
+                .iter()
+                .map(|r| adf.first_crossing_between(r.world_origin, r.world_dir, r.t0, r.t1, iso))
+                .collect();
+            let hits = one.iter().filter(|a| a.0.is_some()).count();
+            if iso > -1.0 {
+                assert!(hits > 200, "{hits} hits at iso {iso}");
+            } else {
+                assert_eq!(hits, 0, "nothing is below −10");
+            }
+            for split in [0, 1, WALK_WINDOW - 1, WALK_WINDOW, WALK_WINDOW + 1, 97, rays.len()] {
+                let mut batched = vec![(None, u32::MAX); rays.len()];
+                let mut from = 0;
+                while from < rays.len() {
+                    let to = if split == 0 {
+                        rays.len()
+                    } else {
+                        (from + split).min(rays.len())
+                    };
+                    adf.first_crossings_between(&rays[from..to], iso, &mut batched[from..to]);
+                    from = to;
+                }
+                for (i, (a, b)) in one.iter().zip(&batched).enumerate() {
+                    assert_eq!(
+                        (a.0.map(f64::to_bits), a.1),
+                        (b.0.map(f64::to_bits), b.1),
+                        "ray {i} ({:?}) at iso {iso}, batches of {split}",
+                        rays[i]
+                    );
+                }
+            }
+            // Through `Field`: the batch equals `first_crossing` ray by ray, rays the walk
+            // does not take (non-finite, no direction) included.
+            let mut asked = rays[..300].to_vec();
+            asked[5].world_origin.x = f64::NAN;
+            asked[17].world_dir = DVec3::ZERO;
+            asked[40].t1 = f64::INFINITY;
+            let mut batched = vec![Crossing::Miss; asked.len()];
+            adf.first_crossings(&asked, iso, &mut batched);
+            for (r, b) in asked.iter().zip(&batched) {
+                assert_eq!(
+                    *b,
+                    adf.first_crossing(r.world_origin, r.world_dir, r.t0, r.t1, iso),
+                    "{r:?}"
+                );
+            }
+            assert_eq!(batched[5], Crossing::NotProvided);
+            assert_eq!(batched[17], Crossing::NotProvided);
+            assert_eq!(batched[40], Crossing::NotProvided);
+        }
+    }
+}

@@ -12,7 +12,7 @@ use std::time::Instant;
 use clap::Args;
 use glam::{DVec3, Vec3};
 use serde_json::{json, Value};
-use volga_adf::{measure_errors_with_probes, Adf, AdfOptions, DescentWalk, MeshSource, Probe};
+use volga_adf::{measure_errors_with_probes, Adf, AdfOptions, DescentWalk, MeshSource, OneRayWalk, Probe};
 use volga_core::Field;
 use volga_core::{Aabb, NoProgress};
 use volga_render::{Camera, Iso, Projection, RenderSettings, Renderer, SurfaceColour};
@@ -237,6 +237,11 @@ pub fn bench(args: AdfBenchArgs) -> Result<(), Failure> {
     let (descent_frames, descent_cpu, _) = time_frames(&descent, &iso, &settings, &cam, args.frames)?;
     value["render_fps_descent"] = json!(1.0 / median(&descent_frames));
     value["render_cpu_s_descent"] = json!(median(&descent_cpu));
+    // The indexed walk one ray at a time (before batching), in the same run.
+    let one_ray = OneRayWalk(&built.adf);
+    let (one_ray_frames, one_ray_cpu, _) = time_frames(&one_ray, &iso, &settings, &cam, args.frames)?;
+    value["render_fps_one_ray"] = json!(1.0 / median(&one_ray_frames));
+    value["render_cpu_s_one_ray"] = json!(median(&one_ray_cpu));
     let (frames, cpu, warm) = time_frames(&built.adf, &iso, &settings, &cam, args.frames)?;
     value["render_size"] = json!(args.adf.size);
     value["render_fps"] = json!(1.0 / median(&frames));
@@ -252,6 +257,7 @@ pub fn bench(args: AdfBenchArgs) -> Result<(), Failure> {
     value["ray_walk_s_one_thread"] = json!(walk_start.elapsed().as_secs_f64());
     value["ray_leaves_mean"] = json!(leaves as f64 / (args.adf.size as f64).powi(2));
     value["ray_hits"] = json!(hits);
+    value["ray_walk_s_one_thread_batched"] = json!(batched_walk_s(&built.adf, &cam, args.adf.size));
     let walk_start = Instant::now();
     let (leaves, hits) = leaves_per_ray(&built.adf, &cam, args.adf.size, true);
     value["ray_walk_s_one_thread_descent"] = json!(walk_start.elapsed().as_secs_f64());
@@ -304,6 +310,36 @@ fn timed_cpu<T>(f: impl FnOnce() -> T) -> ((f64, f64), T) {
         _ => f64::NAN,
     };
     ((wall, cpu), out)
+}
+
+/// Seconds (one thread) of the batched walk ([`Adf::first_crossings_between`]) over the
+/// camera's pixel-centre rays, a 16×16 tile's rays per batch as the renderer asks them.
+fn batched_walk_s(adf: &Adf, camera: &Camera, size: u32) -> f64 {
+    let tile = 16;
+    let mut rays = Vec::new();
+    let mut out = Vec::new();
+    let start = Instant::now();
+    for ty in (0..size).step_by(tile) {
+        for tx in (0..size).step_by(tile) {
+            rays.clear();
+            for y in ty..(ty + tile as u32).min(size) {
+                for x in tx..(tx + tile as u32).min(size) {
+                    let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5, size, size);
+                    let (t0, t1) = adf.root_box().ray_interval(ray.origin, ray.dir).unwrap_or((0.0, -1.0));
+                    rays.push(volga_core::CrossingRay {
+                        world_origin: ray.origin,
+                        world_dir: ray.dir,
+                        t0,
+                        t1,
+                    });
+                }
+            }
+            out.resize(rays.len(), (None, 0));
+            adf.first_crossings_between(&rays, 0.0, &mut out);
+            std::hint::black_box(&out);
+        }
+    }
+    start.elapsed().as_secs_f64()
 }
 
 /// Steps of the ray walk over the camera's pixel-centre rays (the work of the iso

@@ -71,6 +71,15 @@ pub enum Crossing {
     At(f64),
 }
 
+/// One ray of [`Field::first_crossings`]: `world_origin + t·world_dir`, `t ∈ [t0, t1]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CrossingRay {
+    pub world_origin: DVec3,
+    pub world_dir: DVec3,
+    pub t0: f64,
+    pub t1: f64,
+}
+
 /// The one sampling interface: everything the raycaster can render is a `Field`.
 ///
 /// Positions are **world space** (`f64`). Values are densities, distances or
@@ -154,6 +163,17 @@ pub trait Field: Sync {
         Crossing::NotProvided
     }
 
+    /// [`Field::first_crossing`] of many rays with one `iso`: `out[i]` is
+    /// `first_crossing(rays[i].world_origin, rays[i].world_dir, rays[i].t0, rays[i].t1,
+    /// iso)`, bit for bit. The renderer asks a tile's rays at once, so a field whose walk
+    /// waits on memory can overlap the reads of several rays (an ADF does). The default
+    /// answers ray by ray.
+    fn first_crossings(&self, rays: &[CrossingRay], iso: f64, out: &mut [Crossing]) {
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = self.first_crossing(r.world_origin, r.world_dir, r.t0, r.t1, iso);
+        }
+    }
+
     /// The field's voxels packed for a renderer's fast path: a [`PackedVolume`] (per
     /// voxel the density and its central-difference gradient, four `f32` side by side),
     /// built once per render. Only a field whose value is the trilinear reconstruction of
@@ -230,6 +250,9 @@ impl<F: Field + ?Sized> Field for &F {
     }
     fn first_crossing(&self, o: DVec3, d: DVec3, t0: f64, t1: f64, iso: f64) -> Crossing {
         (**self).first_crossing(o, d, t0, t1, iso)
+    }
+    fn first_crossings(&self, rays: &[CrossingRay], iso: f64, out: &mut [Crossing]) {
+        (**self).first_crossings(rays, iso, out)
     }
     fn has_colour(&self) -> bool {
         (**self).has_colour()

@@ -61,7 +61,7 @@ pub use atlas::{AtlasReader, BrickAtlas, MAX_ATLAS_BYTES};
 pub use channel::ChannelKind;
 pub use dense::{Dense, DenseVolume};
 pub use error::CoreError;
-pub use field::{Crossing, Field, FieldKind, Line};
+pub use field::{Crossing, CrossingRay, Field, FieldKind, Line};
 pub use filters::{Filter, GradientMethod};
 pub use grid::{fast_floor, Grid, IndexBox, Transform};
 pub use layout::Shape3;

@@ -129,14 +129,16 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             .enumerate()
             .map(|(y, row)| {
                 let mut stats = RenderStats::default();
-                let mut count = 0;
-                for (x, px) in row.iter_mut().enumerate() {
-                    if touches(x as u32, y as u32) {
-                        *px = self.trace_pixel(march, camera, x as u32, y as u32, &mut stats);
-                        count += 1;
-                    }
+                let pixels: Vec<(u32, u32)> = (0..w)
+                    .filter(|&x| touches(x, y as u32))
+                    .map(|x| (x, y as u32))
+                    .collect();
+                let mut traced = Vec::with_capacity(pixels.len());
+                self.trace_pixels(march, camera, &pixels, &mut stats, &mut traced);
+                for (&(x, _), colour) in pixels.iter().zip(traced) {
+                    row[x as usize] = colour;
                 }
-                (count, stats)
+                (pixels.len() as u64, stats)
             })
             .collect();
         let mut total = (0, RenderStats::default());

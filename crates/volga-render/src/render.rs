@@ -325,45 +325,56 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         }
     }
 
-    /// Pixel `(x, y)`: one ray through its centre, or the mean premultiplied colour of
-    /// `k × k` rays through its sub-pixel centres (summed in a fixed order), over the
-    /// background. The one definition [`Renderer::render`] and
-    /// [`Renderer::rerender_box`] share.
-    pub(crate) fn trace_pixel<G: Field + ?Sized>(
+    /// Pixels `(x, y)` in order, each one ray through its centre or the mean
+    /// premultiplied colour of `k × k` rays through its sub-pixel centres (summed in a
+    /// fixed order), over the background, appended to `out`. All their rays are
+    /// integrated at once ([`Integrator::integrate_rays`]); each pixel is a function of
+    /// its own rays alone. The one definition [`Renderer::render`] (a tile at a time) and
+    /// [`Renderer::rerender_box`] (a row's touched pixels) share.
+    pub(crate) fn trace_pixels<G: Field + ?Sized>(
         &self,
         march: &March<'_, G>,
         camera: &Camera,
-        x: u32,
-        y: u32,
+        pixels: &[(u32, u32)],
         stats: &mut RenderStats,
-    ) -> Vec4 {
+        out: &mut Vec<Vec4>,
+    ) {
         let background = self.settings.image.background;
         let k = self.settings.image.supersampling.max(1);
         let (w, h) = (self.settings.image.width, self.settings.image.height);
-        let mut integrate = |ray: &crate::Ray| {
-            stats.rays += 1;
-            match clip(&self.bounds, ray) {
-                None => (glam::Vec3::ZERO, 0.0),
-                Some(interval) => self.integrator.integrate(march, ray, interval, stats),
+        let mut rays = Vec::with_capacity(pixels.len() * (k * k) as usize);
+        for &(x, y) in pixels {
+            if k == 1 {
+                rays.push(camera.ray(x as f64, y as f64, w, h));
+                continue;
             }
-        };
-        if k == 1 {
-            let (c, a) = integrate(&camera.ray(x as f64, y as f64, w, h));
-            return over_background(background, c, a);
+            for j in 0..k {
+                for i in 0..k {
+                    let (sx, sy) = sub_pixel(x, y, i, j, k);
+                    rays.push(camera.ray(sx, sy, w, h));
+                }
+            }
         }
-        let (mut c_sum, mut a_sum) = (glam::Vec3::ZERO, 0.0f32);
-        for j in 0..k {
-            for i in 0..k {
-                let (sx, sy) = sub_pixel(x, y, i, j, k);
-                let (c, a) = integrate(&camera.ray(sx, sy, w, h));
+        stats.rays += rays.len() as u64;
+        let intervals: Vec<Option<(f64, f64)>> = rays.iter().map(|ray| clip(&self.bounds, ray)).collect();
+        let mut colours = vec![(glam::Vec3::ZERO, 0.0f32); rays.len()];
+        self.integrator
+            .integrate_rays(march, &rays, &intervals, stats, &mut colours);
+        if k == 1 {
+            out.extend(colours.iter().map(|&(c, a)| over_background(background, c, a)));
+            return;
+        }
+        let n = (k * k) as f32;
+        for samples in colours.chunks_exact((k * k) as usize) {
+            let (mut c_sum, mut a_sum) = (glam::Vec3::ZERO, 0.0f32);
+            for &(c, a) in samples {
                 if c.is_finite() && a.is_finite() {
                     c_sum += c;
                     a_sum += a.clamp(0.0, 1.0);
                 }
             }
+            out.push(over_background(background, c_sum / n, a_sum / n));
         }
-        let n = (k * k) as f32;
-        over_background(background, c_sum / n, a_sum / n)
     }
 
     fn render_march<G: Field + ?Sized>(
@@ -373,7 +384,6 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         progress: &dyn Progress,
     ) -> (Image, RenderStats) {
         let (w, h) = (self.settings.image.width, self.settings.image.height);
-        let trace = |x: u32, y: u32, stats: &mut RenderStats| self.trace_pixel(march, camera, x, y, stats);
 
         let ts = self.settings.image.tile_size.min(w.max(h));
         let (tiles_x, tiles_y) = (w.div_ceil(ts), h.div_ceil(ts));
@@ -391,17 +401,14 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 if march.iso_tile_misses(camera, (x0, y0, x1, y1), (w, h)) {
                     // Every ray of the tile misses (the packed iso path's start map):
-                    // each pixel is what `trace_pixel` gives a ray that meets nothing.
+                    // each pixel is what `trace_pixels` gives a ray that meets nothing.
                     let k = self.settings.image.supersampling.max(1) as u64;
                     stats.rays += ((x1 - x0) * (y1 - y0)) as u64 * k * k;
                     let bg = over_background(self.settings.image.background, glam::Vec3::ZERO, 0.0);
                     px.resize(((x1 - x0) * (y1 - y0)) as usize, bg);
                 } else {
-                    for y in y0..y1 {
-                        for x in x0..x1 {
-                            px.push(trace(x, y, &mut stats));
-                        }
-                    }
+                    let pixels: Vec<(u32, u32)> = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))).collect();
+                    self.trace_pixels(march, camera, &pixels, &mut stats, &mut px);
                 }
                 progress.inc(1);
                 (px, stats)

@@ -2,7 +2,7 @@
 //! safeguarded by bisection), shaded with survey eq. 9.
 
 use glam::Vec3;
-use volga_core::{Crossing, Field, FieldKind};
+use volga_core::{Crossing, CrossingRay, Field, FieldKind};
 
 use super::{Effect, Effects, Integrator, March};
 use crate::error::bad_setting;
@@ -129,7 +129,62 @@ impl Integrator for Iso {
             };
         }
         // A field that finds its own crossings (an ADF) answers; the others are marched.
-        let hit = match m.field.first_crossing(ray.origin, ray.dir, interval.0, interval.1, self.value) {
+        let crossing = m.field.first_crossing(ray.origin, ray.dir, interval.0, interval.1, self.value);
+        self.shade_crossing(m, ray, interval, crossing, stats)
+    }
+
+    /// The crossings of all rays asked of the field at once ([`Field::first_crossings`]),
+    /// then each ray finished as [`Iso::integrate`] finishes it; the packed path ray by
+    /// ray.
+    fn integrate_rays<F: Field + ?Sized>(
+        &self,
+        m: &March<'_, F>,
+        rays: &[Ray],
+        intervals: &[Option<(f64, f64)>],
+        stats: &mut RenderStats,
+        out: &mut [(Vec3, f32)],
+    ) {
+        if crate::iso_packed::iso_packed(m).is_some() {
+            return super::integrate_each(self, m, rays, intervals, stats, out);
+        }
+        let asked: Vec<CrossingRay> = rays
+            .iter()
+            .zip(intervals)
+            .filter_map(|(ray, interval)| {
+                interval.map(|(t0, t1)| CrossingRay {
+                    world_origin: ray.origin,
+                    world_dir: ray.dir,
+                    t0,
+                    t1,
+                })
+            })
+            .collect();
+        let mut crossings = vec![Crossing::NotProvided; asked.len()];
+        m.field.first_crossings(&asked, self.value, &mut crossings);
+        let mut crossings = crossings.into_iter();
+        for ((ray, interval), o) in rays.iter().zip(intervals).zip(out.iter_mut()) {
+            *o = match interval {
+                Some(interval) => {
+                    let crossing = crossings.next().expect("one crossing per ray with an interval");
+                    self.shade_crossing(m, ray, *interval, crossing, stats)
+                }
+                None => (Vec3::ZERO, 0.0),
+            };
+        }
+    }
+}
+
+impl Iso {
+    /// The colour of a ray whose crossing the field answered (marched here if it did not).
+    fn shade_crossing<F: Field + ?Sized>(
+        &self,
+        m: &March<'_, F>,
+        ray: &Ray,
+        interval: (f64, f64),
+        crossing: Crossing,
+        stats: &mut RenderStats,
+    ) -> (Vec3, f32) {
+        let hit = match crossing {
             Crossing::At(t) => Some(t),
             Crossing::Miss => None,
             Crossing::NotProvided => march_iso(

@@ -83,6 +83,41 @@ pub trait Integrator: Sync + std::fmt::Debug {
     ) -> (Vec3, f32)
     where
         Self: Sized;
+
+    /// [`integrate`](Self::integrate) of many rays (a tile's): `out[i]` is
+    /// `integrate(march, &rays[i], interval, stats)` for `intervals[i] = Some(interval)`
+    /// and transparent black for `None` (a ray missing the bounds), the same bits. A mode
+    /// that can ask the field for all rays at once overrides it (iso asks
+    /// [`Field::first_crossings`]); the default integrates ray by ray.
+    fn integrate_rays<F: Field + ?Sized>(
+        &self,
+        march: &March<'_, F>,
+        rays: &[Ray],
+        intervals: &[Option<(f64, f64)>],
+        stats: &mut RenderStats,
+        out: &mut [(Vec3, f32)],
+    ) where
+        Self: Sized,
+    {
+        integrate_each(self, march, rays, intervals, stats, out)
+    }
+}
+
+/// [`Integrator::integrate_rays`] ray by ray (its default).
+pub(crate) fn integrate_each<F: Field + ?Sized, I: Integrator>(
+    integrator: &I,
+    march: &March<'_, F>,
+    rays: &[Ray],
+    intervals: &[Option<(f64, f64)>],
+    stats: &mut RenderStats,
+    out: &mut [(Vec3, f32)],
+) {
+    for ((ray, interval), o) in rays.iter().zip(intervals).zip(out.iter_mut()) {
+        *o = match interval {
+            Some(interval) => integrator.integrate(march, ray, *interval, stats),
+            None => (Vec3::ZERO, 0.0),
+        };
+    }
 }
 
 /// One effect a render needs, and why (shown in the build report).
