@@ -82,19 +82,7 @@ impl Adf {
             let corners = cell.corners;
             let lo = corners.iter().fold(f32::INFINITY, |a, &c| a.min(c)) as f64;
             if lo > iso {
-                // The sphere-tracing bound is at most `max_b d_b − iso`: computed only when
-                // that could reach past the leaf's exit.
-                let hi = corners.iter().fold(f32::NEG_INFINITY, |a, &c| a.max(c)) as f64;
-                let mut candidate = exit;
-                if hi - iso > (exit - t) * scale {
-                    let p = origin + dir * t;
-                    let mut bound = f64::NEG_INFINITY;
-                    for (b, &c) in corners.iter().enumerate() {
-                        bound =
-                            bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
-                    }
-                    candidate = exit.max(t + bound / scale);
-                }
+                let candidate = sphere_step(&corners, iso, origin + dir * t, min, size, t, exit, scale);
                 t = next_t(t, candidate, size / scale);
                 continue;
             }
@@ -254,6 +242,35 @@ pub(crate) fn bisect(g: &impl Fn(f64) -> f64, mut l: f64, mut r: f64) -> f64 {
         bisect_next = r - l > 0.5 * width;
     }
     r
+}
+
+/// Where a walk at `t` (point `p`) in a leaf entirely above `iso` (corners `corners`,
+/// box `min + [0, size]³`) may go next: the leaf's `exit`, or farther by the
+/// sphere-tracing bound of its corners, `max_b (d_b − iso)(1 − 1e-7) − |p − corner_b|`,
+/// computed only when it could reach past the exit (it is at most `max_b d_b − iso`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn sphere_step(
+    corners: &[f32; 8],
+    iso: f64,
+    p: DVec3,
+    min: DVec3,
+    size: f64,
+    t: f64,
+    exit: f64,
+    scale: f64,
+) -> f64 {
+    let hi = corners.iter().fold(f32::NEG_INFINITY, |a, &c| a.max(c)) as f64;
+    // Negated so a NaN comparison keeps the exit.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(hi - iso > (exit - t) * scale) {
+        return exit;
+    }
+    let mut bound = f64::NEG_INFINITY;
+    for (b, &c) in corners.iter().enumerate() {
+        bound = bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
+    }
+    exit.max(t + bound / scale)
 }
 
 /// The next ray parameter: `candidate`, but always past `t` by a sliver of the cell so a

@@ -37,9 +37,9 @@ use glam::DVec3;
 use volga_core::CrossingRay;
 
 use crate::cubic::{first_root_of_cubic, newton_on_piece, trilinear_cubic};
-use crate::ray::{cubic_coefficients, first_root_sampled, monotone_cuts, next_t};
+use crate::ray::{cubic_coefficients, first_root_sampled, monotone_cuts, next_t, sphere_step};
 use crate::reach::chessboard_reach;
-use crate::tree::{corner_position, trilinear, Cell, LEAF};
+use crate::tree::{trilinear, Cell, LEAF};
 use crate::Adf;
 
 /// Deepest level of the walk grid: 128³ cells, 10 bytes each (20 MB) beside the links.
@@ -637,15 +637,7 @@ impl Adf {
         let corners = cell.corners;
         let lo = corners.iter().fold(f32::INFINITY, |a, &c| a.min(c)) as f64;
         if lo > iso {
-            let hi = corners.iter().fold(f32::NEG_INFINITY, |a, &c| a.max(c)) as f64;
-            let mut candidate = exit;
-            if hi - iso > (exit - t) * scale {
-                let mut bound = f64::NEG_INFINITY;
-                for (b, &c) in corners.iter().enumerate() {
-                    bound = bound.max((c as f64 - iso) * (1.0 - 1e-7) - (p - corner_position(min, size, b)).length());
-                }
-                candidate = exit.max(t + bound / scale);
-            }
+            let candidate = sphere_step(&corners, iso, p, min, size, t, exit, scale);
             w.t = next_t(t, past(candidate, size / scale, ulp_t), size / scale);
             return None;
         }

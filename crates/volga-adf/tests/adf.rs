@@ -6,19 +6,8 @@ use volga_core::Aabb;
 use volga_mesh::{unclean, TriMesh};
 use volga_shapes::{AxisBox, SignedDistance, Sphere, Torus};
 
-/// xorshift points, deterministic.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn in_box(&mut self, b: &Aabb) -> DVec3 {
-        b.min + DVec3::new(self.next(), self.next(), self.next()) * b.size()
-    }
-}
+mod common;
+use common::Rng;
 
 fn options(tolerance: f64, max_depth: u8) -> AdfOptions {
     AdfOptions {

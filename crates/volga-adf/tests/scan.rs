@@ -10,19 +10,8 @@ use volga_adf::{DistanceSource, MeshSource};
 use volga_core::Aabb;
 use volga_mesh::{unclean, TriMesh};
 
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn in_box(&mut self, b: &Aabb) -> DVec3 {
-        b.min + DVec3::new(self.next(), self.next(), self.next()) * b.size()
-    }
-}
+mod common;
+use common::Rng;
 
 /// A strip of needle triangles (aspect ≈ 1e5) and exactly degenerate ones beside a
 /// well-shaped fan, all close together, so thin triangles (no plane bound) compete with

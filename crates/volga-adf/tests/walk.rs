@@ -7,24 +7,8 @@ use glam::DVec3;
 use volga_adf::{Adf, AdfOptions, ShapeSource};
 use volga_shapes::{Sphere, Torus};
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = DVec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0;
-            let l = v.length();
-            if l > 0.1 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
-}
+mod common;
+use common::Rng;
 
 fn options(tolerance: f64, max_depth: u8) -> AdfOptions {
     AdfOptions {
