@@ -25,7 +25,10 @@
 //!   steps, the first crossing found exactly in the leaf where it lies).
 //! * **Rendering**: an `Adf` is a [`volga_core::Field`] of signed-distance kind, so the
 //!   raycaster renders it directly; iso rays ask [`volga_core::Field::first_crossing`],
-//!   which the ADF answers with its own leaf walk ([`Adf::first_crossing_between`]),
+//!   which the ADF answers with its own leaf walk ([`Adf::first_crossing_between`]), and
+//!   a tile's rays ask [`volga_core::Field::first_crossings`], answered by the batched
+//!   walk ([`Adf::first_crossings_between`]: the same answers, with [`WALK_WINDOW`] rays'
+//!   memory reads overlapped; [`OneRayWalk`] renders one ray at a time),
 //!   other modes sample it and skip empty space with per-cell ranges. The walk runs on an
 //!   index built on the first ray (module `walk`: a 128³ grid of tree nodes with
 //!   conservative minima, each cell's chessboard reach to the nearest cell that can hold

@@ -13,9 +13,11 @@ use crate::{CellClass, PreIntegrated, Ray, RenderError, RenderSettings, RenderSt
 ///
 /// The renderer calls [`validate`](Self::validate) once, builds the macro-cell grid
 /// for empty-space skipping with [`classify_cell`](Self::classify_cell) (if
-/// [`skips_cells`](Self::skips_cells)), then calls [`integrate`](Self::integrate)
-/// once per ray. `integrate` is generic over the field, so the per-sample loop is
-/// monomorphized: the mode is dispatched once per image, never per sample.
+/// [`skips_cells`](Self::skips_cells)), then hands each tile's rays to
+/// [`integrate_rays`](Self::integrate_rays), whose default calls
+/// [`integrate`](Self::integrate) once per ray. `integrate` is generic over the field, so
+/// the per-sample loop is monomorphized: the mode is dispatched once per image, never per
+/// sample.
 pub trait Integrator: Sync + std::fmt::Debug {
     /// Short name for messages and reports, e.g. `"iso"`.
     fn name(&self) -> &'static str;
