@@ -325,7 +325,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         }
     }
 
-    /// Pixels `(x, y)` in order, each one ray through its centre or the mean
+    /// Pixels `(x, y)` in order (in batches of at most [`MAX_BATCH_RAYS`] rays), each one ray through its centre or the mean
     /// premultiplied colour of `k × k` rays through its sub-pixel centres (summed in a
     /// fixed order), over the background, appended to `out`. All their rays are
     /// integrated at once ([`Integrator::integrate_rays`]); each pixel is a function of
@@ -339,8 +339,17 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         stats: &mut RenderStats,
         out: &mut Vec<Vec4>,
     ) {
-        let background = self.settings.image.background;
         let k = self.settings.image.supersampling.max(1);
+        // At most `MAX_BATCH_RAYS` rays at once (a row of a large supersampled image
+        // would otherwise hold millions).
+        let per_batch = (MAX_BATCH_RAYS / (k * k) as usize).max(1);
+        if pixels.len() > per_batch {
+            for chunk in pixels.chunks(per_batch) {
+                self.trace_pixels(march, camera, chunk, stats, out);
+            }
+            return;
+        }
+        let background = self.settings.image.background;
         let (w, h) = (self.settings.image.width, self.settings.image.height);
         let mut rays = Vec::with_capacity(pixels.len() * (k * k) as usize);
         for &(x, y) in pixels {
@@ -437,6 +446,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         (image, stats)
     }
 }
+
+/// Rays [`Renderer::trace_pixels`] integrates at once: a 16×16 tile of 4×4 supersampled
+/// pixels.
+const MAX_BATCH_RAYS: usize = 4096;
 
 /// The light-space transmittance grids of `settings`' shadow-casting directional lights
 /// (per light, directional first then point: `None` where a light has none), built only
