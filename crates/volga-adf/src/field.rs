@@ -65,13 +65,9 @@ impl Field for Adf {
             t0,
             t1,
         };
-        if !walkable(&ray) {
-            return Crossing::NotProvided;
-        }
-        match self.first_crossing_between(world_origin, world_dir, t0, t1, iso).0 {
-            Some(t) => Crossing::At(t),
-            None => Crossing::Miss,
-        }
+        crossing(&ray, || {
+            self.first_crossing_between(world_origin, world_dir, t0, t1, iso).0
+        })
     }
 
     /// The batched leaf walk ([`Adf::first_crossings_between`]): the same answers as
@@ -82,14 +78,7 @@ impl Field for Adf {
         self.first_crossings_between(&walked, iso, &mut answers);
         let mut answers = answers.into_iter();
         for (r, o) in rays.iter().zip(out.iter_mut()) {
-            *o = if !walkable(r) {
-                Crossing::NotProvided
-            } else {
-                match answers.next().expect("one answer per walked ray").0 {
-                    Some(t) => Crossing::At(t),
-                    None => Crossing::Miss,
-                }
-            };
+            *o = crossing(r, || answers.next().expect("one answer per walked ray").0);
         }
     }
 
@@ -107,8 +96,20 @@ impl Field for Adf {
     }
 }
 
+/// What `Field::first_crossing` answers for `ray`: `NotProvided` for a ray the walk does
+/// not take ([`walkable`]), else the walk's crossing (`walk` runs only then).
+pub(crate) fn crossing(ray: &CrossingRay, walk: impl FnOnce() -> Option<f64>) -> Crossing {
+    if !walkable(ray) {
+        return Crossing::NotProvided;
+    }
+    match walk() {
+        Some(t) => Crossing::At(t),
+        None => Crossing::Miss,
+    }
+}
+
 /// A ray the walk answers: finite, with a direction (others are marched by the renderer).
-pub(crate) fn walkable(r: &CrossingRay) -> bool {
+fn walkable(r: &CrossingRay) -> bool {
     r.world_origin.is_finite()
         && r.world_dir.is_finite()
         && r.t0.is_finite()

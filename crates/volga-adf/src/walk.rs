@@ -760,13 +760,7 @@ macro_rules! walk_view {
                     t0,
                     t1,
                 };
-                if !crate::field::walkable(&ray) {
-                    return volga_core::Crossing::NotProvided;
-                }
-                match self.0.$walk(world_origin, world_dir, t0, t1, iso).0 {
-                    Some(t) => volga_core::Crossing::At(t),
-                    None => volga_core::Crossing::Miss,
-                }
+                crate::field::crossing(&ray, || self.0.$walk(world_origin, world_dir, t0, t1, iso).0)
             }
             fn value_range(&self, world_box: &volga_core::Aabb) -> (f64, f64) {
                 volga_core::Field::value_range(self.0, world_box)

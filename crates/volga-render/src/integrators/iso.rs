@@ -38,6 +38,50 @@ impl Iso {
             SurfaceColour::FromField => field_colour(field, p),
         }
     }
+
+    /// The colour of a ray whose crossing the field answered (marched here if it did not).
+    fn shade_crossing<F: Field + ?Sized>(
+        &self,
+        m: &March<'_, F>,
+        ray: &Ray,
+        interval: (f64, f64),
+        crossing: Crossing,
+        stats: &mut RenderStats,
+    ) -> (Vec3, f32) {
+        let hit = match crossing {
+            Crossing::At(t) => Some(t),
+            Crossing::Miss => None,
+            Crossing::NotProvided => march_iso(
+                m.field,
+                ray,
+                m.inward,
+                self.value,
+                interval,
+                m.step,
+                m.tol,
+                m.grid,
+                stats,
+            ),
+        };
+        match hit {
+            None => (Vec3::ZERO, 0.0),
+            Some(t) => {
+                let p = ray.at(t);
+                let co = self.colour_at(m.field, p);
+                if m.shader.is_general() {
+                    // Point lights or shadows: the surface occludes its shadow rays.
+                    stats.gradient_evaluations += 1;
+                    let outward = m.kind.outward(m.field.gradient(p));
+                    let shader = m.shader.for_ray(ray.dir);
+                    let rgb = shader.shade_general(co, outward, p, true, |_, l, d| {
+                        shadow::iso_visibility(m, self.value, p, l, d, stats)
+                    });
+                    return (rgb, 1.0);
+                }
+                (m.shade_at(co, p, ray, stats), 1.0)
+            }
+        }
+    }
 }
 
 impl Integrator for Iso {
@@ -174,48 +218,3 @@ impl Integrator for Iso {
     }
 }
 
-impl Iso {
-    /// The colour of a ray whose crossing the field answered (marched here if it did not).
-    fn shade_crossing<F: Field + ?Sized>(
-        &self,
-        m: &March<'_, F>,
-        ray: &Ray,
-        interval: (f64, f64),
-        crossing: Crossing,
-        stats: &mut RenderStats,
-    ) -> (Vec3, f32) {
-        let hit = match crossing {
-            Crossing::At(t) => Some(t),
-            Crossing::Miss => None,
-            Crossing::NotProvided => march_iso(
-                m.field,
-                ray,
-                m.inward,
-                self.value,
-                interval,
-                m.step,
-                m.tol,
-                m.grid,
-                stats,
-            ),
-        };
-        match hit {
-            None => (Vec3::ZERO, 0.0),
-            Some(t) => {
-                let p = ray.at(t);
-                let co = self.colour_at(m.field, p);
-                if m.shader.is_general() {
-                    // Point lights or shadows: the surface occludes its shadow rays.
-                    stats.gradient_evaluations += 1;
-                    let outward = m.kind.outward(m.field.gradient(p));
-                    let shader = m.shader.for_ray(ray.dir);
-                    let rgb = shader.shade_general(co, outward, p, true, |_, l, d| {
-                        shadow::iso_visibility(m, self.value, p, l, d, stats)
-                    });
-                    return (rgb, 1.0);
-                }
-                (m.shade_at(co, p, ray, stats), 1.0)
-            }
-        }
-    }
-}
