@@ -2,7 +2,8 @@
 //! and its central-difference gradient, four `f32` side by side), so one trilinear fetch
 //! of eight 16-byte corners gives a sample's value **and** gradient; the samples of a
 //! ray are taken eight at a time and classified, opacity-corrected and shaded
-//! (Blinn-Phong, per-ray constants) in 8 `f32` lanes, then composited in order.
+//! (Blinn-Phong, per-ray constants) in 8 `f32` lanes, then composited in lanes too
+//! (front to back as a product scan, [`composite_packet`]).
 //!
 //! Chosen automatically by [`Renderer::new`](crate::Renderer::new) when
 //! [`packet_path_allowed`] holds for the integrator and settings (today: shaded or unlit
@@ -24,7 +25,7 @@ use glam::{DVec3, Vec3, Vec4};
 use volga_core::{Aabb, Field, FieldKind, Line, PackedVolume};
 
 use crate::integrators::March;
-use crate::march::{midpoint_lattice_len, BATCH};
+use crate::march::midpoint_lattice_len;
 use crate::sample_walk::SampleWalk;
 use crate::{CellClass, Integrator, Ray, RenderSettings, RenderStats, Shader};
 
@@ -238,6 +239,7 @@ fn powi_lanes(mut x: [f32; LANES], n: i32) -> [f32; LANES] {
 }
 
 /// One packet's classified and shaded samples: opacity (0 where invisible) and RGB.
+#[derive(Clone, Debug)]
 struct Shaded {
     alpha: [f32; LANES],
     rgb: [[f32; LANES]; 3],
@@ -391,10 +393,13 @@ impl RayPackets<'_> {
 
 /// Front-to-back compositing (survey eq. 13) of the packed path: the general
 /// [`Volume`](crate::Volume) loop's lattice, skipping and early termination, the
-/// samples of each active cell taken eight at a time ([`RayPackets::shade`], the last
-/// packet running on past the cell) and composited in order. Counters: every sample
-/// read (a few more than the general loop, which stops each run at its cell's end), a
-/// gradient per composited visible sample.
+/// samples of each active cell taken in packets of eight consecutive lattice indices
+/// starting at multiples of eight ([`RayPackets::shade`]; the first and last packet of
+/// a cell run into its neighbours, whose transparent samples add nothing) and each
+/// packet composited at once ([`composite_packet`]). A packet holds the same samples
+/// whatever was skipped before it, so skipping changes no bit. Counters: every sample
+/// read (a few more than the general loop, which stops each run at its cell's
+/// borders), a gradient per composited visible sample.
 ///
 /// On x86-64 CPUs with AVX2 and FMA the loop is compiled for them (8-wide `f32` lanes);
 /// elsewhere the same code runs with the baseline instructions. Both evaluate the same
@@ -456,15 +461,16 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
         index_step: ((ray.dir * m.step) / transform.spacing()).as_vec3().to_array(),
     };
     let eta = m.early_termination_alpha;
-    // The colour's channels as plain locals: a `Vec3` here was kept in memory, a
-    // store-to-load chain through every sample (perf).
-    let (mut cr, mut cg, mut cb) = (0.0f32, 0.0f32, 0.0f32);
-    let mut a = 0.0f32;
+    // Transmittance in front of the next packet, and per lane the colour it added.
+    let mut transmittance = 1.0f32;
+    let mut sums = [[0.0f32; LANES]; 3];
     let mut visible = 0u64;
     // The last opacity corrected by `powf` and its correction (uniform regions repeat it).
     let mut corrected = (f32::NAN, f32::NAN);
     let mut walk = m.grid.map(|g| SampleWalk::new(g, ray, t0 + 0.5 * m.step, m.step));
     let mut i = 0u64;
+    // Samples before `done` are composited; packets start at multiples of `LANES`.
+    let mut done = 0u64;
     while i < n {
         let mut end = n;
         if let Some(w) = &mut walk {
@@ -476,43 +482,329 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
             }
             end = next;
         }
-        // Whole packets from `i`, past the cell's end if it ends inside one: the
-        // samples beyond it are read and composited like any other (a sample of a
-        // transparent cell adds nothing), so no lane is wasted.
-        let run_end = end.max(i + LANES as u64).min(n).min(i + BATCH as u64);
-        stats.samples += run_end - i;
-        let mut j = i;
-        while j < run_end {
+        // The packets covering the active cell, aligned to the lattice (the lanes
+        // before and after it belong to transparent cells or to the next active one
+        // and are composited like any other), so a packet holds the same samples
+        // whatever was skipped before it.
+        let mut j = (i - i % LANES as u64).max(done);
+        while j < end {
             let lanes = ((n - j) as usize).min(LANES);
-            let shaded = packets.shade::<AVX2>(j);
-            for l in 0..lanes {
-                let mut alpha = shaded.alpha[l];
-                if alpha.is_nan() || alpha <= 0.0 {
-                    continue;
-                }
-                if per_sample_correction && alpha < 1.0 {
-                    if corrected.0 != alpha {
-                        corrected = (alpha, m.correct_alpha(alpha));
+            stats.samples += lanes as u64;
+            let mut shaded = packets.shade::<AVX2>(j);
+            if per_sample_correction {
+                for alpha in shaded.alpha.iter_mut() {
+                    if *alpha > 0.0 && *alpha < 1.0 {
+                        if corrected.0 != *alpha {
+                            corrected = (*alpha, m.correct_alpha(*alpha));
+                        }
+                        *alpha = corrected.1;
                     }
-                    alpha = corrected.1;
-                }
-                visible += lit as u64;
-                let w = (1.0 - a) * alpha;
-                cr += shaded.rgb[0][l] * w;
-                cg += shaded.rgb[1][l] * w;
-                cb += shaded.rgb[2][l] * w;
-                a += w;
-                if a >= eta {
-                    stats.rays_terminated_early += 1;
-                    stats.gradient_evaluations += visible;
-                    return (Vec3::new(cr, cg, cb), a);
                 }
             }
-            j += lanes as u64;
+            let step = composite_packet::<AVX2>(&shaded, lanes, transmittance, eta, &mut sums);
+            transmittance = step.transmittance;
+            visible += lit as u64 * step.visible as u64;
+            if step.terminated {
+                stats.rays_terminated_early += 1;
+                stats.gradient_evaluations += visible;
+                return finish(&sums, transmittance);
+            }
+            j += LANES as u64;
         }
-        stats.samples += j - run_end;
+        done = j;
         i = j;
     }
     stats.gradient_evaluations += visible;
-    (Vec3::new(cr, cg, cb), a)
+    finish(&sums, transmittance)
+}
+
+/// What compositing one packet left: the transmittance behind it, how many visible
+/// samples it composited, and whether the ray ended in it (early termination).
+struct PacketStep {
+    transmittance: f32,
+    visible: u32,
+    terminated: bool,
+}
+
+/// Front-to-back compositing of one packet in lanes (survey eq. 13 in its product
+/// form): with `kₗ = 1 − αₗ` and `T` the transmittance in front of the packet, sample
+/// `l` adds `T·k₀⋯kₗ₋₁·αₗ·cₗ` to lane `l`'s colour sum and the transmittance behind
+/// the packet is `T·k₀⋯k₇`. The prefix products are a log-step scan (three rounds), so
+/// the only chain from packet to packet is one product; the sequential
+/// `a += (1 − a)·α` it replaces was a chain of three dependent operations per sample,
+/// with a branch per lane. Invisible lanes (`α ≤ 0`, NaN, or past the ray's end, the
+/// first `lanes` are on it) have `k = 1` and add exactly nothing, so a packet of them
+/// leaves every sum and the transmittance as they were, bit for bit. With early
+/// termination on (`eta ≤ 1`), the ray ends at the first visible sample behind which
+/// the opacity `1 − T` reaches `eta`, as the sequential loop did.
+///
+/// [`composite_packet_avx2`] is the same operations in AVX2 vectors: the same bits.
+// Index loops over the lanes on purpose: they are what the compiler vectorizes.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn composite_packet<const AVX2: bool>(
+    shaded: &Shaded,
+    lanes: usize,
+    transmittance: f32,
+    eta: f32,
+    sums: &mut [[f32; LANES]; 3],
+) -> PacketStep {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: `AVX2` is true only in `composite_avx2`, called after
+        // `is_x86_feature_detected!("avx2")` held.
+        return unsafe { composite_packet_avx2(shaded, lanes, transmittance, eta, sums) };
+    }
+    let mut visible = [false; LANES];
+    let mut alpha = [0.0f32; LANES];
+    for l in 0..LANES {
+        let x = shaded.alpha[l];
+        // `x > 0` is false for NaN.
+        visible[l] = l < lanes && x > 0.0;
+        alpha[l] = if visible[l] { x } else { 0.0 };
+    }
+    // Inclusive prefix products of `1 − α` (Hillis–Steele).
+    let mut keep = [0.0f32; LANES];
+    for l in 0..LANES {
+        keep[l] = 1.0 - alpha[l];
+    }
+    for s in [1, 2, 4] {
+        let prev = keep;
+        for l in s..LANES {
+            keep[l] = prev[l] * prev[l - s];
+        }
+    }
+    // Lanes composited: all, or up to the first visible one whose opacity behind
+    // reaches `eta` (checked at visible samples only, as the sequential loop did).
+    let mut last = LANES;
+    let mut terminated = false;
+    if eta <= 1.0 {
+        if let Some(l) = (0..LANES).find(|&l| visible[l] && 1.0 - transmittance * keep[l] >= eta) {
+            last = l + 1;
+            terminated = true;
+        }
+    }
+    let mut count = 0u32;
+    for l in 0..LANES {
+        let front = if l == 0 {
+            transmittance
+        } else {
+            transmittance * keep[l - 1]
+        };
+        let on = l < last && visible[l];
+        let w = front * alpha[l];
+        count += on as u32;
+        for ch in 0..3 {
+            sums[ch][l] += if on { shaded.rgb[ch][l] * w } else { 0.0 };
+        }
+    }
+    PacketStep {
+        transmittance: transmittance * keep[last - 1],
+        visible: count,
+        terminated,
+    }
+}
+
+/// [`composite_packet`] in AVX2 vectors: the same operations in the same order (the
+/// scan's shifted operand is a lane permutation with `1` shifted in, and `x·1 = x`),
+/// so the same bits. The portable loop compiled to scalar code with a branch per lane.
+///
+/// # Safety
+/// The CPU must support AVX2 (and the caller be compiled for it, as
+/// [`PackedVolume::sample_lanes_avx2`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn composite_packet_avx2(
+    shaded: &Shaded,
+    lanes: usize,
+    transmittance: f32,
+    eta: f32,
+    sums: &mut [[f32; LANES]; 3],
+) -> PacketStep {
+    use std::arch::x86_64::*;
+    let one = _mm256_set1_ps(1.0);
+    let zero = _mm256_setzero_ps();
+    let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    let below = |k: usize| _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(k as i32), lane));
+    // Lane `l` of the result is lane `l − s` of `x` (`1` for `l < s`).
+    let shift = |x: __m256, idx: __m256i, fill: i32| -> __m256 {
+        let moved = _mm256_permutevar8x32_ps(x, idx);
+        _mm256_blendv_ps(
+            moved,
+            one,
+            _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(fill), lane)),
+        )
+    };
+    let by1 = _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6);
+    let by2 = _mm256_setr_epi32(0, 0, 0, 1, 2, 3, 4, 5);
+    let by4 = _mm256_setr_epi32(0, 0, 0, 0, 0, 1, 2, 3);
+    // SAFETY: `shaded.alpha` is an `[f32; 8]`, 32 readable bytes; unaligned load.
+    let raw = unsafe { _mm256_loadu_ps(shaded.alpha.as_ptr()) };
+    // Ordered `>`: false for NaN.
+    let mut visible = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(raw, zero), below(lanes));
+    let alpha = _mm256_and_ps(raw, visible);
+    let mut keep = _mm256_sub_ps(one, alpha);
+    keep = _mm256_mul_ps(keep, shift(keep, by1, 1));
+    keep = _mm256_mul_ps(keep, shift(keep, by2, 2));
+    keep = _mm256_mul_ps(keep, shift(keep, by4, 4));
+    let t = _mm256_set1_ps(transmittance);
+    let mut last = LANES;
+    let mut terminated = false;
+    if eta <= 1.0 {
+        let behind = _mm256_sub_ps(one, _mm256_mul_ps(t, keep));
+        let reached = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(behind, _mm256_set1_ps(eta)), visible);
+        let bits = _mm256_movemask_ps(reached);
+        if bits != 0 {
+            last = bits.trailing_zeros() as usize + 1;
+            terminated = true;
+            visible = _mm256_and_ps(visible, below(last));
+        }
+    }
+    // Lane 0's front is `T` itself, the others `T·keep[l − 1]`: `T·1 = T`.
+    let front = _mm256_mul_ps(t, shift(keep, by1, 1));
+    let w = _mm256_mul_ps(front, alpha);
+    for (sum, rgb) in sums.iter_mut().zip(&shaded.rgb) {
+        // SAFETY: `rgb` and `sum` are `[f32; 8]`s, 32 bytes each;
+        // unaligned loads and store.
+        unsafe {
+            let add = _mm256_and_ps(_mm256_mul_ps(_mm256_loadu_ps(rgb.as_ptr()), w), visible);
+            _mm256_storeu_ps(sum.as_mut_ptr(), _mm256_add_ps(_mm256_loadu_ps(sum.as_ptr()), add));
+        }
+    }
+    let mut keeps = [0.0f32; LANES];
+    // SAFETY: `keeps` is an `[f32; 8]`, 32 writable bytes; unaligned store.
+    unsafe { _mm256_storeu_ps(keeps.as_mut_ptr(), keep) };
+    PacketStep {
+        transmittance: transmittance * keeps[last - 1],
+        visible: _mm256_movemask_ps(visible).count_ones(),
+        terminated,
+    }
+}
+
+/// The ray's colour (the lanes' sums added in lane order) and opacity `1 − T`.
+#[inline(always)]
+fn finish(sums: &[[f32; LANES]; 3], transmittance: f32) -> (Vec3, f32) {
+    let total = |ch: usize| sums[ch].iter().fold(0.0f32, |acc, x| acc + x);
+    (Vec3::new(total(0), total(1), total(2)), 1.0 - transmittance)
+}
+
+#[cfg(test)]
+mod tests {
+    // Index loops over lanes and channels, as in the code under test.
+    #![allow(clippy::needless_range_loop)]
+    use super::*;
+    use proptest::prelude::*;
+
+    /// [`composite_packet`] compiled for AVX2 (what `composite_avx2` inlines).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn composite_packet_avx2_caller(
+        shaded: &Shaded,
+        lanes: usize,
+        transmittance: f32,
+        eta: f32,
+        sums: &mut [[f32; LANES]; 3],
+    ) -> PacketStep {
+        composite_packet::<true>(shaded, lanes, transmittance, eta, sums)
+    }
+
+    /// The sequential loop the packet form replaces, in `f64`: colour, transmittance,
+    /// visible samples composited and whether the ray ended; `None` if the opacity
+    /// came within rounding of `eta` (where `f32` may decide either way).
+    fn sequential(shaded: &Shaded, lanes: usize, transmittance: f32, eta: f32) -> Option<([f64; 3], f64, u32, bool)> {
+        let (mut c, mut t, mut n) = ([0.0f64; 3], transmittance as f64, 0);
+        for l in 0..lanes {
+            let a = shaded.alpha[l] as f64;
+            if a.is_nan() || a <= 0.0 {
+                continue;
+            }
+            for ch in 0..3 {
+                c[ch] += t * a * shaded.rgb[ch][l] as f64;
+            }
+            t *= 1.0 - a;
+            n += 1;
+            if (1.0 - t - eta as f64).abs() < 1e-5 {
+                return None;
+            }
+            if 1.0 - t >= eta as f64 {
+                return Some((c, t, n, true));
+            }
+        }
+        Some((c, t, n, false))
+    }
+
+    /// A lane's opacity: invisible (0, negative, NaN), opaque, or in between; with a
+    /// colour that is NaN where the lane is invisible (it must add nothing).
+    fn lane() -> impl Strategy<Value = (f32, [f32; 3])> {
+        let alpha = prop_oneof![
+            Just(0.0f32),
+            Just(-0.25f32),
+            Just(f32::NAN),
+            Just(1.0f32),
+            0.0f32..1.0,
+            0.0f32..0.02,
+        ];
+        (alpha, [0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0])
+            .prop_map(|(a, rgb)| (a, if a > 0.0 { rgb } else { [f32::NAN; 3] }))
+    }
+
+    fn packet() -> impl Strategy<Value = Shaded> {
+        proptest::collection::vec(lane(), LANES).prop_map(|ls| {
+            let mut s = Shaded {
+                alpha: [0.0; LANES],
+                rgb: [[0.0; LANES]; 3],
+            };
+            for (l, (a, rgb)) in ls.into_iter().enumerate() {
+                s.alpha[l] = a;
+                for ch in 0..3 {
+                    s.rgb[ch][l] = rgb[ch];
+                }
+            }
+            s
+        })
+    }
+
+    proptest! {
+        /// The packet form composites what the sequential loop did (to `f32`
+        /// rounding), the AVX2 form gives the portable form's bits, and a packet of
+        /// invisible lanes leaves the sums and the transmittance as they were.
+        #[test]
+        fn a_packet_composites_as_the_sequential_loop(
+            shaded in packet(),
+            lanes in 1usize..=LANES,
+            transmittance in prop_oneof![Just(1.0f32), 0.0f32..1.0],
+            eta in prop_oneof![Just(2.0f32), Just(0.99f32), 0.0f32..1.0],
+            start in [0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0],
+        ) {
+            let mut sums = [[0.0f32; LANES]; 3];
+            for ch in 0..3 {
+                sums[ch][3] = start[ch];
+            }
+            let before = sums;
+            let step = composite_packet::<false>(&shaded, lanes, transmittance, eta, &mut sums);
+            let reference = sequential(&shaded, lanes, transmittance, eta);
+            prop_assume!(reference.is_some());
+            let (c, t, n, ended) = reference.unwrap();
+            prop_assert_eq!(step.visible, n);
+            prop_assert_eq!(step.terminated, ended);
+            prop_assert!((step.transmittance as f64 - t).abs() <= 1e-5, "{} against {}", step.transmittance, t);
+            for ch in 0..3 {
+                let added: f64 = (0..LANES).map(|l| sums[ch][l] as f64 - before[ch][l] as f64).sum();
+                prop_assert!((added - c[ch]).abs() <= 1e-5, "channel {}: {} against {}", ch, added, c[ch]);
+            }
+            if n == 0 {
+                prop_assert_eq!(step.transmittance.to_bits(), transmittance.to_bits());
+                prop_assert_eq!(sums.map(|s| s.map(f32::to_bits)), before.map(|s| s.map(f32::to_bits)));
+            }
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+                let mut vector_sums = before;
+                // SAFETY: the CPU supports AVX2 and FMA (checked just above).
+                let v = unsafe { composite_packet_avx2_caller(&shaded, lanes, transmittance, eta, &mut vector_sums) };
+                prop_assert_eq!(v.transmittance.to_bits(), step.transmittance.to_bits());
+                prop_assert_eq!((v.visible, v.terminated), (step.visible, step.terminated));
+                prop_assert_eq!(vector_sums.map(|s| s.map(f32::to_bits)), sums.map(|s| s.map(f32::to_bits)));
+            }
+        }
+    }
 }
