@@ -114,54 +114,120 @@ impl<F: Field + ?Sized> Field for PackedField<'_, F> {
 /// Most control points [`TransferLanes`] takes (more classify on the general path).
 const MAX_LANE_POINTS: usize = 8;
 
-/// A 1D transfer function in `f32` for the packed loop, in a branch-free form: with
-/// control values `c₀ < … < c_{n−1}` and colours `q₀ … q_{n−1}`,
+/// A 1D transfer function in `f32` for the packed loop, as tables of at most eight
+/// entries: with control values `c₀ < … < c_{n−1}`, colours `q₀ … q_{n−1}` and slopes
+/// `s_k = (q_{k+1} − q_k) / (c_{k+1} − c_k)`, a value `v` is clamped to `[c₀, c_{n−1}]`,
+/// its segment `k` is the number of control values `c₁ … c_{n−1}` at most `v` (the
+/// last, `k = n − 1`, is the constant `q_{n−1}` with slope 0), and
 ///
-/// `tf(v) = q₀ + Σ_k s_k · (clamp(v, c_{k−1}, c_k) − c_{k−1})`, `s_k = (q_k − q_{k−1}) / (c_k − c_{k−1})`,
+/// `tf(v) = q_k + s_k · (v − c_k)`,
 ///
 /// the same piecewise-linear function (constant below `c₀` and from `c_{n−1}` on) as
-/// [`TransferFunction::eval`](crate::TransferFunction::eval), every lane running the
-/// same instructions whatever segment its value falls in.
+/// [`TransferFunction::eval`](crate::TransferFunction::eval). Every lane runs the same
+/// instructions whatever segment its value falls in: `n − 1` comparisons, then one
+/// table look-up per quantity (in AVX2 a lane permutation, [`TransferLanes::classify_avx2`]).
+/// Every control point's own value gives its colour exactly (`q_k + s_k · 0`), so a
+/// value in a segment transparent at both ends is transparent exactly, as empty-space
+/// skipping assumes.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct TransferLanes {
-    /// The colour below the first control value.
-    first: [f32; 4],
-    /// Segments `1 .. n` in use.
-    segments: usize,
-    /// Per segment: its start and end value and its RGBA slope.
-    lo: [f32; MAX_LANE_POINTS],
-    hi: [f32; MAX_LANE_POINTS],
-    slope: [[f32; 4]; MAX_LANE_POINTS],
+    /// Control points, `1 ..= MAX_LANE_POINTS`.
+    points: usize,
+    /// The control values (entries from `points` on repeat the last).
+    value: [f32; MAX_LANE_POINTS],
+    /// Per channel (RGBA): the colour at each control value.
+    colour: [[f32; MAX_LANE_POINTS]; 4],
+    /// Per channel: the slope of the segment starting at each control value (0 from
+    /// the last on).
+    slope: [[f32; MAX_LANE_POINTS]; 4],
 }
 
 impl TransferLanes {
     /// The `f32` form of sorted control points, or `None` if there are more than
-    /// [`MAX_LANE_POINTS`] or a value or a segment's slope is not finite in `f32` (the
-    /// general path then classifies).
+    /// [`MAX_LANE_POINTS`] or a value or a segment's slope is not finite in `f32`, or
+    /// two values round to one `f32` (the general path then classifies).
     pub(crate) fn new(values: &[f64], rgba: &[Vec4]) -> Option<TransferLanes> {
         let n = values.len();
         if n == 0 || n > MAX_LANE_POINTS || values.iter().any(|v| !(*v as f32).is_finite()) {
             return None;
         }
         let mut lanes = TransferLanes {
-            first: rgba[0].to_array(),
-            segments: n - 1,
-            lo: [0.0; MAX_LANE_POINTS],
-            hi: [0.0; MAX_LANE_POINTS],
-            slope: [[0.0; 4]; MAX_LANE_POINTS],
+            points: n,
+            value: [values[n - 1] as f32; MAX_LANE_POINTS],
+            colour: [[0.0; MAX_LANE_POINTS]; 4],
+            slope: [[0.0; MAX_LANE_POINTS]; 4],
         };
-        for k in 1..n {
-            let (lo, hi) = (values[k - 1] as f32, values[k] as f32);
-            let width = values[k] - values[k - 1];
-            let slope = ((rgba[k] - rgba[k - 1]).as_dvec4() / width).as_vec4();
-            if !(hi > lo && slope.is_finite()) {
-                return None;
+        for k in 0..n {
+            lanes.value[k] = values[k] as f32;
+            for (ch, colour) in lanes.colour.iter_mut().enumerate() {
+                colour[k] = rgba[k][ch];
             }
-            lanes.lo[k - 1] = lo;
-            lanes.hi[k - 1] = hi;
-            lanes.slope[k - 1] = slope.to_array();
+            if k + 1 < n {
+                let (lo, hi) = (values[k] as f32, values[k + 1] as f32);
+                let slope = ((rgba[k + 1] - rgba[k]).as_dvec4() / (values[k + 1] - values[k])).as_vec4();
+                if !(hi > lo && slope.is_finite()) {
+                    return None;
+                }
+                for ch in 0..4 {
+                    lanes.slope[ch][k] = slope[ch];
+                }
+            }
         }
         Some(lanes)
+    }
+
+    /// RGBA (unclamped) of eight values, per channel. NaN values classify as `c₀`.
+    // Index loops over the lanes on purpose: they are what the compiler vectorizes.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn classify(&self, v: &[f32; LANES]) -> [[f32; LANES]; 4] {
+        let (first, last) = (self.value[0], self.value[self.points - 1]);
+        let mut rgba = [[0.0f32; LANES]; 4];
+        for l in 0..LANES {
+            // `f32::max` returns the other operand for NaN, as `maxps` does.
+            let x = v[l].max(first).min(last);
+            let mut k = 0;
+            for inner in 1..self.points {
+                k += (x >= self.value[inner]) as usize;
+            }
+            let d = x - self.value[k];
+            for ch in 0..4 {
+                rgba[ch][l] = self.colour[ch][k] + self.slope[ch][k] * d;
+            }
+        }
+        rgba
+    }
+
+    /// [`TransferLanes::classify`] in AVX2 vectors, the table look-ups as lane
+    /// permutations: the same operations, the same bits.
+    ///
+    /// # Safety
+    /// As [`PackedVolume::sample_lanes_avx2`]: the CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn classify_avx2(&self, v: &[f32; LANES]) -> [[f32; LANES]; 4] {
+        use std::arch::x86_64::*;
+        // SAFETY: every load and store below is of an `[f32; 8]`, 32 bytes, unaligned.
+        unsafe {
+            let x = _mm256_loadu_ps(v.as_ptr());
+            // `maxps` returns its second operand when either is NaN: NaN → `c₀`.
+            let x = _mm256_max_ps(x, _mm256_set1_ps(self.value[0]));
+            let x = _mm256_min_ps(x, _mm256_set1_ps(self.value[self.points - 1]));
+            let mut k = _mm256_setzero_si256();
+            for inner in 1..self.points {
+                let at_least = _mm256_cmp_ps::<_CMP_GE_OQ>(x, _mm256_set1_ps(self.value[inner]));
+                // A true comparison is all ones, −1 as an integer.
+                k = _mm256_sub_epi32(k, _mm256_castps_si256(at_least));
+            }
+            let table = |t: &[f32; LANES]| _mm256_permutevar8x32_ps(_mm256_loadu_ps(t.as_ptr()), k);
+            let d = _mm256_sub_ps(x, table(&self.value));
+            let mut rgba = [[0.0f32; LANES]; 4];
+            for ((out, colour), slope) in rgba.iter_mut().zip(&self.colour).zip(&self.slope) {
+                let c = _mm256_add_ps(table(colour), _mm256_mul_ps(table(slope), d));
+                _mm256_storeu_ps(out.as_mut_ptr(), c);
+            }
+            rgba
+        }
     }
 }
 
@@ -297,21 +363,16 @@ impl RayPackets<'_> {
         };
         #[cfg(not(target_arch = "x86_64"))]
         let (v, g) = self.packed.sample_lanes(&index_pos);
-        // Classification: the clamped sum over the segments (see `TransferLanes`).
-        let tf = self.tf;
-        let mut rgba = [[0.0f32; LANES]; 4];
-        for ch in 0..4 {
-            rgba[ch] = [tf.first[ch]; LANES];
-        }
-        for k in 0..tf.segments {
-            let (lo, hi, slope) = (tf.lo[k], tf.hi[k], tf.slope[k]);
-            for l in 0..LANES {
-                let d = v[l].max(lo).min(hi) - lo;
-                for ch in 0..4 {
-                    rgba[ch][l] += slope[ch] * d;
-                }
-            }
-        }
+        // Classification: one table look-up per quantity (see `TransferLanes`).
+        #[cfg(target_arch = "x86_64")]
+        let rgba = if AVX2 {
+            // SAFETY: as the sampling above.
+            unsafe { self.tf.classify_avx2(&v) }
+        } else {
+            self.tf.classify(&v)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let rgba = self.tf.classify(&v);
         let mut out = Shaded {
             alpha: [0.0; LANES],
             rgb: [[0.0; LANES]; 3],
@@ -762,6 +823,79 @@ mod tests {
             }
             s
         })
+    }
+
+    /// [`TransferLanes::classify`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn classify_avx2_caller(tf: &TransferLanes, v: &[f32; LANES]) -> [[f32; LANES]; 4] {
+        // SAFETY: this function is compiled for AVX2 and called only where it is present.
+        unsafe { tf.classify_avx2(v) }
+    }
+
+    /// Sorted control points, 1 to 8, and values around and on them.
+    fn transfer() -> impl Strategy<Value = (Vec<f64>, Vec<Vec4>, Vec<f32>)> {
+        (1usize..=MAX_LANE_POINTS)
+            .prop_flat_map(|n| {
+                (
+                    proptest::collection::vec(0.01f64..1.0, n),
+                    proptest::collection::vec([0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0], n),
+                    proptest::collection::vec((-0.5f32..n as f32 + 0.5, 0usize..4), LANES),
+                )
+            })
+            .prop_map(|(gaps, colours, probes)| {
+                let values: Vec<f64> = gaps
+                    .iter()
+                    .scan(-0.2, |x, g| {
+                        *x += g;
+                        Some(*x)
+                    })
+                    .collect();
+                let rgba = colours.into_iter().map(Vec4::from_array).collect();
+                // A probe is a control value itself, or a value between or beyond them,
+                // or NaN.
+                let v = probes
+                    .iter()
+                    .map(|&(at, kind)| match kind {
+                        0 => values[(at.max(0.0) as usize).min(values.len() - 1)] as f32,
+                        1 => f32::NAN,
+                        _ => values[0] as f32 - 0.3 + at * 0.9,
+                    })
+                    .collect();
+                (values, rgba, v)
+            })
+    }
+
+    proptest! {
+        /// The lanes classify as [`TransferFunction::eval`](crate::TransferFunction::eval)
+        /// (to `f32` rounding; control values exactly), NaN as the first control
+        /// value, and the AVX2 form gives the portable form's bits.
+        #[test]
+        fn transfer_lanes_classify_as_the_transfer_function((values, rgba, v) in transfer()) {
+            let tf = TransferLanes::new(&values, &rgba).expect("at most eight finite points");
+            let points: Vec<(f64, Vec4)> = values.iter().copied().zip(rgba.iter().copied()).collect();
+            let reference = crate::TransferFunction::new(points).unwrap();
+            let v: [f32; LANES] = v.try_into().unwrap();
+            let got = tf.classify(&v);
+            for l in 0..LANES {
+                let want = if v[l].is_nan() { rgba[0] } else { reference.eval(v[l] as f64) };
+                // At a control value (in `f32`), its own colour exactly.
+                let want = match values.iter().position(|c| *c as f32 == v[l]) {
+                    Some(k) => rgba[k],
+                    None => want,
+                };
+                for ch in 0..4 {
+                    let tol = if want == rgba[0] || rgba.contains(&want) { 0.0 } else { 1e-4 };
+                    prop_assert!((got[ch][l] - want[ch]).abs() <= tol, "lane {} channel {}: {} against {} at {}", l, ch, got[ch][l], want[ch], v[l]);
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+                // SAFETY: the CPU supports AVX2 and FMA (checked just above).
+                let vector = unsafe { classify_avx2_caller(&tf, &v) };
+                prop_assert_eq!(vector.map(|c| c.map(f32::to_bits)), got.map(|c| c.map(f32::to_bits)));
+            }
+        }
     }
 
     proptest! {
