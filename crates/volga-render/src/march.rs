@@ -441,6 +441,25 @@ pub(crate) fn midpoint_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
     } else {
         guess.min(MAX_STEPS_PER_RAY) as u64
     };
+    // The guess is right or one off; the loops settle anything else. Kept out of line:
+    // inlined, the compiler vectorized them 32 wide, some 400 instructions per ray.
+    let too_many = |n: u64| n > 0 && t0 + (n as f64 - 0.5) * dt > t1;
+    let too_few = |n: u64| (n as f64) < MAX_STEPS_PER_RAY && t0 + (n as f64 + 0.5) * dt <= t1;
+    if too_many(n) {
+        n -= 1;
+    } else if too_few(n) {
+        n += 1;
+    }
+    if too_many(n) || too_few(n) {
+        return settle_lattice_len(n, t0, t1, dt);
+    }
+    n
+}
+
+/// [`midpoint_lattice_len`] from a guess more than one off.
+#[cold]
+#[inline(never)]
+fn settle_lattice_len(mut n: u64, t0: f64, t1: f64, dt: f64) -> u64 {
     while n > 0 && t0 + (n as f64 - 0.5) * dt > t1 {
         n -= 1;
     }

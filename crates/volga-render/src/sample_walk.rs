@@ -23,8 +23,17 @@ use crate::march::{CellClass, MacroGrid};
 pub(crate) struct SampleWalk<'g> {
     grid: &'g MacroGrid,
     dims: [usize; 3],
-    /// Linear-index stride of a step along each axis.
-    stride: [usize; 3],
+    /// Per axis, the change of the cell index (`±1`) and of the linear index (`±stride`)
+    /// when the ray crosses a face.
+    step: [isize; 3],
+    lin_step: [isize; 3],
+    /// Per axis, the offset from a slab's index to its far face in the ray's direction
+    /// (1 going up, 0 going down), and the slab whose far face is never crossed (the
+    /// grid's last one in the ray's direction).
+    far: [f64; 3],
+    last: [usize; 3],
+    /// Per axis, whether the ray is parallel to it (never crosses its faces).
+    parallel: [bool; 3],
     /// Grid coordinates (cells from the grid's minimum) of sample 0, their change per
     /// sample, and its reciprocal.
     u0: [f64; 3],
@@ -46,10 +55,15 @@ impl<'g> SampleWalk<'g> {
     pub(crate) fn new(grid: &'g MacroGrid, ray: &Ray, t_first: f64, step: f64) -> SampleWalk<'g> {
         let (min, _, cell, dims) = grid.layout();
         let first = ray.at(t_first);
+        let stride = [1, dims[0], dims[0] * dims[1]];
         let mut walk = SampleWalk {
             grid,
             dims,
-            stride: [1, dims[0], dims[0] * dims[1]],
+            step: [0; 3],
+            lin_step: [0; 3],
+            far: [0.0; 3],
+            last: [0; 3],
+            parallel: [true; 3],
             u0: [0.0; 3],
             du: [0.0; 3],
             inv_du: [0.0; 3],
@@ -62,6 +76,12 @@ impl<'g> SampleWalk<'g> {
             walk.u0[a] = (first[a] - min[a]) / cell[a];
             walk.du[a] = step * ray.dir[a] / cell[a];
             walk.inv_du[a] = 1.0 / walk.du[a];
+            let up = walk.du[a] > 0.0;
+            walk.parallel[a] = !(up || walk.du[a] < 0.0);
+            walk.step[a] = if up { 1 } else { -1 };
+            walk.lin_step[a] = walk.step[a] * stride[a] as isize;
+            walk.far[a] = if up { 1.0 } else { 0.0 };
+            walk.last[a] = if up { dims[a] - 1 } else { 0 };
         }
         walk.locate(0.0);
         walk
@@ -77,7 +97,7 @@ impl<'g> SampleWalk<'g> {
                 0
             };
         }
-        self.lin = self.ijk[0] + self.stride[1] * self.ijk[1] + self.stride[2] * self.ijk[2];
+        self.lin = self.ijk[0] + self.dims[0] * (self.ijk[1] + self.dims[1] * self.ijk[2]);
         for a in 0..3 {
             self.exit[a] = self.face(a, self.ijk[a]);
         }
@@ -87,15 +107,11 @@ impl<'g> SampleWalk<'g> {
     /// the last one the ray meets along `a`, or the ray is parallel to the axis).
     #[inline(always)]
     fn face(&self, a: usize, index: usize) -> f64 {
-        let d = self.du[a];
-        let plane = if d > 0.0 && index + 1 < self.dims[a] {
-            (index + 1) as f64
-        } else if d < 0.0 && index > 0 {
-            index as f64
-        } else {
+        if self.parallel[a] || index == self.last[a] {
             return f64::INFINITY;
-        };
-        (plane - self.u0[a]) * self.inv_du[a]
+        }
+        // `index + far` is exact: the far face's grid coordinate.
+        (index as f64 + self.far[a] - self.u0[a]) * self.inv_du[a]
     }
 
     /// The class of the cell holding sample `i` (queries in non-decreasing order) and
@@ -121,13 +137,8 @@ impl<'g> SampleWalk<'g> {
                 2
             };
             // A finite exit is never the last slab's (`face`), so the step stays inside.
-            if self.du[a] > 0.0 {
-                self.ijk[a] += 1;
-                self.lin += self.stride[a];
-            } else {
-                self.ijk[a] -= 1;
-                self.lin -= self.stride[a];
-            }
+            self.ijk[a] = self.ijk[a].wrapping_add_signed(self.step[a]);
+            self.lin = self.lin.wrapping_add_signed(self.lin_step[a]);
             self.exit[a] = self.face(a, self.ijk[a]);
             exit = self.exit[0].min(self.exit[1]).min(self.exit[2]);
         }
@@ -153,7 +164,9 @@ impl<'g> SampleWalk<'g> {
         } else if exit >= n as f64 {
             n
         } else {
-            exit as u64 + 1
+            // In `[0, n)`, `n ≤ 2²⁴`: exact through `i64` (one instruction; `u64` is a
+            // dozen without AVX-512).
+            exit as i64 as u64 + 1
         };
         (class, next.max(i + 1).min(n))
     }
