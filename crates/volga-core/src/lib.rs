@@ -65,7 +65,7 @@ pub use field::{Crossing, CrossingRay, Field, FieldKind, Line};
 pub use filters::{Filter, GradientMethod};
 pub use grid::{fast_floor, Grid, IndexBox, Transform};
 pub use layout::Shape3;
-pub use packed::{PackedCell, PackedVolume, PackedVoxel};
+pub use packed::{LaneCells, PackedCell, PackedVolume, PackedVoxel};
 pub use progress::{NoProgress, Progress};
 pub use sampled::{DenseReader, Sampled, SparseReader, VoxelReader, VoxelSource};
 pub use sparse::{

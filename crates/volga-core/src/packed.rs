@@ -57,6 +57,15 @@ pub struct PackedVolume {
     voxels: Vec<PackedVoxel>,
 }
 
+/// Where eight samples read ([`PackedVolume::cells_avx2`]): per lane the offset of the
+/// cell's base voxel entry (the background block's outside the stored region) and the
+/// fractions per axis. The default reads the first stored entry with zero fractions.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LaneCells {
+    offset: [u32; 8],
+    frac: [[f32; 8]; 3],
+}
+
 /// Where a trilinear sample reads: the offset of its base voxel's entry (or `None`
 /// outside the stored region, where every corner is the background with a zero
 /// gradient) and the fractions.
@@ -304,23 +313,36 @@ impl PackedVolume {
         (offset, frac)
     }
 
-    /// Prefetches into L1 the corner rows that [`PackedVolume::sample_lanes_avx2`] will
-    /// read at these positions (issued one packet ahead of the fetch).
+    /// Where eight samples at continuous index coordinates (per axis in `f32` lanes)
+    /// read: [`PackedVolume::cells_lanes`] in AVX2 vectors, to prefetch
+    /// ([`PackedVolume::prefetch_cells_avx2`]) and later sample
+    /// ([`PackedVolume::sample_cells_avx2`]) without computing it twice.
     ///
     /// # Safety
     /// As [`PackedVolume::sample_lanes_avx2`]: the CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    pub unsafe fn prefetch_lanes_avx2(&self, index_pos: &[[f32; 8]; 3]) {
-        use std::arch::x86_64::*;
+    pub unsafe fn cells_avx2(&self, index_pos: &[[f32; 8]; 3]) -> LaneCells {
         // SAFETY: the caller guarantees AVX2.
-        let (offset, _) = unsafe { self.cells_lanes_avx2(index_pos) };
+        let (offset, frac) = unsafe { self.cells_lanes_avx2(index_pos) };
+        LaneCells { offset, frac }
+    }
+
+    /// Prefetches into L1 the corner rows that [`PackedVolume::sample_cells_avx2`] will
+    /// read for `cells` (issued a couple of packets ahead of the fetch).
+    ///
+    /// # Safety
+    /// As [`PackedVolume::sample_lanes_avx2`]: the CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub unsafe fn prefetch_cells_avx2(&self, cells: &LaneCells) {
+        use std::arch::x86_64::*;
         let base = self.voxels.as_ptr() as *const i8;
-        for o in offset {
+        for o in cells.offset {
             let o = o as usize * 16;
             for d in [0, 16 * STRIDE_Y, 16 * STRIDE_Z, 16 * (STRIDE_Z + STRIDE_Y)] {
                 // A prefetch never faults; the address is inside `voxels` anyway (see
-                // `sample_lanes_avx2`).
+                // `sample_cells_avx2`).
                 _mm_prefetch::<_MM_HINT_T0>(base.wrapping_add(o + d));
             }
         }
@@ -447,9 +469,20 @@ impl PackedVolume {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub unsafe fn sample_lanes_avx2(&self, index_pos: &[[f32; 8]; 3]) -> ([f32; 8], [[f32; 8]; 3]) {
-        use std::arch::x86_64::*;
         // SAFETY: the caller guarantees AVX2 (this function's own contract).
-        let (offset, frac) = unsafe { self.cells_lanes_avx2(index_pos) };
+        unsafe { self.sample_cells_avx2(&self.cells_avx2(index_pos)) }
+    }
+
+    /// [`PackedVolume::sample_lanes_avx2`] at cells already located
+    /// ([`PackedVolume::cells_avx2`]): the same bits.
+    ///
+    /// # Safety
+    /// As [`PackedVolume::sample_lanes_avx2`]: the CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub unsafe fn sample_cells_avx2(&self, cells: &LaneCells) -> ([f32; 8], [[f32; 8]; 3]) {
+        use std::arch::x86_64::*;
+        let (offset, frac) = (&cells.offset, &cells.frac);
         let base = self.voxels.as_ptr() as *const f32;
         let mut q = [_mm_setzero_ps(); 8];
         for l in 0..8 {

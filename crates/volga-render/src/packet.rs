@@ -327,14 +327,19 @@ struct RayPackets<'a> {
     index_step: [f32; 3],
 }
 
+/// Cells located ahead of the packet loop ([`RayPackets::shade`]): per slot, the
+/// first sample index of the packet and its cells.
+struct Ahead {
+    #[cfg(target_arch = "x86_64")]
+    cells: [(u64, volga_core::LaneCells); 2],
+}
+
 impl RayPackets<'_> {
-    /// Samples `j .. j + 8`: values and gradients from one packed fetch each (4-wide
-    /// over `[v, gx, gy, gz]`), then classification, opacity correction and shading
-    /// 8-wide across the samples, every lane a function of its sample index alone.
+    /// Index positions of samples `j .. j + 8`.
     // Index loops over the lanes on purpose: they are what the compiler vectorizes.
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn shade<const AVX2: bool>(&self, j: u64) -> Shaded {
+    fn positions(&self, j: u64) -> [[f32; LANES]; 3] {
         let mut index_pos = [[0.0f32; LANES]; 3];
         for a in 0..3 {
             for l in 0..LANES {
@@ -342,27 +347,44 @@ impl RayPackets<'_> {
                 index_pos[a][l] = self.index_origin[a] + self.index_step[a] * ((j as i32 + l as i32) as f32);
             }
         }
-        #[cfg(target_arch = "x86_64")]
-        if AVX2 {
-            let mut ahead = [[0.0f32; LANES]; 3];
-            for a in 0..3 {
-                for l in 0..LANES {
-                    ahead[a][l] = index_pos[a][l] + self.index_step[a] * (2 * LANES) as f32;
-                }
-            }
-            // SAFETY: as below.
-            unsafe { self.packed.prefetch_lanes_avx2(&ahead) };
-        }
+        index_pos
+    }
+
+    /// Samples `j .. j + 8`: values and gradients from one packed fetch each (4-wide
+    /// over `[v, gx, gy, gz]`), then classification, opacity correction and shading
+    /// 8-wide across the samples, every lane a function of its sample index alone.
+    // Index loops over the lanes on purpose: they are what the compiler vectorizes.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn shade<const AVX2: bool>(&self, j: u64, ahead: &mut Ahead) -> Shaded {
         #[cfg(target_arch = "x86_64")]
         let (v, g) = if AVX2 {
-            // SAFETY: `AVX2` is true only in `composite_avx2`, called after
-            // `is_x86_feature_detected!("avx2")` held.
-            unsafe { self.packed.sample_lanes_avx2(&index_pos) }
+            // The cells of this packet, located two packets ago if the ray came through
+            // them (the same positions, so the same bits); then those of the packet two
+            // ahead, prefetched and kept for it.
+            let slot = ((j / LANES as u64) & 1) as usize;
+            let cells = match ahead.cells[slot] {
+                (tag, cells) if tag == j => cells,
+                // SAFETY: `AVX2` is true only in `composite_avx2`, called after
+                // `is_x86_feature_detected!("avx2")` held.
+                _ => unsafe { self.packed.cells_avx2(&self.positions(j)) },
+            };
+            let next = j + 2 * LANES as u64;
+            // SAFETY: as above.
+            unsafe {
+                let cells_ahead = self.packed.cells_avx2(&self.positions(next));
+                self.packed.prefetch_cells_avx2(&cells_ahead);
+                ahead.cells[slot] = (next, cells_ahead);
+                self.packed.sample_cells_avx2(&cells)
+            }
         } else {
-            self.packed.sample_lanes(&index_pos)
+            self.packed.sample_lanes(&self.positions(j))
         };
         #[cfg(not(target_arch = "x86_64"))]
-        let (v, g) = self.packed.sample_lanes(&index_pos);
+        let (v, g) = {
+            let _ = ahead;
+            self.packed.sample_lanes(&self.positions(j))
+        };
         // Classification: one table look-up per quantity (see `TransferLanes`).
         #[cfg(target_arch = "x86_64")]
         let rgba = if AVX2 {
@@ -529,6 +551,10 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
     // The last opacity corrected by `powf` and its correction (uniform regions repeat it).
     let mut corrected = (f32::NAN, f32::NAN);
     let mut walk = m.grid.map(|g| SampleWalk::new(g, ray, t0 + 0.5 * m.step, m.step));
+    let mut ahead = Ahead {
+        #[cfg(target_arch = "x86_64")]
+        cells: [(u64::MAX, Default::default()); 2],
+    };
     let mut i = 0u64;
     // Samples before `done` are composited; packets start at multiples of `LANES`.
     let mut done = 0u64;
@@ -551,7 +577,7 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
         while j < end {
             let lanes = ((n - j) as usize).min(LANES);
             stats.samples += lanes as u64;
-            let mut shaded = packets.shade::<AVX2>(j);
+            let mut shaded = packets.shade::<AVX2>(j, &mut ahead);
             if per_sample_correction {
                 for alpha in shaded.alpha.iter_mut() {
                     if *alpha > 0.0 && *alpha < 1.0 {
