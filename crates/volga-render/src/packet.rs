@@ -363,20 +363,17 @@ impl RayPackets<'_> {
             // them (the same positions, so the same bits); then those of the packet two
             // ahead, prefetched and kept for it.
             let slot = ((j / LANES as u64) & 1) as usize;
-            let cells = match ahead.cells[slot] {
-                (tag, cells) if tag == j => cells,
-                // SAFETY: `AVX2` is true only in `composite_avx2`, called after
-                // `is_x86_feature_detected!("avx2")` held.
-                _ => unsafe { self.packed.cells_avx2(&self.positions(j)) },
-            };
-            let next = j + 2 * LANES as u64;
-            // SAFETY: as above.
-            unsafe {
-                let cells_ahead = self.packed.cells_avx2(&self.positions(next));
-                self.packed.prefetch_cells_avx2(&cells_ahead);
-                ahead.cells[slot] = (next, cells_ahead);
-                self.packed.sample_cells_avx2(&cells)
+            // SAFETY (the three blocks): `AVX2` is true only in `composite_avx2`, called
+            // after `is_x86_feature_detected!("avx2")` held.
+            if ahead.cells[slot].0 != j {
+                ahead.cells[slot] = (j, unsafe { self.packed.cells_avx2(&self.positions(j)) });
             }
+            // Sampled from the slot in place: a copy was split into scalar moves.
+            let sampled = unsafe { self.packed.sample_cells_avx2(&ahead.cells[slot].1) };
+            let next = j + 2 * LANES as u64;
+            ahead.cells[slot] = (next, unsafe { self.packed.cells_avx2(&self.positions(next)) });
+            unsafe { self.packed.prefetch_cells_avx2(&ahead.cells[slot].1) };
+            sampled
         } else {
             self.packed.sample_lanes(&self.positions(j))
         };
