@@ -126,22 +126,34 @@ impl<'g> SampleWalk<'g> {
             self.relocate = false;
             self.locate(j);
         }
-        let mut exit = self.exit[0].min(self.exit[1]).min(self.exit[2]);
+        // The walk's state in locals, each axis's step with a constant index: through
+        // `self` with the axis as a variable index, every step stored an exit and
+        // loaded all three back (a store-forwarding stall per macro cell, perf).
+        let [mut e0, mut e1, mut e2] = self.exit;
+        let [mut i0, mut i1, mut i2] = self.ijk;
+        let mut lin = self.lin;
+        let mut exit = e0.min(e1).min(e2);
         // `exit < j` is false for NaN: a NaN exit keeps the cell.
         while exit < j {
-            let a = if self.exit[0] == exit {
-                0
-            } else if self.exit[1] == exit {
-                1
-            } else {
-                2
-            };
             // A finite exit is never the last slab's (`face`), so the step stays inside.
-            self.ijk[a] = self.ijk[a].wrapping_add_signed(self.step[a]);
-            self.lin = self.lin.wrapping_add_signed(self.lin_step[a]);
-            self.exit[a] = self.face(a, self.ijk[a]);
-            exit = self.exit[0].min(self.exit[1]).min(self.exit[2]);
+            if e0 == exit {
+                i0 = i0.wrapping_add_signed(self.step[0]);
+                lin = lin.wrapping_add_signed(self.lin_step[0]);
+                e0 = self.face(0, i0);
+            } else if e1 == exit {
+                i1 = i1.wrapping_add_signed(self.step[1]);
+                lin = lin.wrapping_add_signed(self.lin_step[1]);
+                e1 = self.face(1, i1);
+            } else {
+                i2 = i2.wrapping_add_signed(self.step[2]);
+                lin = lin.wrapping_add_signed(self.lin_step[2]);
+                e2 = self.face(2, i2);
+            }
+            exit = e0.min(e1).min(e2);
         }
+        self.exit = [e0, e1, e2];
+        self.ijk = [i0, i1, i2];
+        self.lin = lin;
         let (class, reach) = self.grid.class_and_reach(self.lin);
         let r = reach as usize;
         if class == CellClass::Outside && r >= 2 {
