@@ -115,7 +115,8 @@ impl<'g> SampleWalk<'g> {
     }
 
     /// The class of the cell holding sample `i` (queries in non-decreasing order) and
-    /// the first sample index beyond that cell, clamped to `[i + 1, n]`. In an Outside
+    /// the first sample index beyond that cell, clamped to `[i + 1, n]`; for an Active
+    /// cell, beyond the run of Active cells the ray crosses from it. In an Outside
     /// cell whose whole block of reach `r ≥ 2` is Outside, the index is that beyond the
     /// block (`r` cells on every side, clipped to the grid), as
     /// [`CellWalk::class_at`](crate::march::CellWalk::class_at) does.
@@ -133,28 +134,48 @@ impl<'g> SampleWalk<'g> {
         let [mut i0, mut i1, mut i2] = self.ijk;
         let mut lin = self.lin;
         let mut exit = e0.min(e1).min(e2);
+        // Into the next cell along the ray: the axis whose face is crossed first. A
+        // finite exit is never the last slab's (`face`), so the step stays inside.
+        macro_rules! step {
+            () => {
+                if e0 == exit {
+                    i0 = i0.wrapping_add_signed(self.step[0]);
+                    lin = lin.wrapping_add_signed(self.lin_step[0]);
+                    e0 = self.face(0, i0);
+                } else if e1 == exit {
+                    i1 = i1.wrapping_add_signed(self.step[1]);
+                    lin = lin.wrapping_add_signed(self.lin_step[1]);
+                    e1 = self.face(1, i1);
+                } else {
+                    i2 = i2.wrapping_add_signed(self.step[2]);
+                    lin = lin.wrapping_add_signed(self.lin_step[2]);
+                    e2 = self.face(2, i2);
+                }
+            };
+        }
         // `exit < j` is false for NaN: a NaN exit keeps the cell.
         while exit < j {
-            // A finite exit is never the last slab's (`face`), so the step stays inside.
-            if e0 == exit {
-                i0 = i0.wrapping_add_signed(self.step[0]);
-                lin = lin.wrapping_add_signed(self.lin_step[0]);
-                e0 = self.face(0, i0);
-            } else if e1 == exit {
-                i1 = i1.wrapping_add_signed(self.step[1]);
-                lin = lin.wrapping_add_signed(self.lin_step[1]);
-                e1 = self.face(1, i1);
-            } else {
-                i2 = i2.wrapping_add_signed(self.step[2]);
-                lin = lin.wrapping_add_signed(self.lin_step[2]);
-                e2 = self.face(2, i2);
-            }
+            step!();
             exit = e0.min(e1).min(e2);
+        }
+        let (class, reach) = self.grid.class_and_reach(lin);
+        // An Active cell's run goes on through the Active cells after it (one answer
+        // for the run, so the caller's loop turns once per run, not per cell); the walk
+        // stops in the first cell after the run.
+        if class == CellClass::Active {
+            while exit < n as f64 {
+                let run_end = exit;
+                step!();
+                exit = e0.min(e1).min(e2);
+                if self.grid.class_and_reach(lin).0 != CellClass::Active {
+                    exit = run_end;
+                    break;
+                }
+            }
         }
         self.exit = [e0, e1, e2];
         self.ijk = [i0, i1, i2];
         self.lin = lin;
-        let (class, reach) = self.grid.class_and_reach(self.lin);
         let r = reach as usize;
         if class == CellClass::Outside && r >= 2 {
             let mut block = f64::INFINITY;
