@@ -100,10 +100,11 @@
 //!   fetch (seven 4-wide lerps instead of a 4×4×4 stencil and four reconstructions),
 //!   then classification, opacity correction and Blinn-Phong in 8 `f32` lanes with
 //!   per-ray constants, compiled for AVX2+FMA when the CPU has them (a baseline build of
-//!   the same code otherwise), and composited in order. The lattice, skipping and early
-//!   termination are the general loop's; each lane is a function of its sample index
-//!   alone, so skipping never changes the image and any thread count gives the same
-//!   bits. Images equal the general path's within 1/255 per channel (tests: 7e-7 seen).
+//!   the same code otherwise), and each packet composited at once (a product scan of
+//!   `1 − α` over its lanes; packets start at multiples of eight on the lattice). The
+//!   lattice, skipping and early termination are the general loop's; each lane is a
+//!   function of its sample index alone and invisible lanes add exactly nothing, so
+//!   skipping never changes the image and any thread count gives the same bits. Images equal the general path's within 1/255 per channel (tests: 7e-7 seen).
 //!   One predicate decides it (`packet_path_allowed`: [`Sampling::packed_path`], the
 //!   integrator's [`Integrator::packed_path`], no shadows, ≤ 8 lights); everything else
 //!   — iso-surfaces, projections, other filters and gradient methods, analytic fields,
