@@ -52,6 +52,10 @@ pub(crate) struct MacroGrid {
     /// distance `r` (the `(2r + 1)³` block around it, clipped to the grid) is
     /// [`CellClass::Outside`]: a ray in the cell may jump to the block's exit at once.
     reach: Vec<u8>,
+    /// The world box of the cells that are not [`CellClass::Outside`] (a union of
+    /// whole cells), `None` if every cell is Outside: rays and their parts outside it
+    /// meet Outside cells only.
+    active_box: Option<Aabb>,
 }
 
 /// Largest jump of [`MacroGrid::reach`], in cells.
@@ -86,6 +90,7 @@ impl MacroGrid {
             class: Vec::new(),
             hi: Vec::new(),
             reach: Vec::new(),
+            active_box: None,
         };
         let margin = DVec3::splat(spacing);
         let cells: Vec<(CellClass, f64)> = (0..dims[0] * dims[1] * dims[2])
@@ -104,6 +109,7 @@ impl MacroGrid {
         grid.class = cells.iter().map(|c| c.0).collect();
         grid.hi = cells.iter().map(|c| c.1).collect();
         grid.reach = grid.outside_reach();
+        grid.active_box = grid.active_box();
         grid
     }
 
@@ -144,6 +150,29 @@ impl MacroGrid {
             self.hi[lin] = hi;
         }
         self.reach = self.outside_reach();
+        self.active_box = self.active_box();
+    }
+
+    /// The box of the cells that are not Outside ([`MacroGrid::active_box`]).
+    fn active_box(&self) -> Option<Aabb> {
+        let mut lo = [usize::MAX; 3];
+        let mut hi = [0usize; 3];
+        for (lin, class) in self.class.iter().enumerate() {
+            if *class != CellClass::Outside {
+                let ijk = self.delinearize(lin);
+                for a in 0..3 {
+                    lo[a] = lo[a].min(ijk[a]);
+                    hi[a] = hi[a].max(ijk[a]);
+                }
+            }
+        }
+        (lo[0] != usize::MAX).then(|| Aabb::new(self.cell_box(lo).0, self.cell_box(hi).1))
+    }
+
+    /// The world box of the cells that are not [`CellClass::Outside`], `None` if there
+    /// are none.
+    pub(crate) fn non_outside_box(&self) -> Option<Aabb> {
+        self.active_box
     }
 
     /// [`MacroGrid::reach`] by repeated erosion of the Outside cells with a 3×3×3

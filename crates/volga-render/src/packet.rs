@@ -26,7 +26,7 @@ use volga_core::{Aabb, Field, FieldKind, Line, PackedVolume};
 
 use crate::integrators::March;
 use crate::march::midpoint_lattice_len;
-use crate::sample_walk::SampleWalk;
+use crate::sample_walk::{non_outside_span, SampleWalk};
 use crate::{CellClass, Integrator, Ray, RenderSettings, RenderStats, Shader};
 
 /// Lights the `f32` shading handles per ray (more fall back to the general path).
@@ -527,6 +527,18 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
     stats: &mut RenderStats,
 ) -> (Vec3, f32) {
     let n = midpoint_lattice_len(t0, t1, m.step);
+    // With skipping, only the samples in the box of the cells that are not Outside are
+    // read (`non_outside_span`); packets stay aligned to the lattice, so no bit changes.
+    let (first, last) = match m.grid {
+        None => (0, n),
+        Some(g) => match non_outside_span(g, ray, t0, m.step, n) {
+            Some(span) => span,
+            None => {
+                stats.cells_skipped += 1;
+                return finish(&[[0.0; LANES]; 3], 1.0);
+            }
+        },
+    };
     let transform = packed.grid().transform;
     let lit = m.shader.is_lit();
     let half_step = m.alpha_exponent == 0.5;
@@ -547,18 +559,20 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
     let mut visible = 0u64;
     // The last opacity corrected by `powf` and its correction (uniform regions repeat it).
     let mut corrected = (f32::NAN, f32::NAN);
-    let mut walk = m.grid.map(|g| SampleWalk::new(g, ray, t0 + 0.5 * m.step, m.step));
+    let mut walk = m
+        .grid
+        .map(|g| SampleWalk::new(g, ray, t0 + 0.5 * m.step, m.step, first));
     let mut ahead = Ahead {
         #[cfg(target_arch = "x86_64")]
         cells: [(u64::MAX, Default::default()); 2],
     };
-    let mut i = 0u64;
+    let mut i = first;
     // Samples before `done` are composited; packets start at multiples of `LANES`.
     let mut done = 0u64;
-    while i < n {
-        let mut end = n;
+    while i < last {
+        let mut end = last;
         if let Some(w) = &mut walk {
-            let (class, next) = w.class_at(i, n);
+            let (class, next) = w.class_at(i, last);
             if class != CellClass::Active {
                 stats.cells_skipped += 1;
                 i = next;

@@ -69,7 +69,9 @@ pub struct RenderStats {
     pub gradient_evaluations: u64,
     /// Volume rays stopped by early ray termination.
     pub rays_terminated_early: u64,
-    /// Macro cells crossed without sampling by empty-space skipping.
+    /// Empty-space skips: each run of macro cells crossed without sampling, jump over
+    /// a block of them, or ray part outside the box of the cells that cannot be
+    /// skipped counts once (a count of skips, not of cells).
     pub cells_skipped: u64,
     /// Shadow rays cast (one per shaded sample and light that casts shadows; 0 when
     /// no light does).

@@ -51,8 +51,8 @@ pub(crate) struct SampleWalk<'g> {
 
 impl<'g> SampleWalk<'g> {
     /// A walk along the samples `t_first + j·step` (`j = 0, 1, …`) of `ray`, starting
-    /// at the cell of sample 0.
-    pub(crate) fn new(grid: &'g MacroGrid, ray: &Ray, t_first: f64, step: f64) -> SampleWalk<'g> {
+    /// at the cell of sample `first_sample` (queries then start there).
+    pub(crate) fn new(grid: &'g MacroGrid, ray: &Ray, t_first: f64, step: f64, first_sample: u64) -> SampleWalk<'g> {
         let (min, _, cell, dims) = grid.layout();
         let first = ray.at(t_first);
         let stride = [1, dims[0], dims[0] * dims[1]];
@@ -83,7 +83,7 @@ impl<'g> SampleWalk<'g> {
             walk.far[a] = if up { 1.0 } else { 0.0 };
             walk.last[a] = if up { dims[a] - 1 } else { 0 };
         }
-        walk.locate(0.0);
+        walk.locate(first_sample as f64);
         walk
     }
 
@@ -172,6 +172,20 @@ impl<'g> SampleWalk<'g> {
                     break;
                 }
             }
+        } else if class == CellClass::Outside && reach < 2 {
+            // Likewise a run of Outside cells next to Active ones (the cells whose
+            // block cannot be jumped): it ends before the first cell that is not
+            // Outside or whose block can be jumped (the next query jumps it).
+            while exit < n as f64 {
+                let run_end = exit;
+                step!();
+                exit = e0.min(e1).min(e2);
+                let (c, r) = self.grid.class_and_reach(lin);
+                if c != CellClass::Outside || r >= 2 {
+                    exit = run_end;
+                    break;
+                }
+            }
         }
         self.exit = [e0, e1, e2];
         self.ijk = [i0, i1, i2];
@@ -205,10 +219,29 @@ impl<'g> SampleWalk<'g> {
     }
 }
 
+/// The samples `t0 + (j + ½)·step`, `j` in `[first, last)` ⊆ `[0, n)`, that can lie in
+/// the box of `grid`'s cells that are not Outside ([`MacroGrid::non_outside_box`]), or
+/// `None` if the ray misses that box. The samples outside the span are in Outside
+/// cells, which hold no visible sample (their value ranges carry a one-spacing
+/// margin), so a loop may start and end there. One sample more on each side absorbs
+/// the rounding of the positions; NaN bounds keep the whole lattice.
+pub(crate) fn non_outside_span(grid: &MacroGrid, ray: &Ray, t0: f64, step: f64, n: u64) -> Option<(u64, u64)> {
+    let (ta, tb) = crate::integrators::clip(&grid.non_outside_box()?, ray)?;
+    let lo = ((ta - t0) / step - 0.5).floor() - 1.0;
+    let hi = ((tb - t0) / step - 0.5).ceil() + 2.0;
+    let first = if lo > 0.0 { (lo as u64).min(n) } else { 0 };
+    let last = if hi < n as f64 {
+        (hi.max(0.0) as u64).max(first)
+    } else {
+        n
+    };
+    Some((first, last))
+}
+
 #[cfg(test)]
 mod tests {
     use glam::{DVec3, UVec3};
-    use volga_core::{Field, Filter, Grid, Sampled, SparseVolume, Transform};
+    use volga_core::{Aabb, Field, Filter, Grid, Sampled, SparseVolume, Transform};
 
     use super::SampleWalk;
     use crate::march::{midpoint_lattice_len, CellClass, MacroGrid};
@@ -223,6 +256,134 @@ mod tests {
         }
     }
 
+    /// Ray `k` of the walk tests: from outside through a random interior point,
+    /// axis-parallel (on a macro-cell face plane for some), grazing (almost parallel
+    /// to a face), or starting inside and going backwards.
+    fn test_ray(k: usize, next: &mut impl FnMut() -> f64, bounds: &Aabb, min: DVec3, cell: DVec3) -> Ray {
+        let centre = bounds.center();
+        let random_dir = DVec3::new(2.0 * next() - 1.0, 2.0 * next() - 1.0, 2.0 * next() - 1.0);
+        let (from, dir) = match k % 4 {
+            0 => {
+                let target = bounds.min + bounds.size() * DVec3::new(next(), next(), next());
+                let from = centre + random_dir.normalize() * 400.0;
+                (from, target - from)
+            }
+            1 => {
+                let a = k / 4 % 3;
+                let mut from = bounds.min + bounds.size() * DVec3::new(next(), next(), next());
+                if k % 8 == 1 {
+                    from[(a + 1) % 3] = min[(a + 1) % 3] + cell[(a + 1) % 3] * 3.0;
+                }
+                from[a] = bounds.min[a] - 10.0;
+                let mut dir = DVec3::ZERO;
+                dir[a] = 1.0;
+                (from, dir)
+            }
+            2 => {
+                let from = bounds.min + bounds.size() * DVec3::new(next(), next(), 0.0) - DVec3::Z * 5.0;
+                (from, DVec3::new(1.0, 0.5, 1e-7 * next()))
+            }
+            _ => {
+                let from = bounds.min + bounds.size() * DVec3::new(next(), next(), next());
+                (from, -random_dir)
+            }
+        };
+        Ray {
+            origin: from,
+            dir: dir.normalize(),
+        }
+    }
+
+    /// The blobs volume of the walk tests (grid origin `origin`), its field's macro
+    /// grid with cells Active where the range's maximum exceeds `threshold`.
+    fn blobs(origin: DVec3) -> SparseVolume {
+        let dims = UVec3::new(150, 90, 120);
+        let grid = Grid::new(Transform::new(origin, DVec3::ONE).unwrap(), dims).unwrap();
+        let mut v = SparseVolume::new(grid, 0.0, false);
+        let blobs = [
+            DVec3::new(30.0, 20.0, 40.0),
+            DVec3::new(110.0, 70.0, 30.0),
+            DVec3::new(75.0, 45.0, 100.0),
+        ];
+        for ijk in grid.index_box().iter() {
+            let p = ijk.as_dvec3();
+            let d = blobs.iter().map(|b| (p - *b).length()).fold(f64::INFINITY, f64::min);
+            v.density.set(ijk, (1.0 - d / 12.0).max(0.0) as f32);
+        }
+        v
+    }
+
+    fn threshold_grid<F: Field>(field: &F, threshold: f64) -> MacroGrid {
+        MacroGrid::build(field, field.bounds(), 1.0, |_lo, hi| {
+            if hi > threshold {
+                CellClass::Active
+            } else {
+                CellClass::Outside
+            }
+        })
+    }
+
+    /// `non_outside_span` keeps every sample inside the box of the cells that are not
+    /// Outside (beyond rounding) and every sample above the skip threshold, and starts
+    /// and ends within three samples of the box: rays from outside, axis-parallel,
+    /// grazing and starting inside, with the grid at the origin and at 1e6.
+    #[test]
+    fn the_span_keeps_every_sample_in_the_non_outside_box() {
+        for origin in [DVec3::new(-3.0, 0.5, 2.0), DVec3::splat(1e6)] {
+            let v = blobs(origin);
+            let field = Sampled::new(&v, Filter::Trilinear);
+            let bounds = field.bounds();
+            let threshold = 0.05;
+            let macro_grid = threshold_grid(&field, threshold);
+            let (min, _, cell, _) = macro_grid.layout();
+            let active = macro_grid.non_outside_box().unwrap();
+            assert!(active.size().x < bounds.size().x - 20.0, "{active:?} {bounds:?}");
+            // Signed distance of `p` outside `active` (negative inside), by the largest
+            // per-axis excess.
+            let outside_by = |p: DVec3| -> f64 {
+                (0..3)
+                    .map(|a| (active.min[a] - p[a]).max(p[a] - active.max[a]))
+                    .fold(f64::NEG_INFINITY, f64::max)
+            };
+            let mut next = uniform(11);
+            let (mut clipped_front, mut clipped_back, mut missed) = (0, 0, 0);
+            for k in 0..800 {
+                let ray = test_ray(k, &mut next, &bounds, min, cell);
+                let Some((t0, t1)) = bounds.ray_interval(ray.origin, ray.dir) else {
+                    continue;
+                };
+                let step = 0.5;
+                let n = midpoint_lattice_len(t0, t1, step);
+                let at = |j: u64| ray.at(t0 + (j as f64 + 0.5) * step);
+                let inside: Vec<u64> = (0..n).filter(|&j| outside_by(at(j)) < -1e-6).collect();
+                let Some((first, last)) = super::non_outside_span(&macro_grid, &ray, t0, step, n) else {
+                    assert!(inside.is_empty(), "ray {k} missed the box");
+                    missed += 1;
+                    continue;
+                };
+                assert!(first <= last && last <= n);
+                for &j in &inside {
+                    assert!(first <= j && j < last, "ray {k}: sample {j} outside [{first}, {last})");
+                }
+                for j in (0..first).chain(last..n) {
+                    assert!(field.value(at(j)) <= threshold, "ray {k}: visible sample {j} dropped");
+                }
+                if let (Some(&a), Some(&b)) = (inside.first(), inside.last()) {
+                    assert!(
+                        first + 3 >= a && last <= b + 4,
+                        "ray {k}: [{first}, {last}) against [{a}, {b}]"
+                    );
+                }
+                clipped_front += (first > 0) as u32;
+                clipped_back += (last < n) as u32;
+            }
+            assert!(
+                clipped_front > 100 && clipped_back > 100 && missed > 10,
+                "{clipped_front} {clipped_back} {missed}"
+            );
+        }
+    }
+
     /// Every sample of every ray gets the class of the macro cell that holds it, except
     /// within rounding of a cell face, and a skipped sample never sees a value above
     /// the skip threshold: random, axis-parallel, grazing and inside-starting rays over
@@ -231,30 +392,12 @@ mod tests {
     #[test]
     fn each_sample_gets_its_cells_class() {
         for origin in [DVec3::new(-3.0, 0.5, 2.0), DVec3::splat(1e6)] {
-            let dims = UVec3::new(150, 90, 120);
-            let grid = Grid::new(Transform::new(origin, DVec3::ONE).unwrap(), dims).unwrap();
-            let mut v = SparseVolume::new(grid, 0.0, false);
-            let blobs = [
-                DVec3::new(30.0, 20.0, 40.0),
-                DVec3::new(110.0, 70.0, 30.0),
-                DVec3::new(75.0, 45.0, 100.0),
-            ];
-            for ijk in grid.index_box().iter() {
-                let p = ijk.as_dvec3();
-                let d = blobs.iter().map(|b| (p - *b).length()).fold(f64::INFINITY, f64::min);
-                v.density.set(ijk, (1.0 - d / 12.0).max(0.0) as f32);
-            }
+            let v = blobs(origin);
             let field = Sampled::new(&v, Filter::Trilinear);
             let bounds = field.bounds();
             let spacing = 1.0;
             let threshold = 0.05;
-            let macro_grid = MacroGrid::build(&field, bounds, spacing, |_lo, hi| {
-                if hi > threshold {
-                    CellClass::Active
-                } else {
-                    CellClass::Outside
-                }
-            });
+            let macro_grid = threshold_grid(&field, threshold);
             let (min, _, cell, mdims) = macro_grid.layout();
             let true_cell = |p: DVec3| -> (usize, f64) {
                 let mut lin = 0;
@@ -270,51 +413,16 @@ mod tests {
                 (lin, near_face)
             };
             let mut next = uniform(7);
-            let centre = bounds.center();
             let (mut checked, mut skipped, mut near) = (0u64, 0u64, 0u64);
             for k in 0..600 {
-                let random_dir = DVec3::new(2.0 * next() - 1.0, 2.0 * next() - 1.0, 2.0 * next() - 1.0);
-                let (from, dir) = match k % 4 {
-                    // From outside through a random interior point.
-                    0 => {
-                        let target = bounds.min + bounds.size() * DVec3::new(next(), next(), next());
-                        let from = centre + random_dir.normalize() * 400.0;
-                        (from, target - from)
-                    }
-                    // Axis-parallel, on a macro-cell face plane for some.
-                    1 => {
-                        let a = k / 4 % 3;
-                        let mut from = bounds.min + bounds.size() * DVec3::new(next(), next(), next());
-                        if k % 8 == 1 {
-                            from[(a + 1) % 3] = min[(a + 1) % 3] + cell[(a + 1) % 3] * 3.0;
-                        }
-                        from[a] = bounds.min[a] - 10.0;
-                        let mut dir = DVec3::ZERO;
-                        dir[a] = 1.0;
-                        (from, dir)
-                    }
-                    // Grazing: almost parallel to a face.
-                    2 => {
-                        let from = bounds.min + bounds.size() * DVec3::new(next(), next(), 0.0) - DVec3::Z * 5.0;
-                        (from, DVec3::new(1.0, 0.5, 1e-7 * next()))
-                    }
-                    // Starting inside, backwards.
-                    _ => {
-                        let from = bounds.min + bounds.size() * DVec3::new(next(), next(), next());
-                        (from, -random_dir)
-                    }
-                };
-                let ray = Ray {
-                    origin: from,
-                    dir: dir.normalize(),
-                };
+                let ray = test_ray(k, &mut next, &bounds, min, cell);
                 let Some((t0, t1)) = bounds.ray_interval(ray.origin, ray.dir) else {
                     continue;
                 };
                 let step = 0.5 * spacing;
                 let n = midpoint_lattice_len(t0, t1, step);
                 let t_first = t0 + 0.5 * step;
-                let mut walk = SampleWalk::new(&macro_grid, &ray, t_first, step);
+                let mut walk = SampleWalk::new(&macro_grid, &ray, t_first, step, 0);
                 let mut i = 0;
                 while i < n {
                     let (class, end) = walk.class_at(i, n);
