@@ -400,8 +400,13 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         let (tiles_x, tiles_y) = (w.div_ceil(ts), h.div_ceil(ts));
         let n_tiles = tiles_x as usize * tiles_y as usize;
         progress.start("render", n_tiles as u64);
+        // One job per tile (`with_max_len(1)`): rayon's adaptive split otherwise hands a
+        // thread a run of tiles it works through alone, and where the costly tiles
+        // bunch up (an object in the middle of the image) the other thread idled: 10 %
+        // of the bunny's DVR frame on two threads (docs/BENCHMARKS.md).
         let tiles: Vec<(Vec<Vec4>, RenderStats)> = (0..n_tiles)
             .into_par_iter()
+            .with_max_len(1)
             .map(|tile| {
                 let (x0, y0) = (
                     (tile % tiles_x as usize) as u32 * ts,
