@@ -51,6 +51,7 @@ impl Aabb {
     /// `t ≥ 0`; `None` if the ray misses. Axis-parallel rays (a zero direction
     /// component) are handled without dividing by zero: such a ray either lies inside
     /// the slab for all `t` or misses.
+    #[inline]
     pub fn ray_interval(&self, origin: DVec3, dir: DVec3) -> Option<(f64, f64)> {
         let mut t0 = 0.0f64;
         let mut t1 = f64::INFINITY;

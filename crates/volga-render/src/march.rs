@@ -465,15 +465,18 @@ fn iso_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
 /// Number of mid-point samples `t0 + (i + ½)·dt ≤ t1`.
 pub(crate) fn midpoint_lattice_len(t0: f64, t1: f64, dt: f64) -> u64 {
     let guess = fast_floor((t1 - t0) / dt + 0.5);
+    // Counts stay within `[0, 2²⁴]`: converted through `i64`, one instruction each way
+    // (`u64` takes a dozen without AVX-512).
     let mut n = if guess.is_nan() || guess < 0.0 {
         0
     } else {
-        guess.min(MAX_STEPS_PER_RAY) as u64
+        guess.min(MAX_STEPS_PER_RAY) as i64 as u64
     };
     // The guess is right or one off; the loops settle anything else. Kept out of line:
     // inlined, the compiler vectorized them 32 wide, some 400 instructions per ray.
-    let too_many = |n: u64| n > 0 && t0 + (n as f64 - 0.5) * dt > t1;
-    let too_few = |n: u64| (n as f64) < MAX_STEPS_PER_RAY && t0 + (n as f64 + 0.5) * dt <= t1;
+    let f = |n: u64| n as i64 as f64;
+    let too_many = |n: u64| n > 0 && t0 + (f(n) - 0.5) * dt > t1;
+    let too_few = |n: u64| f(n) < MAX_STEPS_PER_RAY && t0 + (f(n) + 0.5) * dt <= t1;
     if too_many(n) {
         n -= 1;
     } else if too_few(n) {
