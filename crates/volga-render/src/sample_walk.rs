@@ -83,16 +83,20 @@ impl<'g> SampleWalk<'g> {
             walk.far[a] = if up { 1.0 } else { 0.0 };
             walk.last[a] = if up { dims[a] - 1 } else { 0 };
         }
-        walk.locate(first_sample as f64);
+        walk.locate(first_sample as i64 as f64);
         walk
     }
 
     /// Moves to the cell holding sample `j` (clamped to the grid).
+    ///
+    /// Here and below, integers convert to and from `f64` through `i64` (one
+    /// instruction; `u64` and `usize` take a dozen without AVX-512): sample indices stay
+    /// below 2²⁴ and cell indices below 64, and a saturated `i64` still clamps.
     fn locate(&mut self, j: f64) {
         for a in 0..3 {
             let u = self.u0[a] + j * self.du[a];
             self.ijk[a] = if u.is_finite() && u > 0.0 {
-                (u as usize).min(self.dims[a] - 1)
+                (u as i64 as usize).min(self.dims[a] - 1)
             } else {
                 0
             };
@@ -111,7 +115,7 @@ impl<'g> SampleWalk<'g> {
             return f64::INFINITY;
         }
         // `index + far` is exact: the far face's grid coordinate.
-        (index as f64 + self.far[a] - self.u0[a]) * self.inv_du[a]
+        (index as i64 as f64 + self.far[a] - self.u0[a]) * self.inv_du[a]
     }
 
     /// The class of the cell holding sample `i` (queries in non-decreasing order) and
@@ -122,7 +126,8 @@ impl<'g> SampleWalk<'g> {
     /// [`CellWalk::class_at`](crate::march::CellWalk::class_at) does.
     #[inline(always)]
     pub(crate) fn class_at(&mut self, i: u64, n: u64) -> (CellClass, u64) {
-        let j = i as f64;
+        let j = i as i64 as f64;
+        let end = n as i64 as f64;
         if self.relocate {
             self.relocate = false;
             self.locate(j);
@@ -163,7 +168,7 @@ impl<'g> SampleWalk<'g> {
         // for the run, so the caller's loop turns once per run, not per cell); the walk
         // stops in the first cell after the run.
         if class == CellClass::Active {
-            while exit < n as f64 {
+            while exit < end {
                 let run_end = exit;
                 step!();
                 exit = e0.min(e1).min(e2);
@@ -176,7 +181,7 @@ impl<'g> SampleWalk<'g> {
             // Likewise a run of Outside cells next to Active ones (the cells whose
             // block cannot be jumped): it ends before the first cell that is not
             // Outside or whose block can be jumped (the next query jumps it).
-            while exit < n as f64 {
+            while exit < end {
                 let run_end = exit;
                 step!();
                 exit = e0.min(e1).min(e2);
@@ -208,7 +213,7 @@ impl<'g> SampleWalk<'g> {
         // as `index_after` does).
         let next = if exit.is_nan() || exit < 0.0 {
             0
-        } else if exit >= n as f64 {
+        } else if exit >= end {
             n
         } else {
             // In `[0, n)`, `n ≤ 2²⁴`: exact through `i64` (one instruction; `u64` is a
