@@ -101,7 +101,9 @@
 //!   then classification, opacity correction and Blinn-Phong in 8 `f32` lanes with
 //!   per-ray constants, compiled for AVX2+FMA when the CPU has them (a baseline build of
 //!   the same code otherwise), and each packet composited at once (a product scan of
-//!   `1 − α` over its lanes; packets start at multiples of eight on the lattice). The
+//!   `1 − α` over its lanes; packets start at multiples of eight on the lattice). A ray
+//!   is first clipped to the box of the macro cells that are not skippable, and its
+//!   walk answers once per run of like cells (`sample_walk.rs`). The
 //!   lattice, skipping and early termination are the general loop's; each lane is a
 //!   function of its sample index alone and invisible lanes add exactly nothing, so
 //!   skipping never changes the image and any thread count gives the same bits. Images equal the general path's within 1/255 per channel (tests: 7e-7 seen).
