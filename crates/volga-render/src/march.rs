@@ -55,7 +55,7 @@ pub(crate) struct MacroGrid {
     /// The world box of the cells that are not [`CellClass::Outside`] (a union of
     /// whole cells), `None` if every cell is Outside: rays and their parts outside it
     /// meet Outside cells only.
-    active_box: Option<Aabb>,
+    non_outside: Option<Aabb>,
 }
 
 /// Largest jump of [`MacroGrid::reach`], in cells.
@@ -90,7 +90,7 @@ impl MacroGrid {
             class: Vec::new(),
             hi: Vec::new(),
             reach: Vec::new(),
-            active_box: None,
+            non_outside: None,
         };
         let margin = DVec3::splat(spacing);
         let cells: Vec<(CellClass, f64)> = (0..dims[0] * dims[1] * dims[2])
@@ -109,7 +109,7 @@ impl MacroGrid {
         grid.class = cells.iter().map(|c| c.0).collect();
         grid.hi = cells.iter().map(|c| c.1).collect();
         grid.reach = grid.outside_reach();
-        grid.active_box = grid.active_box();
+        grid.non_outside = grid.non_outside_cells_box();
         grid
     }
 
@@ -150,11 +150,11 @@ impl MacroGrid {
             self.hi[lin] = hi;
         }
         self.reach = self.outside_reach();
-        self.active_box = self.active_box();
+        self.non_outside = self.non_outside_cells_box();
     }
 
-    /// The box of the cells that are not Outside ([`MacroGrid::active_box`]).
-    fn active_box(&self) -> Option<Aabb> {
+    /// Computes [`MacroGrid::non_outside_box`] from the cells' classes.
+    fn non_outside_cells_box(&self) -> Option<Aabb> {
         let mut lo = [usize::MAX; 3];
         let mut hi = [0usize; 3];
         for (lin, class) in self.class.iter().enumerate() {
@@ -172,7 +172,7 @@ impl MacroGrid {
     /// The world box of the cells that are not [`CellClass::Outside`], `None` if there
     /// are none.
     pub(crate) fn non_outside_box(&self) -> Option<Aabb> {
-        self.active_box
+        self.non_outside
     }
 
     /// [`MacroGrid::reach`] by repeated erosion of the Outside cells with a 3×3×3

@@ -713,8 +713,9 @@ fn composite_lanes<F: Field + ?Sized, const AVX2: bool>(
         Some(g) => match non_outside_span(g, ray, t0, m.step, n) {
             Some(span) => span,
             None => {
+                // The ray meets Outside cells only: nothing is composited.
                 stats.cells_skipped += 1;
-                return finish(&[[0.0; LANES]; 3], 1.0);
+                return (Vec3::ZERO, 0.0);
             }
         },
     };

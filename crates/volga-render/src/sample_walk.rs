@@ -164,29 +164,21 @@ impl<'g> SampleWalk<'g> {
             exit = e0.min(e1).min(e2);
         }
         let (class, reach) = self.grid.class_and_reach(lin);
-        // An Active cell's run goes on through the Active cells after it (one answer
-        // for the run, so the caller's loop turns once per run, not per cell); the walk
-        // stops in the first cell after the run.
-        if class == CellClass::Active {
+        // An Active cell's run goes on through the Active cells after it, and an
+        // Outside cell's whose block cannot be jumped (reach < 2, next to Active ones)
+        // through the like cells after it: one answer per run, so the caller's loop
+        // turns once per run, not per cell. The walk stops in the first cell after the
+        // run (an Outside cell there with reach ≥ 2 is jumped by the next query).
+        let in_run = |(c, r): (CellClass, u8)| match class {
+            CellClass::Active => c == CellClass::Active,
+            _ => c == CellClass::Outside && r < 2,
+        };
+        if in_run((class, reach)) {
             while exit < end {
                 let run_end = exit;
                 step!();
                 exit = e0.min(e1).min(e2);
-                if self.grid.class_and_reach(lin).0 != CellClass::Active {
-                    exit = run_end;
-                    break;
-                }
-            }
-        } else if class == CellClass::Outside && reach < 2 {
-            // Likewise a run of Outside cells next to Active ones (the cells whose
-            // block cannot be jumped): it ends before the first cell that is not
-            // Outside or whose block can be jumped (the next query jumps it).
-            while exit < end {
-                let run_end = exit;
-                step!();
-                exit = e0.min(e1).min(e2);
-                let (c, r) = self.grid.class_and_reach(lin);
-                if c != CellClass::Outside || r >= 2 {
+                if !in_run(self.grid.class_and_reach(lin)) {
                     exit = run_end;
                     break;
                 }
@@ -391,6 +383,12 @@ mod tests {
                 clipped_front > 100 && clipped_back > 100 && missed > 10,
                 "{clipped_front} {clipped_back} {missed}"
             );
+            // Every cell Outside (a threshold above every value): no box, and every
+            // ray misses it.
+            let empty = threshold_grid(&field, 2.0);
+            assert!(empty.non_outside_box().is_none());
+            let ray = test_ray(0, &mut next, &bounds, min, cell);
+            assert_eq!(super::non_outside_span(&empty, &ray, 0.0, 0.5, 100), None);
         }
     }
 
