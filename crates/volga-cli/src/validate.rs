@@ -8,14 +8,11 @@
 use crate::failure::{bad_input, Failure};
 use std::path::{Path, PathBuf};
 
-use clap::{Args, ValueEnum};
+use clap::Args;
 use glam::{DVec3, IVec3};
-use serde::Serialize;
 use volga_core::Transform;
 use volga_io::{VoxelModel, VoxelValues};
-use volga_topology::{
-    analyze_with, analyze_with_mesh, AnalyzeOptions, Connectivity, SurfaceMesh, TopologyReport, VoxelSet,
-};
+use volga_topology::{verdict, Connectivity, Requirement, Verdict, VerdictError, VerdictInput, VoxelSet};
 
 #[derive(Args)]
 pub struct ValidateArgs {
@@ -33,7 +30,7 @@ pub struct ValidateArgs {
     /// through the mesh with --mesh, else ≥ 2 white N-components; `minimal`: separating
     /// into white N-components with no N-simple voxel; `cover`: every point of the mesh
     /// lies in a black voxel (needs --mesh).
-    #[arg(long, value_delimiter = ',', default_value = "separating")]
+    #[arg(long, value_delimiter = ',', default_value = "separating", value_parser = parse_requirement)]
     require: Vec<Requirement>,
     /// Add one white layer around the grid, so the outside counts as one white region
     /// touching everything (voxel coordinates in the report are then shifted by +1).
@@ -47,12 +44,8 @@ pub struct ValidateArgs {
     listed: usize,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
-#[serde(rename_all = "snake_case")]
-enum Requirement {
-    Separating,
-    Minimal,
-    Cover,
+fn parse_requirement(s: &str) -> Result<Requirement, String> {
+    s.parse()
 }
 
 fn parse_connectivity(s: &str) -> Result<Connectivity, String> {
@@ -62,124 +55,41 @@ fn parse_connectivity(s: &str) -> Result<Connectivity, String> {
         .ok_or_else(|| format!("`{s}`: connectivity must be 6, 18 or 26"))
 }
 
-#[derive(Serialize)]
-struct Output {
-    model: PathBuf,
-    format: &'static str,
-    /// What the model's values are: `occupancy` (binvox, or a NRRD of 0 and 1) or
-    /// `density` (a NRRD thresholded at 0.5).
-    values: &'static str,
-    padded: bool,
-    /// World position of voxel (0, 0, 0)'s centre and the voxel spacing of the grid
-    /// analysed (the padded grid with --pad).
-    origin: [f64; 3],
-    spacing: [f64; 3],
-    mesh: Option<MeshInfo>,
-    report: TopologyReport,
-    requirements: Vec<RequirementResult>,
-    passed: bool,
-}
-
-#[derive(Serialize)]
-struct MeshInfo {
-    path: PathBuf,
-    triangles: usize,
-    boundary_edges: usize,
-    closed: bool,
-}
-
-#[derive(Serialize)]
-struct RequirementResult {
-    name: Requirement,
-    holds: bool,
-    /// What was tested.
-    criterion: String,
-}
-
 /// Runs the validation; `Ok(true)` when every required property holds.
 pub fn run(args: ValidateArgs) -> Result<bool, Failure> {
-    let mut required: Vec<Requirement> = Vec::new();
-    for &r in &args.require {
-        if !required.contains(&r) {
-            required.push(r);
-        }
-    }
-    if required.contains(&Requirement::Cover) && args.mesh.is_none() {
+    if args.require.contains(&Requirement::Cover) && args.mesh.is_none() {
         return Err(bad_input(format!(
             "{}: --require cover needs a reference surface: add --mesh MESH",
             args.model.display()
         )));
     }
     let (format, values, set, transform) = read_model(&args.model)?;
-    let (set, transform) = if args.pad {
-        let padded = set
-            .padded(1)
-            .map_err(|e| bad_input(format!("{}: --pad: {e}", args.model.display())))?;
-        let t = Transform::new(transform.origin() - transform.spacing(), transform.spacing())
-            .map_err(|e| bad_input(format!("{}: --pad: {e}", args.model.display())))?;
-        (padded, t)
-    } else {
-        (set, transform)
+    let mesh = match &args.mesh {
+        Some(path) => Some(volga_mesh::load_mesh(path).map_err(|e| bad_input(e.to_string()))?),
+        None => None,
     };
-
-    let options = AnalyzeOptions { listed: args.listed };
-    let n = args.connectivity;
-    let (report, mesh_info) = match &args.mesh {
-        None => (analyze_with(&set, n, &options), None),
-        Some(path) => {
-            let mesh = volga_mesh::load_mesh(path).map_err(|e| bad_input(e.to_string()))?;
-            let boundary_edges = mesh.boundary_edge_count();
-            let surface = SurfaceMesh::from_world((0..mesh.triangles.len()).map(|i| mesh.triangle(i)), &transform);
-            let info = MeshInfo {
-                path: path.clone(),
-                triangles: mesh.triangles.len(),
-                boundary_edges,
-                closed: boundary_edges == 0 && mesh.non_manifold_edge_count() == 0,
-            };
-            (analyze_with_mesh(&set, n, &surface, &options), Some(info))
-        }
-    };
-
-    let requirements: Vec<RequirementResult> = required.iter().map(|&r| evaluate(r, &report, n)).collect();
-    let passed = requirements.iter().all(|r| r.holds);
-    let output = Output {
-        model: args.model.clone(),
+    let output = verdict(VerdictInput {
+        model: Some(args.model.clone()),
         format,
         values: values.name(),
-        padded: args.pad,
-        origin: transform.origin().to_array(),
-        spacing: transform.spacing().to_array(),
-        mesh: mesh_info,
-        report,
-        requirements,
-        passed,
-    };
+        set,
+        transform,
+        connectivity: args.connectivity,
+        mesh: mesh.as_ref().map(|m| (m, args.mesh.clone())),
+        requirements: &args.require,
+        pad: args.pad,
+        listed: args.listed,
+    })
+    .map_err(|e| match e {
+        VerdictError::Pad(m) => bad_input(format!("{}: --pad: {m}", args.model.display())),
+        e => bad_input(format!("{}: {e}", args.model.display())),
+    })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&output).expect("report serializes"));
     } else {
         print!("{}", summary(&output));
     }
-    Ok(passed)
-}
-
-fn evaluate(r: Requirement, report: &TopologyReport, n: Connectivity) -> RequirementResult {
-    let (holds, criterion) = match (r, &report.mesh) {
-        (Requirement::Separating, Some(m)) => (m.separating, format!("no {n}-tunnels through the mesh")),
-        (Requirement::Separating, None) => (report.separating, format!("white splits into ≥ 2 {n}-components")),
-        (Requirement::Minimal, _) => (
-            report.minimal,
-            format!("white splits into ≥ 2 {n}-components and no black voxel is {n}-simple"),
-        ),
-        (Requirement::Cover, m) => (
-            m.as_ref().is_some_and(|m| m.covers),
-            "every point of the mesh lies in a black voxel's closed cell".to_string(),
-        ),
-    };
-    RequirementResult {
-        name: r,
-        holds,
-        criterion,
-    }
+    Ok(output.passed)
 }
 
 /// The black voxels of a `.binvox` or `.nrrd` model, its format, what its values mean
@@ -229,7 +139,7 @@ fn yes(b: bool) -> &'static str {
 
 /// The readable summary: one line per property, the first offending voxel where there
 /// is one.
-fn summary(o: &Output) -> String {
+fn summary(o: &Verdict) -> String {
     use std::fmt::Write;
     let r = &o.report;
     let n = r.connectivity;
@@ -238,7 +148,7 @@ fn summary(o: &Output) -> String {
     let _ = writeln!(
         s,
         "{} ({}{}{}): {}×{}×{} grid, {} black voxels, white {n}-adjacency, black {}",
-        o.model.display(),
+        o.model.as_deref().unwrap_or(Path::new("<array>")).display(),
         o.format,
         if o.values == "density" {
             ", densities: black = density ≥ 0.5"
@@ -292,7 +202,7 @@ fn summary(o: &Output) -> String {
         let _ = writeln!(
             s,
             "  mesh {} ({} triangles, {}):",
-            info.path.display(),
+            info.path.as_deref().unwrap_or(Path::new("<mesh>")).display(),
             info.triangles,
             if info.closed {
                 "closed".to_string()
@@ -348,11 +258,10 @@ fn summary(o: &Output) -> String {
         );
     }
     for req in &o.requirements {
-        let name = serde_json::to_value(req.name).expect("name serializes");
         let _ = writeln!(
             s,
             "required {}: {} ({})",
-            name.as_str().unwrap_or_default(),
+            req.name.name(),
             if req.holds { "holds" } else { "FAILS" },
             req.criterion
         );

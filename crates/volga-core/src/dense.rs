@@ -31,6 +31,11 @@ impl<T: Copy + Send + Sync> Dense<T> {
         &self.data
     }
 
+    /// The values (x fastest, [`Shape3`]'s layout), without a copy.
+    pub fn into_vec(self) -> Vec<T> {
+        self.data
+    }
+
     pub fn as_mut_slice(&mut self) -> &mut [T] {
         &mut self.data
     }

@@ -91,6 +91,11 @@ impl CappedWinding {
         }
     }
 
+    /// The BVH of the mesh itself (without caps).
+    pub fn mesh_bvh(&self) -> &Bvh {
+        &self.mesh
+    }
+
     /// Cap triangles closing the boundary cycle (0 for a closed mesh).
     pub fn cap_triangle_count(&self) -> usize {
         self.cap_triangles

@@ -61,6 +61,7 @@ mod intersect;
 mod load;
 mod mesh;
 mod overlap;
+mod queries;
 mod segment;
 mod signed;
 pub mod unclean;
@@ -75,6 +76,7 @@ pub use extract::{extract_surface, extract_surface_with, ExtractError, Extractio
 pub use intersect::triangles_may_intersect;
 pub use load::{load_gltf, load_mesh, load_obj, read_gltf, read_obj};
 pub use mesh::{EdgeStats, TriMesh};
+pub use queries::MeshQueries;
 pub use overlap::{triangle_box_overlap, triangle_meets_open_box};
 pub use segment::segment_crosses_triangle;
 pub use signed::{signed_distance, signed_distance_within};

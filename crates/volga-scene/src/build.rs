@@ -11,6 +11,7 @@ use volga_render::{render, RenderError, RenderStats};
 
 use crate::plan::{plan, Plan};
 use crate::stages::{StageReport, Stages};
+use crate::model::SceneFile;
 use crate::{load, BuildError, RenderSource, Scene, SceneError};
 
 /// What `volga build` did, written to `{out}/report.json`.
@@ -93,9 +94,32 @@ pub struct BuildOptions {
 /// Builds a scene: every output is staged under a temporary name and renamed only
 /// once all of them are complete, so a failed build leaves earlier outputs intact.
 pub fn build(path: &Path, options: &BuildOptions, progress: &dyn Progress) -> Result<Report, BuildError> {
+    build_with(path, None, options, progress)
+}
+
+/// [`build`] of a scene already parsed (e.g. made in memory by a program): `path` names
+/// it in messages and in the report, and relative paths in it are read from its folder.
+pub fn build_parsed(
+    path: &Path,
+    file: &SceneFile,
+    options: &BuildOptions,
+    progress: &dyn Progress,
+) -> Result<Report, BuildError> {
+    build_with(path, Some(file), options, progress)
+}
+
+fn build_with(
+    path: &Path,
+    file: Option<&SceneFile>,
+    options: &BuildOptions,
+    progress: &dyn Progress,
+) -> Result<Report, BuildError> {
     let start = Instant::now();
     let mut stages = Stages::default();
-    let mut scene = stages.run("load", || validate_scene(path))?;
+    let mut scene = stages.run("load", || match file {
+        Some(file) => crate::validate::validate(path, file),
+        None => validate_scene(path),
+    })?;
     stages.run("resolve", || scene.resolve(options.memory_limit))?;
     let plan = stages.run("plan", || plan(&scene, options.memory_limit))?;
     // Volumes are written dense: check the disk before any work.

@@ -117,6 +117,7 @@ mod set;
 mod simple;
 mod surface;
 mod tunnel;
+mod verdict;
 
 pub use components::{black_components, white_components, Component, Components};
 pub use connectivity::Connectivity;
@@ -132,3 +133,4 @@ pub use surface::{
     UncoveredTriangle,
 };
 pub use tunnel::{tunnels, Tunnel};
+pub use verdict::{verdict, MeshInfo, Requirement, RequirementResult, Verdict, VerdictError, VerdictInput};

@@ -165,7 +165,12 @@ impl MeshJob {
     /// longest side, padded by the band plus one voxel on every side (`ceil(band) + 1`),
     /// voxel centres at `bounds.min − pad·h + h/2 + ijk·h`.
     pub fn layout(&self, bounds: &Aabb) -> Result<Grid, JobError> {
-        let h = bounds.size().max_element() / self.resolution as f64;
+        self.layout_with_spacing(bounds, bounds.size().max_element() / self.resolution as f64)
+    }
+
+    /// [`MeshJob::layout`] with the voxel side `h` given instead of the resolution (the
+    /// same padding; `resolution` is not used).
+    pub fn layout_with_spacing(&self, bounds: &Aabb, h: f64) -> Result<Grid, JobError> {
         if !(h.is_finite() && h > 0.0) {
             return Err(JobError {
                 field: "mesh",
@@ -176,6 +181,15 @@ impl MeshJob {
         let dims_f = (bounds.size() / h).ceil() + 2.0 * pad;
         let dims = UVec3::new(dims_f.x as u32, dims_f.y as u32, dims_f.z as u32).max(UVec3::ONE);
         let origin = bounds.min - DVec3::splat(pad * h) + DVec3::splat(0.5 * h);
+        if dims_f.max_element() > (i32::MAX / 2) as f64 {
+            return Err(JobError {
+                field: "resolution",
+                message: format!(
+                    "--resolution {}: {:.0}×{:.0}×{:.0} voxels is more than a grid can hold",
+                    self.resolution, dims_f.x, dims_f.y, dims_f.z
+                ),
+            });
+        }
         Transform::new(origin, DVec3::splat(h))
             .and_then(|t| Grid::new(t, dims))
             .map_err(|e| JobError {

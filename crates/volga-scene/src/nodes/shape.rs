@@ -62,6 +62,13 @@ impl Node for ShapeNode {
     }
 }
 
+/// The analytic shape a spec describes (a sphere, box, oriented box, ellipsoid, bounded
+/// cylinder or cone, capsule or quadric), validated with errors naming the field path
+/// `field` of `origin` (a scene file, or a name for a spec made in memory).
+pub fn shape_from_spec(origin: &std::path::Path, field: &str, spec: &ShapeSpec) -> Result<Shape, SceneError> {
+    validate_shape(&Ctx { path: origin }, field, spec)
+}
+
 /// The analytic shape a spec describes; `f` is its field path.
 pub(crate) fn validate_shape(cx: &Ctx, f: &str, s: &ShapeSpec) -> Result<Shape, SceneError> {
     Ok(match s {
