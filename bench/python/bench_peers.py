@@ -893,6 +893,8 @@ def main(argv=None):
                          "(at least one; flagged ‡ when fewer than --repeat)")
     ap.add_argument("--reused", action="store_true",
                     help="also time queries on a structure built beforehand (volga Mesh, Open3D scene, pysdf SDF)")
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the cases already in --json-out (from an interrupted run) and run the rest")
     ap.add_argument("--skip-sdf", action="store_true")
     ap.add_argument("--skip-voxelize", action="store_true")
     ap.add_argument("--self-check", action="store_true", help="only run the reference self-checks")
@@ -951,23 +953,46 @@ def main(argv=None):
             json.dump(results, f, indent=1, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
         os.replace(tmp, json_out)
 
+    # --resume: keep the cases an interrupted run already wrote to --json-out (same
+    # options assumed), run the others, and note the restart.
+    prev = {}
+    if args.resume and os.path.exists(json_out):
+        with open(json_out) as f:
+            prev = json.load(f)
+        keep = {k: prev[k] for k in ("date", "command", "machine", "voxelize", "signed_distance",
+                                     "validate_array_path_self_check", "loadavg_after_voxelize") if k in prev}
+        restart = {"date": results["date"], "command": results["command"], "machine": results["machine"],
+                   "kept_voxelize": len(prev.get("voxelize", [])),
+                   "kept_signed_distance": [m["mesh"] for m in prev.get("signed_distance", [])]}
+        results.update(keep)
+        results["resumed"] = prev.get("resumed", []) + [restart]
+        log(f"resuming {json_out}: keeping {restart['kept_voxelize']} voxelization cases and "
+            f"signed distance on {restart['kept_signed_distance']}")
+    done_vox = {(m["mesh"], m["resolution"]) for m in prev.get("voxelize", [])}
+    done_sdf = {m["mesh"] for m in prev.get("signed_distance", [])}
+
     # Voxelization first: it is short, and the signed-distance part is the long one.
     if not args.skip_voxelize:
-        results["voxelize"] = []
-        state = {}
+        results["voxelize"] = list(prev.get("voxelize", []))
+        state = {"array_path_checked": prev.get("validate_array_path_self_check"),
+                 "printed_keys": bool(prev)}
         for name in names:
-            if name not in SHARED_MESHES:
+            if name not in SHARED_MESHES or all((name, n) in done_vox for n in args.resolutions):
                 continue
             ctx = MeshCtx(name, *meshes[name], mods)
             for n in args.resolutions:
+                if (name, n) in done_vox:
+                    continue
                 results["voxelize"].append(bench_vox_mesh(ctx, n, args, log, state))
                 results["validate_array_path_self_check"] = state.get("array_path_checked")
                 save()
         results["loadavg_after_voxelize"] = list(os.getloadavg())
 
     if not args.skip_sdf:
-        results["signed_distance"] = []
+        results["signed_distance"] = list(prev.get("signed_distance", []))
         for name, (v, f) in meshes.items():
+            if name in done_sdf:
+                continue
             ctx = MeshCtx(name, v, f, mods)
             log(f"signed distance: {name} ({len(f):,} triangles)")
             results["signed_distance"].append(bench_sdf_mesh(ctx, args, log))

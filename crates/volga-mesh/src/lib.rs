@@ -76,8 +76,8 @@ pub use extract::{extract_surface, extract_surface_with, ExtractError, Extractio
 pub use intersect::triangles_may_intersect;
 pub use load::{load_gltf, load_mesh, load_obj, read_gltf, read_obj};
 pub use mesh::{EdgeStats, TriMesh};
-pub use queries::MeshQueries;
 pub use overlap::{triangle_box_overlap, triangle_meets_open_box};
+pub use queries::MeshQueries;
 pub use segment::segment_crosses_triangle;
 pub use signed::{signed_distance, signed_distance_within};
 pub use winding::{solid_angle, winding_number};

@@ -110,7 +110,9 @@ fn batch<T: Send + Sync + Default + Clone>(points: &[DVec3], f: impl Fn(DVec3) -
 fn morton_order(points: &[DVec3]) -> Vec<usize> {
     let (lo, hi) = points
         .iter()
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
     let scale = 1023.0 / (hi - lo).max(DVec3::splat(f64::MIN_POSITIVE));
     let spread = |v: u64| {
         let mut x = v & 0x3ff;

@@ -5,7 +5,6 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use glam::DVec3;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
@@ -162,11 +161,15 @@ impl Adf {
         let shape = Adf::shape_of(&shape_json)?;
         let bounds = volga_shapes::SignedDistance::bounds(&shape);
         if !(bounds.min.is_finite() && bounds.max.is_finite()) {
-            return Err(value_error("shape: an unbounded shape has no ADF (give a cylinder a half_length, a cone a height)"));
+            return Err(value_error(
+                "shape: an unbounded shape has no ADF (give a cylinder a half_length, a cone a height)",
+            ));
         }
         let adf_options = options.adf_options(&bounds);
-        let adf = threads::run(py, threads, move || volga_adf::Adf::build(&ShapeSource(shape), adf_options))?
-            .map_err(adf_error)?;
+        let adf = threads::run(py, threads, move || {
+            volga_adf::Adf::build(&ShapeSource(shape), adf_options)
+        })?
+        .map_err(adf_error)?;
         Ok(Adf {
             inner: Arc::new(adf),
             recipe: Recipe::Shape {

@@ -13,7 +13,10 @@ use crate::errors::value_error;
 fn shape_of(obj: &Bound<'_, PyAny>) -> String {
     match obj.extract::<PyArrayLikeDyn<'_, f64, AllowTypeChange>>() {
         Ok(a) => format!("{:?}", a.shape()),
-        Err(_) => format!("an object of type {}", obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()),
+        Err(_) => format!(
+            "an object of type {}",
+            obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+        ),
     }
 }
 
@@ -29,7 +32,9 @@ fn numeric<'py>(name: &str, obj: &Bound<'py, PyAny>, kinds: &str, what: &str) ->
     let dtype = array.getattr("dtype")?;
     let kind: String = dtype.getattr("kind")?.extract()?;
     if !kinds.contains(kind.as_str()) {
-        return Err(value_error(format!("{name}: expected {what}, got an array of dtype {dtype}")));
+        return Err(value_error(format!(
+            "{name}: expected {what}, got an array of dtype {dtype}"
+        )));
     }
     Ok(array)
 }
@@ -37,9 +42,12 @@ fn numeric<'py>(name: &str, obj: &Bound<'py, PyAny>, kinds: &str, what: &str) ->
 /// An `(K, 3)` array of finite coordinates as world points.
 pub fn points(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<DVec3>> {
     let obj = &numeric(name, obj, "iuf", "real numbers")?;
-    let array = obj
-        .extract::<PyArrayLike2<'_, f64, AllowTypeChange>>()
-        .map_err(|_| value_error(format!("{name}: expected an array of shape (K, 3) of numbers, got {}", shape_of(obj))))?;
+    let array = obj.extract::<PyArrayLike2<'_, f64, AllowTypeChange>>().map_err(|_| {
+        value_error(format!(
+            "{name}: expected an array of shape (K, 3) of numbers, got {}",
+            shape_of(obj)
+        ))
+    })?;
     let view = array.as_array();
     if view.ncols() != 3 {
         return Err(value_error(format!(
@@ -51,7 +59,10 @@ pub fn points(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<DVec3>> {
     for (k, row) in view.rows().into_iter().enumerate() {
         let p = DVec3::new(row[0], row[1], row[2]);
         if !p.is_finite() {
-            return Err(value_error(format!("{name}[{k}] is not finite: ({}, {}, {})", p.x, p.y, p.z)));
+            return Err(value_error(format!(
+                "{name}[{k}] is not finite: ({}, {}, {})",
+                p.x, p.y, p.z
+            )));
         }
         out.push(p);
     }
@@ -61,9 +72,12 @@ pub fn points(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<DVec3>> {
 /// An `(M, 3)` array of vertex indices below `vertex_count`.
 pub fn faces(name: &str, obj: &Bound<'_, PyAny>, vertex_count: usize) -> PyResult<Vec<[u32; 3]>> {
     let obj = &numeric(name, obj, "iu", "integer vertex indices")?;
-    let array = obj
-        .extract::<PyArrayLike2<'_, i64, AllowTypeChange>>()
-        .map_err(|_| value_error(format!("{name}: expected an integer array of shape (M, 3), got {}", shape_of(obj))))?;
+    let array = obj.extract::<PyArrayLike2<'_, i64, AllowTypeChange>>().map_err(|_| {
+        value_error(format!(
+            "{name}: expected an integer array of shape (M, 3), got {}",
+            shape_of(obj)
+        ))
+    })?;
     let view = array.as_array();
     if view.ncols() != 3 && view.nrows() > 0 {
         return Err(value_error(format!(
@@ -97,7 +111,10 @@ pub fn vec3(name: &str, obj: &Bound<'_, PyAny>) -> PyResult<DVec3> {
     }
     let p = DVec3::new(v[0], v[1], v[2]);
     if !p.is_finite() {
-        return Err(value_error(format!("{name} is not finite: ({}, {}, {})", p.x, p.y, p.z)));
+        return Err(value_error(format!(
+            "{name} is not finite: ({}, {}, {})",
+            p.x, p.y, p.z
+        )));
     }
     Ok(p)
 }

@@ -316,11 +316,12 @@ impl VoxelGrid {
             values.extend_from_slice(voxels);
         }
         let t = &v.grid.transform;
+        // Floats as their bit patterns: the copy is the same grid to the bit.
         let header = json!({
-            "origin": t.origin().to_array(),
-            "spacing": t.spacing().to_array(),
+            "origin": t.origin().to_array().map(f64::to_bits),
+            "spacing": t.spacing().to_array().map(f64::to_bits),
             "dims": v.grid.dims().to_array(),
-            "background": v.density.background(),
+            "background": v.density.background().to_bits(),
             "kind": me.kind.name(),
             "mode": me.mode,
             "stats": me.stats,
@@ -345,18 +346,31 @@ impl VoxelGrid {
         let bad = |what: &str| value_error(format!("VoxelGrid state: {what}"));
         let h: Value = serde_json::from_str(header).map_err(|e| bad(&e.to_string()))?;
         let v3 = |k: &str| -> PyResult<DVec3> {
-            let a: [f64; 3] = serde_json::from_value(h[k].clone()).map_err(|e| bad(&format!("{k}: {e}")))?;
-            Ok(DVec3::from_array(a))
+            let a: [u64; 3] = serde_json::from_value(h[k].clone()).map_err(|e| bad(&format!("{k}: {e}")))?;
+            Ok(DVec3::from_array(a.map(f64::from_bits)))
         };
         let dims: [u32; 3] = serde_json::from_value(h["dims"].clone()).map_err(|e| bad(&format!("dims: {e}")))?;
-        let background = h["background"].as_f64().ok_or_else(|| bad("background"))? as f32;
+        let background = h["background"]
+            .as_u64()
+            .and_then(|b| u32::try_from(b).ok())
+            .map(f32::from_bits)
+            .ok_or_else(|| bad("background"))?;
         let kind = Kind::parse(h["kind"].as_str().ok_or_else(|| bad("kind"))?)?;
         let transform = Transform::new(v3("origin")?, v3("spacing")?).map_err(|e| bad(&e.to_string()))?;
         let grid = Grid::new(transform, UVec3::from_array(dims)).map_err(|e| bad(&e.to_string()))?;
         let mut volume = SparseVolume::new(grid, background, false).with_density_kind(kind.channel());
-        let coords: Vec<i32> = coords.chunks_exact(4).map(|c| i32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-        let lens: Vec<usize> = lens.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]]) as usize).collect();
-        let values: Vec<f32> = values.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let coords: Vec<i32> = coords
+            .chunks_exact(4)
+            .map(|c| i32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        let lens: Vec<usize> = lens
+            .chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]) as usize)
+            .collect();
+        let values: Vec<f32> = values
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
         if coords.len() != 3 * lens.len() || lens.iter().sum::<usize>() != values.len() {
             return Err(bad("brick lists of different lengths"));
         }
@@ -398,7 +412,10 @@ fn layout(
 ) -> PyResult<Grid> {
     let job_error = |e: volga_voxelize::JobError| match (e.field, pitch) {
         ("mesh", _) => value_error(format!("mesh: {e}")),
-        (_, Some(h)) => value_error(e.message.replace(&format!("--resolution {}", job.resolution), &format!("pitch {h}"))),
+        (_, Some(h)) => value_error(
+            e.message
+                .replace(&format!("--resolution {}", job.resolution), &format!("pitch {h}")),
+        ),
         (_, None) => value_error(e.message.replace("--resolution", "resolution")),
     };
     match bounds {
@@ -455,7 +472,11 @@ pub fn voxelize(
     };
     match (resolution, pitch) {
         (Some(_), Some(_)) => return Err(value_error("give resolution or pitch, not both")),
-        (None, None) => return Err(value_error("give resolution (voxels along the longest side) or pitch (voxel size)")),
+        (None, None) => {
+            return Err(value_error(
+                "give resolution (voxels along the longest side) or pitch (voxel size)",
+            ))
+        }
         (None, Some(h)) if !(h.is_finite() && h > 0.0) => {
             return Err(value_error(format!("pitch must be finite and > 0, got {h}")))
         }
@@ -515,7 +536,9 @@ pub fn voxelize(
         "anti_aliased" => {
             let thickness = thickness.unwrap_or(1.0);
             if !(thickness.is_finite() && thickness > 0.0) {
-                return Err(value_error(format!("thickness must be finite and > 0, got {thickness}")));
+                return Err(value_error(format!(
+                    "thickness must be finite and > 0, got {thickness}"
+                )));
             }
             MeshJobMode::AntiAliased {
                 thickness_voxels: thickness,
@@ -549,9 +572,7 @@ pub fn voxelize(
     let tri_mesh = mesh.inner.clone();
     let run = threads::run(py, threads, move || job.run(&tri_mesh, &grid, &NoProgress))?;
     let volume = run.volume;
-    let boundary_edges = run
-        .boundary_edges
-        .unwrap_or_else(|| mesh.inner.boundary_edge_count());
+    let boundary_edges = run.boundary_edges.unwrap_or_else(|| mesh.inner.boundary_edge_count());
     let stats = json!({
         "mode": job.mode_name(),
         "triangles": mesh.inner.triangles.len(),
@@ -600,12 +621,12 @@ pub fn extract_mesh<'py>(
 /// Reads a voxel model (`.binvox`, or volga's `.nrrd`) as a grid.
 #[pyfunction]
 pub fn load_volume(py: Python<'_>, path: PathBuf) -> PyResult<VoxelGrid> {
-    let model = py
-        .detach(|| volga_io::read_voxel_model(&path))
-        .map_err(io_error)?;
+    let model = py.detach(|| volga_io::read_voxel_model(&path)).map_err(io_error)?;
     let (volume, values) = match model {
         volga_io::VoxelModel::Binvox(b) => {
-            let transform = b.transform().map_err(|e| value_error(format!("{}: {e}", path.display())))?;
+            let transform = b
+                .transform()
+                .map_err(|e| value_error(format!("{}: {e}", path.display())))?;
             let grid = Grid::new(transform, b.dims()).map_err(|e| value_error(format!("{}: {e}", path.display())))?;
             let mut volume = SparseVolume::new(grid, 0.0, false).with_density_kind(ChannelKind::Binary);
             for v in b.filled() {

@@ -158,7 +158,9 @@ pub fn winding_number<'py>(
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     if let Some(t) = tolerance {
         if !(t.is_finite() && t >= 0.0) {
-            return Err(value_error(format!("tolerance must be finite and ≥ 0 (or None), got {t}")));
+            return Err(value_error(format!(
+                "tolerance must be finite and ≥ 0 (or None), got {t}"
+            )));
         }
     }
     let points = arrays::points("points", points)?;

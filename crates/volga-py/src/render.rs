@@ -19,7 +19,13 @@ pub const MAX_SIDE: u32 = 16384;
 
 /// A perspective camera looking at `bounds` from the front, above and right (the view
 /// `volga adf` renders), unless `eye`/`target`/`up` are given.
-fn camera(bounds: &Aabb, eye: Option<DVec3>, target: Option<DVec3>, up: Option<DVec3>, fov_deg: f64) -> PyResult<Camera> {
+fn camera(
+    bounds: &Aabb,
+    eye: Option<DVec3>,
+    target: Option<DVec3>,
+    up: Option<DVec3>,
+    fov_deg: f64,
+) -> PyResult<Camera> {
     if !(fov_deg.is_finite() && fov_deg > 0.0 && fov_deg < 180.0) {
         return Err(value_error(format!("fov_deg must lie in (0, 180), got {fov_deg}")));
     }
@@ -29,8 +35,13 @@ fn camera(bounds: &Aabb, eye: Option<DVec3>, target: Option<DVec3>, up: Option<D
         let dir = DVec3::new(0.35, 0.45, 1.0).normalize();
         centre + dir * radius / (fov_deg.to_radians() * 0.5).sin()
     });
-    Camera::look_at(eye, centre, up.unwrap_or(DVec3::Y), Projection::Perspective { fov_y_deg: fov_deg })
-        .map_err(|e| value_error(format!("camera: {e}")))
+    Camera::look_at(
+        eye,
+        centre,
+        up.unwrap_or(DVec3::Y),
+        Projection::Perspective { fov_y_deg: fov_deg },
+    )
+    .map_err(|e| value_error(format!("camera: {e}")))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -64,7 +75,11 @@ fn render_field<F: Field + ?Sized>(
         }
         "mip" => Mode::Mip(Mip),
         "xray" => Mode::XRay(XRay),
-        other => return Err(value_error(format!("mode must be \"iso\", \"mip\" or \"xray\", got \"{other}\""))),
+        other => {
+            return Err(value_error(format!(
+                "mode must be \"iso\", \"mip\" or \"xray\", got \"{other}\""
+            )))
+        }
     };
     let camera = camera(&bounds, view.0, view.1, view.2, view.3)?;
     let settings = RenderSettings::new(size.0, size.1);
@@ -112,7 +127,19 @@ pub fn render<'py>(
         let g = g.get();
         let field = Sampled::new(&*g.volume, Filter::Trilinear);
         let iso0 = if g.kind == Kind::Distance { 0.0 } else { 0.5 };
-        render_field(py, &field, g.volume.grid.world_bounds(), iso0, false, size, mode, view, iso, colour, threads)?
+        render_field(
+            py,
+            &field,
+            g.volume.grid.world_bounds(),
+            iso0,
+            false,
+            size,
+            mode,
+            view,
+            iso,
+            colour,
+            threads,
+        )?
     } else if let Ok(s) = obj.cast::<Sculpt>() {
         let s = s.try_borrow()?;
         let bounds = s.bounds();
@@ -120,9 +147,23 @@ pub fn render<'py>(
     } else if let Ok(a) = obj.cast::<Adf>() {
         let a = a.get();
         let adf = &*a.inner;
-        render_field(py, adf, a.surface_bounds(), 0.0, false, size, mode, view, iso, colour, threads)?
+        render_field(
+            py,
+            adf,
+            a.surface_bounds(),
+            0.0,
+            false,
+            size,
+            mode,
+            view,
+            iso,
+            colour,
+            threads,
+        )?
     } else {
-        return Err(value_error("render: expected a volga.VoxelGrid, volga.Sculpt or volga.Adf"));
+        return Err(value_error(
+            "render: expected a volga.VoxelGrid, volga.Sculpt or volga.Adf",
+        ));
     };
     let array = PyArray1::from_vec(py, rgba).reshape([height as usize, width as usize, 4])?;
     Ok(array.into_any())

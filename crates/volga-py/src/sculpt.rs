@@ -6,7 +6,7 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use numpy::{PyArray1, PyArray2};
+use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyTuple};
 use serde_json::json;
@@ -41,9 +41,13 @@ impl Sculpt {
 
     fn stroke(&self, stroke_json: &str) -> PyResult<Stroke> {
         let spec: StrokeSpec = crate::json::parse("stroke", stroke_json)?;
-        let strokes =
-            volga_scene::strokes::validate_stroke_list(Path::new(ORIGIN), "stroke", &[spec], self.inner.grid().spacing())
-                .map_err(scene_error)?;
+        let strokes = volga_scene::strokes::validate_stroke_list(
+            Path::new(ORIGIN),
+            "stroke",
+            &[spec],
+            self.inner.grid().spacing(),
+        )
+        .map_err(scene_error)?;
         Ok(strokes.into_iter().next().expect("one stroke in, one out"))
     }
 }
@@ -72,8 +76,8 @@ impl Sculpt {
             serde_json::from_str(start_json).map_err(|e| value_error(format!("start: {e}")))?;
         if value.get("object").is_some_and(|o| o.is_null()) {
             // An empty sculpt on a grid covering the bounds.
-            let bounds: volga_scene::model::BoundsSpec = serde_json::from_value(value["bounds"].clone())
-                .map_err(|e| value_error(format!("bounds: {e}")))?;
+            let bounds: volga_scene::model::BoundsSpec =
+                serde_json::from_value(value["bounds"].clone()).map_err(|e| value_error(format!("bounds: {e}")))?;
             let h = value["voxel_size"]
                 .as_f64()
                 .ok_or_else(|| value_error("voxel_size: expected a number"))?;
@@ -194,11 +198,13 @@ impl Sculpt {
         threads: Option<usize>,
     ) -> PyResult<arrays::MeshArrays<'py>> {
         if !(cell_voxels.is_finite() && cell_voxels >= 0.25) {
-            return Err(value_error(format!("cell_voxels must be finite and ≥ 0.25, got {cell_voxels}")));
+            return Err(value_error(format!(
+                "cell_voxels must be finite and ≥ 0.25, got {cell_voxels}"
+            )));
         }
         let inner = &self.inner;
-        let surface = threads::run(py, threads, move || inner.surface(cell_voxels))?
-            .map_err(|e| value_error(e.to_string()))?;
+        let surface =
+            threads::run(py, threads, move || inner.surface(cell_voxels))?.map_err(|e| value_error(e.to_string()))?;
         arrays::mesh_arrays(py, surface.mesh)
     }
 
@@ -243,7 +249,11 @@ impl Sculpt {
             return Err(os_error(format!("{}: not a regular file", path.display())));
         }
         // The tree in memory takes about what the file does; the bytes are held meanwhile.
-        check_memory(&format!("{}: reading this file", path.display()), meta.len().saturating_mul(3), memory_limit)?;
+        check_memory(
+            &format!("{}: reading this file", path.display()),
+            meta.len().saturating_mul(3),
+            memory_limit,
+        )?;
         let bytes = py
             .detach(|| {
                 let mut data = Vec::with_capacity(meta.len() as usize);

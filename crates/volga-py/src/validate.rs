@@ -99,7 +99,10 @@ pub fn validate(
         .ok_or_else(|| value_error(format!("connectivity must be 6, 18 or 26, got {connectivity}")))?;
     let requirements = require
         .iter()
-        .map(|r| r.parse::<Requirement>().map_err(|e| value_error(format!("require: {e}"))))
+        .map(|r| {
+            r.parse::<Requirement>()
+                .map_err(|e| value_error(format!("require: {e}")))
+        })
         .collect::<PyResult<Vec<_>>>()?;
     let (set, values, grid_transform, format) = if let Ok(g) = grid.cast::<VoxelGrid>() {
         let g = g.get();

@@ -9,9 +9,9 @@ use volga_core::{Progress, Sampled, SparseVolume};
 use volga_io::StagedOutputs;
 use volga_render::{render, RenderError, RenderStats};
 
+use crate::model::SceneFile;
 use crate::plan::{plan, Plan};
 use crate::stages::{StageReport, Stages};
-use crate::model::SceneFile;
 use crate::{load, BuildError, RenderSource, Scene, SceneError};
 
 /// What `volga build` did, written to `{out}/report.json`.

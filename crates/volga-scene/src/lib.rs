@@ -34,7 +34,9 @@ pub mod strokes;
 pub mod turntable;
 mod validate;
 
-pub use build::{build, build_parsed, load_scene, validate_scene, BuildOptions, GridReport, ImageReport, Report, VoxelReport};
+pub use build::{
+    build, build_parsed, load_scene, validate_scene, BuildOptions, GridReport, ImageReport, Report, VoxelReport,
+};
 pub use error::{BuildError, SceneError};
 pub use load::{parse_file, parse_json, parse_ron};
 pub use plan::{Decision, MemoryEstimate, Plan};
