@@ -169,7 +169,7 @@ impl MeshJob {
     }
 
     /// [`MeshJob::layout`] with the voxel side `h` given instead of the resolution (the
-    /// same padding; `resolution` is not used).
+    /// same padding; `resolution` only names the grid in error messages).
     pub fn layout_with_spacing(&self, bounds: &Aabb, h: f64) -> Result<Grid, JobError> {
         if !(h.is_finite() && h > 0.0) {
             return Err(JobError {
