@@ -8,15 +8,10 @@ use volga::mesh::{point_triangle_distance_squared, Bvh, TriMesh};
 use volga::voxelize::{MeshVoxelizer, SurfaceMode};
 use volga::{Aabb, Grid, NoProgress, Transform};
 
-fn shared(name: &str) -> Option<TriMesh> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(name);
-    if !path.exists() {
-        eprintln!("skipping: {} not found", path.display());
-        return None;
-    }
-    Some(volga::mesh::load_obj(&path).unwrap())
+/// A mesh vendored in tests/data (see its README for provenance and licences).
+fn shared(name: &str) -> TriMesh {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name);
+    volga::mesh::load_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 /// A grid with `n` voxels along the mesh's longest side, padded by 4 voxels.
@@ -85,7 +80,7 @@ fn check(mesh: &TriMesh, n: u32, stride: usize) -> (usize, usize, f64) {
 
 #[test]
 fn closed_mesh_band_is_exact() {
-    let Some(spot) = shared("spot.obj") else { return };
+    let spot = shared("spot.obj");
     let (checked, wrong, worst) = check(&spot, 40, 2);
     assert!(checked >= 1000, "{checked}");
     assert_eq!(wrong, 0);
@@ -95,9 +90,7 @@ fn closed_mesh_band_is_exact() {
 
 #[test]
 fn open_bunny_band_signs_follow_the_winding_number() {
-    let Some(bunny) = shared("stanford-bunny.obj") else {
-        return;
-    };
+    let bunny = shared("stanford-bunny.obj");
     let vox = MeshVoxelizer::new(&bunny);
     assert_eq!(vox.boundary_edge_count(), 223);
     let (checked, wrong, worst) = check(&bunny, 32, 2);
@@ -135,7 +128,7 @@ proptest! {
 
 #[test]
 fn anti_aliased_solid_of_closed_mesh_has_its_volume() {
-    let Some(spot) = shared("spot.obj") else { return };
+    let spot = shared("spot.obj");
     // Exact volume by the divergence theorem.
     let exact: f64 = (0..spot.triangles.len())
         .map(|i| {
@@ -151,9 +144,7 @@ fn anti_aliased_solid_of_closed_mesh_has_its_volume() {
 
 #[test]
 fn mesh_voxelization_is_deterministic_and_finite() {
-    let Some(bunny) = shared("stanford-bunny.obj") else {
-        return;
-    };
+    let bunny = shared("stanford-bunny.obj");
     let grid = grid_for(bunny.bounds(), 48);
     let vox = MeshVoxelizer::new(&bunny);
     for mode in [

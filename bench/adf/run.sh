@@ -7,7 +7,7 @@
 # measures them at the same probes (bench/adf/openvdb_adf_peer.py): memory against the
 # ADF's at the same maximum error. Writes both JSON objects to $OUT (default /tmp/volga-adf-peer).
 set -eu
-MESH=${1:-../shared/data/fandisk.obj}
+MESH=${1:-tests/data/fandisk.obj}
 TOL=${2:-1e-4}
 shift $(( $# > 2 ? 2 : $# ))
 OUT=${OUT:-/tmp/volga-adf-peer}

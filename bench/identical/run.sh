@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Nothing lost: runs two volga binaries on the same jobs and compares every output
 # byte for byte (issue 10). Jobs: every committed scene (`volga build`: PNG, NRRD/raw)
-# and `volga voxelize` of the five meshes of ../shared/data at N = 128 and 256 in
+# and `volga voxelize` of the five meshes of tests/data at N = 128 and 256 in
 # every mode (6/18/26-separating surfaces, 26-separating solid, anti-aliased surface
 # and solid, signed distance ±3). Reports differ only in timings and are not compared.
 #
@@ -15,7 +15,7 @@ base="$(realpath "$1")"
 new="$(realpath "$2")"
 work="${3:-$(mktemp -d)}"
 repo="$(cd "$(dirname "$0")/../.." && pwd)"
-data="$repo/../shared/data"
+data="$repo/tests/data"
 cd "$repo"
 
 # Scenes the base binary cannot read (added after it) are compared only when both can.

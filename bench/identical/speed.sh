@@ -12,7 +12,7 @@ new="$(realpath "$2")"
 rounds="${3:-3}"
 repeat="${4:-9}"
 repo="$(cd "$(dirname "$0")/../.." && pwd)"
-mesh="$repo/../shared/data/stanford-bunny.obj"
+mesh="$repo/tests/data/stanford-bunny.obj"
 
 median() { python3 -c 'import sys,statistics; print(statistics.median(float(x) for x in sys.argv[1:]))' "$@"; }
 run() { "$1" bench voxelize "$mesh" --resolution "$2" $3 --repeat "$repeat" 2>/dev/null |

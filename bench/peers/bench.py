@@ -430,7 +430,7 @@ def write_docs(path, body):
 
 def main():
     ap = argparse.ArgumentParser(description="Peer benchmark of volga voxelize (see docs/BENCHMARKS.md)")
-    ap.add_argument("--mesh", default=os.path.normpath(os.path.join(REPO, "..", "shared", "data", "stanford-bunny.obj")))
+    ap.add_argument("--mesh", default=os.path.join(REPO, "tests", "data", "stanford-bunny.obj"))
     ap.add_argument("--sizes", type=int, nargs="+", default=[128, 256, 512])
     ap.add_argument("--repeats", type=int, default=5, help="timed runs after one warm-up (median reported)")
     ap.add_argument("--sample", type=int, default=2000, help="band voxels checked against brute force")

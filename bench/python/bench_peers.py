@@ -875,7 +875,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--data", default=os.path.join(ROOT, "..", "shared", "data"))
+    ap.add_argument("--data", default=os.path.join(ROOT, "tests", "data"))
     ap.add_argument("--trimesh-points", type=int, default=20_000)
     ap.add_argument("--check-points", type=int, default=2000)
     ap.add_argument("--resolutions", type=int, nargs="+", default=[128, 256])

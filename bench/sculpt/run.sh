@@ -6,7 +6,7 @@
 #   volga bench sculpt MESH --resolution N --json --openvdb-peer … --skimage-python …
 # which prints one JSON object (docs/SCULPT.md explains the keys).
 set -eu
-MESH=${1:-../shared/data/stanford-bunny.obj}
+MESH=${1:-tests/data/stanford-bunny.obj}
 N=${2:-1024}
 PEERS=${PEERS_DIR:-/tmp/volga-peers}
 mkdir -p "$PEERS"

@@ -27,8 +27,8 @@ from common import load_obj, voxel_size, write_binvox  # noqa: E402
 
 VOLGA = os.path.join(ROOT, "target", "release", "volga")
 MESHES = {
-    "bunny": os.path.join(ROOT, "..", "shared", "data", "stanford-bunny.obj"),
-    "spot": os.path.join(ROOT, "..", "shared", "data", "spot.obj"),
+    "bunny": os.path.join(ROOT, "tests", "data", "stanford-bunny.obj"),
+    "spot": os.path.join(ROOT, "tests", "data", "spot.obj"),
 }
 BEGIN, END = "<!-- validate-table:begin -->", "<!-- validate-table:end -->"
 

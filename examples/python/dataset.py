@@ -55,8 +55,8 @@ def save_atomic(path, **arrays):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("mesh", nargs="?", type=Path, default=ROOT.parent / "shared/data/stanford-bunny.obj",
-                    help="OBJ, glTF or GLB (default: ../shared/data/stanford-bunny.obj)")
+    ap.add_argument("mesh", nargs="?", type=Path, default=ROOT / "tests/data/stanford-bunny.obj",
+                    help="OBJ, glTF or GLB (default: tests/data/stanford-bunny.obj)")
     ap.add_argument("--out", type=Path, help="default: out/dataset/<mesh stem>.npz in the repository")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()

@@ -70,7 +70,7 @@ pub struct RenderBenchArgs {
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     packed: String,
     /// The mesh voxelized for the `bunny` volume.
-    #[arg(long, default_value = "../shared/data/stanford-bunny.obj")]
+    #[arg(long, default_value = "tests/data/stanford-bunny.obj")]
     mesh: PathBuf,
     /// Volumes to render: `ct`, `bunny` (comma separated).
     #[arg(long, value_delimiter = ',', default_values_t = [String::from("ct"), String::from("bunny")])]

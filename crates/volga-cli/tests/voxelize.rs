@@ -7,19 +7,16 @@ use std::process::Command;
 mod common;
 use common::{stderr, volga};
 
-fn shared(name: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(name);
-    p.exists().then_some(p).or_else(|| {
-        eprintln!("skipping: {name} not found beside the repository");
-        None
-    })
+/// A mesh vendored in tests/data (see its README for provenance and licences).
+fn shared(name: &str) -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(name);
+    assert!(p.is_file(), "{} is missing", p.display());
+    p
 }
 
 #[test]
 fn binary_and_distance_outputs_with_report() {
-    let Some(spot) = shared("spot.obj") else { return };
+    let spot = shared("spot.obj");
     let dir = tempfile::tempdir().unwrap();
     let binvox = dir.path().join("spot.binvox");
     let report = dir.path().join("r.json");
@@ -79,9 +76,7 @@ fn binary_and_distance_outputs_with_report() {
 
 #[test]
 fn open_mesh_solid_warns_about_boundary_edges() {
-    let Some(bunny) = shared("stanford-bunny.obj") else {
-        return;
-    };
+    let bunny = shared("stanford-bunny.obj");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("b.binvox");
     let o = volga(&[
@@ -123,7 +118,7 @@ fn bad_input_exits_2() {
     assert!(stderr(&o).contains("bad.obj:2"), "{}", stderr(&o));
     assert!(!out.exists());
 
-    let Some(spot) = shared("spot.obj") else { return };
+    let spot = shared("spot.obj");
     for args in [
         vec!["--resolution", "8", "--anti-aliased", "--out", "x.binvox"],
         vec!["--resolution", "8", "--out", "x.nrrd"],
@@ -153,7 +148,7 @@ fn bench_times_warm_runs_and_serves_the_same_result() {
     use std::io::{BufRead, BufReader, Write};
     use std::process::Stdio;
 
-    let Some(spot) = shared("spot.obj") else { return };
+    let spot = shared("spot.obj");
     let dir = tempfile::tempdir().unwrap();
     let spot = spot.to_str().unwrap();
     let fresh = dir.path().join("fresh.binvox");

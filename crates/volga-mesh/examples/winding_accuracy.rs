@@ -4,7 +4,7 @@
 //! `Bvh::winding_number` were measured:
 //!
 //! ```text
-//! cargo run --release -p volga-mesh --example winding_accuracy -- ../shared/data/spot.obj [points]
+//! cargo run --release -p volga-mesh --example winding_accuracy -- tests/data/spot.obj [points]
 //! ```
 
 use std::time::Instant;

@@ -1,4 +1,4 @@
-//! The shared test meshes (../shared/data): counts from the data README, and the BVH's
+//! The test meshes vendored in tests/data: counts from its README, and the BVH's
 //! queries against brute force on real geometry.
 
 use std::path::PathBuf;
@@ -8,24 +8,20 @@ use glam::DVec3;
 use volga_core::Aabb;
 use volga_mesh::{load_obj, point_triangle_distance_squared, signed_distance, triangle_box_overlap, Bvh, TriMesh};
 
-const DATA_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data");
+const DATA_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data");
 
-/// The mesh, loaded once per test binary; `None` (with a note) if shared/ is absent.
-fn shared(name: &'static str) -> Option<&'static TriMesh> {
+/// The mesh, loaded once per test binary.
+fn shared(name: &'static str) -> &'static TriMesh {
     static CACHE: OnceLock<std::sync::Mutex<Vec<(&'static str, &'static TriMesh)>>> = OnceLock::new();
     let cache = CACHE.get_or_init(Default::default);
     let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
     if let Some((_, mesh)) = cache.iter().find(|(n, _)| *n == name) {
-        return Some(mesh);
+        return mesh;
     }
     let path = PathBuf::from(DATA_DIR).join(name);
-    if !path.exists() {
-        eprintln!("note: skipping, {} is absent", path.display());
-        return None;
-    }
-    let mesh: &'static TriMesh = Box::leak(Box::new(load_obj(&path).unwrap()));
+    let mesh: &'static TriMesh = Box::leak(Box::new(load_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))));
     cache.push((name, mesh));
-    Some(mesh)
+    mesh
 }
 
 /// A small deterministic generator (xorshift64*), so the sample points are fixed.
@@ -63,7 +59,7 @@ fn meshes_match_the_data_readme() {
         ("teapot.obj", 6_320, 160, 1_036),
     ];
     for (name, triangles, boundary_edges, unwelded_boundary_edges) in expected {
-        let Some(mesh) = shared(name) else { continue };
+        let mesh = shared(name);
         let stats = mesh.edge_stats();
         eprintln!("{name}: {} triangles, {stats:?}", mesh.triangle_count());
         assert_eq!(mesh.triangle_count(), triangles, "{name}");
@@ -103,7 +99,7 @@ fn winding_errors(mesh: &TriMesh, count: usize, seed: u64) -> (f64, f64) {
 
 #[test]
 fn fast_winding_number_matches_exact_on_spot() {
-    let Some(spot) = shared("spot.obj") else { return };
+    let spot = shared("spot.obj");
     let (max_error, mean_error) = winding_errors(spot, 400, 1);
     eprintln!("spot: fast winding number error max {max_error:.2e}, mean {mean_error:.2e}");
     assert!(
@@ -127,9 +123,7 @@ fn fast_winding_number_matches_exact_on_spot() {
 
 #[test]
 fn fast_winding_number_matches_exact_on_the_bunny() {
-    let Some(bunny) = shared("stanford-bunny.obj") else {
-        return;
-    };
+    let bunny = shared("stanford-bunny.obj");
     let (max_error, mean_error) = winding_errors(bunny, 300, 2);
     eprintln!("bunny: fast winding number error max {max_error:.2e}, mean {mean_error:.2e}");
     assert!(
@@ -140,7 +134,7 @@ fn fast_winding_number_matches_exact_on_the_bunny() {
 
 #[test]
 fn closest_matches_brute_force_on_spot() {
-    let Some(spot) = shared("spot.obj") else { return };
+    let spot = shared("spot.obj");
     let bvh = Bvh::build(spot);
     let mut rng = Rng(3);
     let sample_box = padded_bounds(spot, 0.3);
@@ -164,9 +158,7 @@ fn closest_matches_brute_force_on_spot() {
 
 #[test]
 fn overlapping_triangles_match_brute_force_on_the_bunny() {
-    let Some(bunny) = shared("stanford-bunny.obj") else {
-        return;
-    };
+    let bunny = shared("stanford-bunny.obj");
     let bvh = Bvh::build(bunny);
     let bounds = bunny.bounds();
     let mut rng = Rng(5);
@@ -188,9 +180,7 @@ fn overlapping_triangles_match_brute_force_on_the_bunny() {
 
 #[test]
 fn bvh_is_identical_for_any_thread_count() {
-    let Some(bunny) = shared("stanford-bunny.obj") else {
-        return;
-    };
+    let bunny = shared("stanford-bunny.obj");
     let build_with = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| Bvh::build(bunny))
@@ -202,9 +192,7 @@ fn bvh_is_identical_for_any_thread_count() {
 
 #[test]
 fn signed_distance_on_the_open_bunny_follows_the_winding_number() {
-    let Some(bunny) = shared("stanford-bunny.obj") else {
-        return;
-    };
+    let bunny = shared("stanford-bunny.obj");
     assert!(!bunny.is_closed());
     let bvh = Bvh::build(bunny);
     let mut rng = Rng(11);
@@ -262,10 +250,6 @@ fn bounded_winding_contains_exact(mesh: &TriMesh, count: usize, seed: u64) {
 
 #[test]
 fn bounded_winding_number_is_certified_on_spot_and_the_bunny() {
-    if let Some(spot) = shared("spot.obj") {
-        bounded_winding_contains_exact(spot, 200, 3);
-    }
-    if let Some(bunny) = shared("stanford-bunny.obj") {
-        bounded_winding_contains_exact(bunny, 60, 4);
-    }
+    bounded_winding_contains_exact(shared("spot.obj"), 200, 3);
+    bounded_winding_contains_exact(shared("stanford-bunny.obj"), 60, 4);
 }

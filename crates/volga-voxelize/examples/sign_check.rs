@@ -4,7 +4,7 @@
 //!
 //! ```sh
 //! cargo run --release -p volga-voxelize --example sign_check -- corpus 64 128
-//! cargo run --release -p volga-voxelize --example sign_check -- ../shared/data/teapot.obj 64 128
+//! cargo run --release -p volga-voxelize --example sign_check -- tests/data/teapot.obj 64 128
 //! ```
 //!
 //! Every voxel of the 3-voxel distance band is checked, plus 20,000 random voxels of the

@@ -14,15 +14,10 @@ use volga_mesh::{unclean, TriMesh};
 use volga_voxelize::check::{check_signs, grid_for};
 use volga_voxelize::{MeshVoxelizer, SurfaceMode};
 
-fn shared(name: &str) -> Option<TriMesh> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(name);
-    if !path.exists() {
-        eprintln!("skipping: {} not found", path.display());
-        return None;
-    }
-    Some(volga_mesh::load_obj(&path).unwrap())
+/// A mesh vendored in tests/data (see its README for provenance and licences).
+fn shared(name: &str) -> TriMesh {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(name);
+    volga_mesh::load_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 fn assert_no_wrong_sign(name: &str, mesh: &TriMesh, n: u32, shift: f64, random: usize) {
@@ -48,15 +43,13 @@ fn unclean_corpus_signs_equal_the_winding_number() {
 
 #[test]
 fn teapot_signs_equal_the_winding_number() {
-    let Some(teapot) = shared("teapot.obj") else { return };
+    let teapot = shared("teapot.obj");
     assert_no_wrong_sign("teapot", &teapot, 32, 0.0, 4000);
 }
 
 #[test]
 fn bunny_signs_equal_the_winding_number() {
-    let Some(bunny) = shared("stanford-bunny.obj") else {
-        return;
-    };
+    let bunny = shared("stanford-bunny.obj");
     assert_no_wrong_sign("bunny", &bunny, 20, 0.5, 2000);
 }
 

@@ -127,7 +127,7 @@ fn mesh_series(name: &str, mesh: &TriMesh, tolerances: &[f64], points: usize, ct
 }
 
 fn shared_mesh(file: &str) -> TriMesh {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/").to_string() + file;
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/").to_string() + file;
     volga_mesh::load_mesh(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
