@@ -30,7 +30,9 @@
 //! // Density is 0.5 on the sphere's surface (oriented box filter, survey §17.4).
 //! assert!((field.value(DVec3::new(26.0, 16.0, 16.0)) - 0.5).abs() < 1e-6);
 //! ```
+#![forbid(unsafe_code)]
 
+pub use glam;
 pub use volga_adf as adf;
 pub use volga_core as core;
 pub use volga_cvg as cvg;
@@ -47,3 +49,26 @@ pub use volga_voxelize as voxelize;
 pub use volga_core::{
     Aabb, DenseVolume, Field, Filter, Grid, IndexBox, NoProgress, Progress, Sampled, SparseVolume, Transform,
 };
+
+/// What most programs need, in one import: `use volga::prelude::*;`.
+///
+/// The vector types of [`glam`] (world positions are `DVec3`, voxel indices `IVec3`,
+/// grid sizes `UVec3`), the core types (grids, volumes, the [`Field`] trait and its
+/// reconstruction), loading and querying meshes, the mesh-voxelize job, reading and
+/// writing voxel models, the validator, rendering, scenes and sculpting. Everything else
+/// stays under its crate's module ([`voxelize`], [`render`], …).
+pub mod prelude {
+    pub use glam::{DVec3, IVec3, UVec3, Vec3, Vec4};
+
+    pub use volga_core::{
+        Aabb, Adjacency, DenseVolume, Field, FieldKind, Filter, GradientMethod, Grid, IndexBox, NoProgress, Progress,
+        Sampled, SparseVolume, Transform,
+    };
+    pub use volga_io::{read_voxel_model, save_voxel_model, write_png, VoxelModel};
+    pub use volga_mesh::{load_mesh, MeshQueries, TriMesh};
+    pub use volga_render::{render, Camera, Image, Mode, Projection, RenderSettings, Renderer};
+    pub use volga_scene::{build, BuildOptions};
+    pub use volga_sculpt::{Operation, Pose, Sculpt, Stroke, Tool};
+    pub use volga_topology::{verdict, Connectivity, Requirement, Verdict, VerdictInput, VoxelSet};
+    pub use volga_voxelize::{MeshJob, MeshJobMode, Separability};
+}

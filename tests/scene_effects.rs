@@ -39,6 +39,7 @@ fn build_scene(dir: &Path, text: &str) -> Result<volga::scene::Report, volga::sc
         &BuildOptions {
             out_dir: dir.join("out"),
             memory_limit: None,
+            stage_start: None,
         },
         &volga::NoProgress,
     )

@@ -64,6 +64,7 @@ fn stroke_errors_name_their_field_path_and_the_scene_builds() {
         &BuildOptions {
             out_dir: out.clone(),
             memory_limit: None,
+            stage_start: None,
         },
         &NoProgress,
     )
@@ -84,6 +85,7 @@ fn a_mesh_output_of_any_object_is_a_closed_manifold_torus() {
         &BuildOptions {
             out_dir: out.clone(),
             memory_limit: None,
+            stage_start: None,
         },
         &NoProgress,
     )

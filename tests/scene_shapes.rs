@@ -45,6 +45,7 @@ fn shapes_scene_builds_every_object_kind() {
         &BuildOptions {
             out_dir: dir.path().join("out"),
             memory_limit: None,
+            stage_start: None,
         },
         &volga::NoProgress,
     )

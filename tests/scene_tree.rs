@@ -111,6 +111,7 @@ fn lazy_only_scene_voxelizes_nothing() {
         &BuildOptions {
             out_dir: dir.path().join("out"),
             memory_limit: None,
+            stage_start: None,
         },
         &NoProgress,
     )
@@ -133,6 +134,7 @@ fn baked_and_lazy_images_agree() {
         &BuildOptions {
             out_dir: dir.path().join("out"),
             memory_limit: None,
+            stage_start: None,
         },
         &NoProgress,
     )

@@ -29,6 +29,7 @@
 //!     println!("{name}: {} bytes", bytes.len());
 //! }
 //! ```
+#![forbid(unsafe_code)]
 
 mod experiments;
 mod machine;

@@ -67,7 +67,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
     if let Some(out) = &args.out {
         output_format(out, binary)?;
     }
-    let job = job_args.prepare(&mut Stages::default())?;
+    let job = job_args.prepare(&mut Stages::with_stage_start(volga_scene::reset_peak_rss))?;
     let once = || {
         let start = Instant::now();
         let (run, mode) = job.voxelize(&NoProgress);

@@ -2,6 +2,7 @@
 //! measure what accuracy costs in time.
 //!
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
+#![forbid(unsafe_code)]
 
 mod accuracy;
 mod adf;
@@ -132,6 +133,7 @@ fn main() -> ExitCode {
             let options = BuildOptions {
                 out_dir: out,
                 memory_limit,
+                stage_start: Some(volga_scene::reset_peak_rss),
             };
             match build(&scene, &options, &progress) {
                 Ok(report) => {

@@ -328,7 +328,7 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
     let job_args = &args.job;
     let format = output_format(&args.out, job_args.spec()?.is_binary())?;
     check_distinct_outputs(&args.out, format, args.report.as_deref())?;
-    let mut stages = Stages::default();
+    let mut stages = Stages::with_stage_start(volga_scene::reset_peak_rss);
     let job = job_args.prepare(&mut stages)?;
     if format == VoxelFormat::Nrrd {
         // A NRRD's size is known from the grid: refuse before voxelizing.

@@ -3,19 +3,14 @@
 
 mod common;
 
-use std::time::Instant;
-
 use common::{arg, stderr, volga};
 
 #[test]
 fn quick_run_writes_every_table_plot_and_the_raw_figures() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("accuracy");
-    let start = Instant::now();
     let o = volga(&["accuracy", "--quick", "--out", arg(&out)]);
-    let seconds = start.elapsed().as_secs_f64();
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(seconds < 30.0, "--quick took {seconds:.1} s");
 
     // Exactly the files of the full run, and nothing else (no temporary files).
     let mut written: Vec<String> = std::fs::read_dir(&out)

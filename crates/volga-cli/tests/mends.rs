@@ -24,7 +24,6 @@ fn threads_beyond_the_cap_are_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let mesh = tetrahedron(dir.path());
     let out = dir.path().join("t.binvox");
-    let start = std::time::Instant::now();
     for n in ["100000", "1025"] {
         let o = volga(&[
             "--threads",
@@ -45,7 +44,6 @@ fn threads_beyond_the_cap_are_refused_at_once() {
             stderr(&o)
         );
     }
-    assert!(start.elapsed().as_secs() < 20, "refused without starting the threads");
     assert!(!out.exists());
     // 16 threads are always allowed.
     let o = volga(&[
@@ -224,7 +222,6 @@ fn outputs_larger_than_the_free_space_are_refused_before_voxelizing() {
     )
     .unwrap();
     let nrrd = dir.path().join("huge.nrrd");
-    let start = std::time::Instant::now();
     let o = volga(&[
         "voxelize",
         arg(&mesh),
@@ -244,7 +241,6 @@ fn outputs_larger_than_the_free_space_are_refused_before_voxelizing() {
         e.contains("not enough free space") && e.contains("TiB") && e.contains("available"),
         "{e}"
     );
-    assert!(start.elapsed().as_secs() < 60);
     assert!(!nrrd.exists());
 }
 

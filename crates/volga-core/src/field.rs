@@ -1,6 +1,6 @@
 use glam::{DVec3, Vec3};
 
-use crate::{Aabb, PackedVolume};
+use crate::{Aabb, SampledVoxels};
 
 /// What a [`Field`]'s value means, so consumers (the renderer, planners, exporters)
 /// know which side of an iso value is the inside and which way the outward normal
@@ -174,19 +174,13 @@ pub trait Field: Sync {
         }
     }
 
-    /// The field's voxels packed for a renderer's fast path: a [`PackedVolume`] (per
-    /// voxel the density and its central-difference gradient, four `f32` side by side),
-    /// built once per render. Only a field whose value is the trilinear reconstruction of
-    /// those densities and whose gradient is its central differences may return one (a
-    /// trilinear, central-difference [`Sampled`](crate::Sampled) volume does); the default,
-    /// `None`, keeps the renderer on its general path.
-    fn pack(&self) -> Option<PackedVolume> {
-        None
-    }
-
-    /// The [`PackedVolume`] this field samples, if it is a packed view (a renderer's
-    /// fast path checks it once per ray); default `None`.
-    fn packed(&self) -> Option<&PackedVolume> {
+    /// The voxels this field reconstructs and how ([`SampledVoxels`]: the densities,
+    /// the filter and the gradient method), when the field is exactly such a
+    /// reconstruction, as a [`Sampled`](crate::Sampled) volume is. A consumer may then
+    /// read the voxels into a layout of its own (the renderer's packed fast path copies
+    /// trilinear, central-difference volumes). The default, `None`: the field is not a
+    /// plain reconstruction of voxels (analytic, composed, adaptive…).
+    fn voxels(&self) -> Option<SampledVoxels<'_>> {
         None
     }
 
@@ -239,11 +233,8 @@ impl<F: Field + ?Sized> Field for &F {
     fn prepare(&self) -> Option<Box<dyn Field + '_>> {
         (**self).prepare()
     }
-    fn pack(&self) -> Option<PackedVolume> {
-        (**self).pack()
-    }
-    fn packed(&self) -> Option<&PackedVolume> {
-        (**self).packed()
+    fn voxels(&self) -> Option<SampledVoxels<'_>> {
+        (**self).voxels()
     }
     fn value_range(&self, b: &Aabb) -> (f64, f64) {
         (**self).value_range(b)

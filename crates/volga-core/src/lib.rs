@@ -37,6 +37,7 @@
 //! let field = Sampled::new(&vol, Filter::Trilinear);
 //! assert_eq!(field.value(DVec3::new(0.5, 0.5, 0.75)), 0.5);
 //! ```
+#![forbid(unsafe_code)]
 
 mod aabb;
 mod adjacency;
@@ -49,7 +50,6 @@ mod filters;
 mod grid;
 mod layout;
 pub mod memory;
-mod packed;
 mod progress;
 mod sampled;
 mod sparse;
@@ -65,9 +65,8 @@ pub use field::{Crossing, CrossingRay, Field, FieldKind, Line};
 pub use filters::{Filter, GradientMethod};
 pub use grid::{fast_floor, Grid, IndexBox, Transform};
 pub use layout::Shape3;
-pub use packed::{LaneCells, PackedCell, PackedVolume, PackedVoxel};
 pub use progress::{NoProgress, Progress};
-pub use sampled::{DenseReader, Sampled, SparseReader, VoxelReader, VoxelSource};
+pub use sampled::{DenseReader, Sampled, SampledVoxels, SparseReader, VoxelBlock, VoxelReader, VoxelSource};
 pub use sparse::{
     brick_extent, brick_index_box, brick_of, gather_brick, Brick, SparseGrid, SparseVolume, BRICK_DIM, BRICK_LOG2,
     BRICK_SHAPE, BRICK_VOXELS,

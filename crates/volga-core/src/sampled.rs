@@ -6,9 +6,65 @@ use crate::filters::{
 use crate::grid::{clamp_to_ivec3, fast_floor};
 use crate::sparse::brick_of;
 use crate::{
-    Aabb, Brick, BrickAtlas, DenseVolume, Field, Filter, GradientMethod, Grid, IndexBox, Line, PackedVolume, Rgb,
-    SparseGrid, SparseVolume, BRICK_DIM, BRICK_SHAPE,
+    Aabb, Brick, BrickAtlas, DenseVolume, Field, Filter, GradientMethod, Grid, IndexBox, Line, Rgb, SparseGrid,
+    SparseVolume, BRICK_DIM, BRICK_SHAPE,
 };
+
+/// The voxels of a [`Sampled`] field and how it reconstructs them: what
+/// [`Field::voxels`] returns.
+pub struct SampledVoxels<'a> {
+    /// The densities.
+    pub source: Box<dyn VoxelBlock + 'a>,
+    /// The reconstruction filter of values.
+    pub filter: Filter,
+    /// How gradients are computed.
+    pub gradient: GradientMethod,
+}
+
+/// Read access to a grid of voxel densities by boxes, object safe (a [`VoxelSource`]
+/// seen through [`Field::voxels`]).
+pub trait VoxelBlock: Sync {
+    /// The grid the densities live on.
+    fn block_grid(&self) -> &Grid;
+    /// The density outside the grid.
+    fn block_background(&self) -> f32;
+    /// `(min, max)` density over the voxels of `index_box`, already clipped to the grid
+    /// (as [`VoxelSource::density_range`]).
+    fn block_range(&self, index_box: &IndexBox) -> (f32, f32);
+    /// The densities of the voxels of `index_box` (which may reach beyond the grid: the
+    /// background there), x fastest, into `out`, whose length must be the box's volume
+    /// (panics otherwise). The values equal [`VoxelSource::density`]'s bit for bit.
+    fn read_block(&self, index_box: &IndexBox, out: &mut [f32]);
+}
+
+/// A [`VoxelSource`] as a [`VoxelBlock`].
+struct SourceBlock<'a, S>(&'a S);
+
+impl<S: VoxelSource> VoxelBlock for SourceBlock<'_, S> {
+    fn block_grid(&self) -> &Grid {
+        self.0.grid()
+    }
+    fn block_background(&self) -> f32 {
+        self.0.background()
+    }
+    fn block_range(&self, index_box: &IndexBox) -> (f32, f32) {
+        self.0.density_range(index_box)
+    }
+    fn read_block(&self, index_box: &IndexBox, out: &mut [f32]) {
+        let size = (index_box.max - index_box.min).max(IVec3::ZERO);
+        let (nx, ny) = (size.x as usize, size.y as usize);
+        assert_eq!(
+            out.len() as u64,
+            index_box.volume(),
+            "read_block: `out` must hold the box"
+        );
+        let mut reader = self.0.reader();
+        for (o, d) in out.iter_mut().enumerate() {
+            let local = IVec3::new((o % nx) as i32, ((o / nx) % ny) as i32, (o / (nx * ny)) as i32);
+            *d = reader.density(index_box.min + local);
+        }
+    }
+}
 
 /// Voxel storage that [`Sampled`] can reconstruct from. Reads outside the grid
 /// return the background value.
@@ -494,15 +550,13 @@ impl<S: VoxelSource> Field for Sampled<S> {
         self.source.prepared_field(self.filter, self.gradient)
     }
 
-    /// The voxels packed with their central-difference gradients ([`PackedVolume`])
-    /// when this field is trilinear with central-difference gradients (what a packed
-    /// sample reproduces); `None` for other filters or gradient methods, or if the
-    /// copy would exceed [`MAX_ATLAS_BYTES`](crate::MAX_ATLAS_BYTES).
-    fn pack(&self) -> Option<PackedVolume> {
-        if self.filter != Filter::Trilinear || self.gradient != GradientMethod::CentralDifference {
-            return None;
-        }
-        PackedVolume::build(&self.source)
+    /// The source's voxels with this field's filter and gradient method.
+    fn voxels(&self) -> Option<SampledVoxels<'_>> {
+        Some(SampledVoxels {
+            source: Box::new(SourceBlock(&self.source)),
+            filter: self.filter,
+            gradient: self.gradient,
+        })
     }
 
     /// The voxels' range over the box grown by the filter's reach (and the background

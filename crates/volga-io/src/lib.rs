@@ -41,6 +41,7 @@
 //! `space directions` are the per-axis spacing vectors, which is exactly volga's voxel
 //! convention (`world = origin + ijk ⊙ spacing`, see [`volga_core`]), so a volume
 //! round-trips through [`write_nrrd`] and [`read_nrrd`] with its transform bit-exact.
+#![forbid(unsafe_code)]
 
 mod atomic;
 mod binvox;
@@ -56,7 +57,7 @@ pub use atomic::{write_atomic, StagedOutputs};
 pub use binvox::{decode_binvox, encode_binvox, read_binvox, write_binvox, Binvox, BinvoxError};
 pub use model::{
     binvox_from_volume, check_free_space, check_free_space_for, encode_binvox_volume, free_space, read_voxel_model,
-    write_voxel_model, VoxelFormat, VoxelModel, VoxelValues,
+    save_voxel_model, write_voxel_model, VoxelFormat, VoxelModel, VoxelValues,
 };
 pub use nrrd_read::{read_nrrd, read_nrrd_with_colour};
 pub use nrrd_write::write_nrrd;

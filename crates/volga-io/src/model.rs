@@ -382,6 +382,15 @@ pub fn write_voxel_model(
     }
 }
 
+/// Writes `volume` as the model `path` (format by extension, as [`write_voxel_model`])
+/// all or nothing: the files appear only once all of them are complete, and nothing is
+/// left behind on error. Returns the paths written (an NRRD header and its `.raw`).
+pub fn save_voxel_model(path: &Path, volume: &SparseVolume) -> Result<Vec<PathBuf>, IoError> {
+    let mut outputs = StagedOutputs::new();
+    write_voxel_model(path, volume, &mut outputs)?;
+    outputs.commit()
+}
+
 /// Refuses to write `bytes` into `dir` when its filesystem has less free space (for an
 /// unprivileged user) than that: the error names the directory, the bytes needed and
 /// the bytes available. `dir` must exist. On platforms without `statvfs` the check

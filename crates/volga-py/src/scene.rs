@@ -31,6 +31,7 @@ pub fn build(
     let options = BuildOptions {
         out_dir: out,
         memory_limit,
+        stage_start: None,
     };
     let report = threads::run(py, threads, move || match &file {
         Some(file) => volga_scene::build_parsed(&path, file, &options, &NoProgress),

@@ -2,8 +2,8 @@
 //! sampled volume's iso-surface found **exactly**, cell by cell, instead of by samples
 //! along the ray.
 //!
-//! Taken by [`Iso`](crate::Iso) when [`iso_packed`] holds: the field is a packed view
-//! ([`Field::packed`], given by the renderer when
+//! Taken by [`Iso`](crate::Iso) when [`iso_packed`] holds: the renderer samples a packed
+//! copy of the field (`PackedVolume`, made when
 //! [`packet_path_allowed`](crate::packet) holds — no shadows, no point lights) and the
 //! shading needs no shadow rays. Every other field (cubic filters, analytic gradients,
 //! octrees, ADFs, CVG trees, analytic fields) and every image with shadows or point
@@ -45,7 +45,9 @@
 //! hit.
 
 use glam::{DVec3, IVec3};
-use volga_core::{Field, PackedVolume};
+use volga_core::Field;
+
+use crate::packed::PackedVolume;
 
 use crate::integrators::March;
 use crate::{Camera, Ray, RenderStats};
@@ -73,7 +75,7 @@ pub(crate) fn iso_packed<'m, F: Field + ?Sized>(m: &'m March<'_, F>) -> Option<&
     if m.shader.is_general() {
         return None;
     }
-    m.field.packed()
+    m.packed
 }
 
 impl<F: Field + ?Sized> March<'_, F> {

@@ -5,7 +5,9 @@
 //! own error), for densities and signed distances, near the origin and at 10⁶.
 
 use glam::{DVec3, UVec3};
-use volga_core::{ChannelKind, Field, Filter, Grid, PackedVolume, Sampled, SparseVolume, Transform};
+use volga_core::{ChannelKind, Field, Filter, Grid, Sampled, SparseVolume, Transform};
+
+use crate::packed::PackedVolume;
 
 use super::{march_iso_packed, IsoCellMask, IsoStarts};
 use crate::{Ray, RenderStats};
@@ -42,7 +44,7 @@ fn walk(
 /// `inward` is the sign of the inside (`−1`: a signed distance; sampled volumes are
 /// densities to `Field::kind`, so the orientation is passed as the renderer would).
 fn packed_hit(field: &dyn Field, inward: f64, ray: &Ray, iso: f64) -> Option<f64> {
-    let packed = field.pack().expect("packs");
+    let packed = PackedVolume::of_field(field).expect("packs");
     let (t0, t1) = field.bounds().ray_interval(ray.origin, ray.dir)?;
     let t0 = t0.max(0.0);
     let bg = field.background();
@@ -253,7 +255,7 @@ fn starts_jumps_and_clip_never_drop_a_hit() {
             1.0 / (1.0 + (d / 1.2).exp())
         });
         let field = Sampled::new(&v, Filter::Trilinear);
-        let packed = field.pack().expect("packs");
+        let packed = PackedVolume::of_field(&field).expect("packs");
         let (iso, inward) = (0.5, 1.0);
         let mask = IsoCellMask::build(&packed, inward, iso);
         // The blobs' solid interiors: blocks the map projects only where a walk starts.

@@ -25,9 +25,9 @@
 //! None of these changes a hit: the walk over the cells is the same; they only pass
 //! cells whose reading would say "outside" (tests: `iso_packed_tests.rs`).
 
+use crate::packed::PackedVolume;
 use glam::{DVec3, IVec3, UVec3};
 use rayon::prelude::*;
-use volga_core::PackedVolume;
 
 /// Largest reach stored, in blocks of 4 cells (a 255-block cube spans 1020 cells
 /// each way from its centre: more than any volume the packed copy holds per axis).

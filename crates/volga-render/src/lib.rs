@@ -91,9 +91,9 @@
 //!   checks every mode draws the same image either way). Shading normalizes the
 //!   Blinn-Phong half vectors once per ray.
 //! * **The packed fast path** (`src/packet.rs`): for shaded DVR with a 1D transfer
-//!   function (at most 8 control points, colour from it) of a field that packs itself
-//!   ([`Field::pack`](volga_core::Field::pack): trilinear, central-difference
-//!   [`volga_core::Sampled`] volumes, giving a [`volga_core::PackedVolume`] — per voxel
+//!   function (at most 8 control points, colour from it) of a field that is a trilinear,
+//!   central-difference reconstruction of voxels ([`Field::voxels`](volga_core::Field::voxels):
+//!   [`volga_core::Sampled`] volumes), the renderer packs a copy (`packed.rs`) — per voxel
 //!   the density and its central-difference gradient, four `f32` in padded 16³ tiles),
 //!   [`Renderer::new`] packs the field once instead of preparing its atlas, and each
 //!   ray's samples are taken eight at a time: value **and** gradient from one 8-corner
@@ -165,6 +165,7 @@ mod integrators;
 mod iso_packed;
 mod light_volume;
 mod march;
+mod packed;
 mod packet;
 mod preint;
 mod render;
@@ -172,6 +173,8 @@ mod sample_walk;
 mod settings;
 mod shading;
 mod shadow;
+#[cfg(test)]
+mod test_cpu;
 mod transfer;
 
 pub use camera::{Camera, Projection, Ray};

@@ -92,7 +92,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                 field: self.field,
                 packed,
             };
-            return self.rerender_march(&self.march(&field), camera, &grown, image);
+            return self.rerender_march(&self.march_packed(&field, Some(packed)), camera, &grown, image);
         }
         match &self.prepared {
             Some(p) => self.rerender_march(&self.march(&**p), camera, &grown, image),

@@ -153,7 +153,7 @@ pub struct Renderer<'a, F: ?Sized, I> {
     prepared: Option<Box<dyn Field + 'a>>,
     /// What [`Field::pack`] returned when the packed path is allowed: sampled through
     /// `packet.rs` instead of `field` and `prepared`.
-    packed: Option<volga_core::PackedVolume>,
+    packed: Option<crate::packed::PackedVolume>,
     constants: MarchConstants,
     shader: Shader,
     grid: Option<MacroGrid>,
@@ -200,7 +200,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             .flatten();
 
         let packed = crate::packet::packet_path_allowed(integrator, settings)
-            .then(|| field.pack())
+            .then(|| crate::packed::PackedVolume::of_field(field))
             .flatten();
         let prepared = if packed.is_none() && settings.sampling.prepare_field {
             field.prepare()
@@ -265,6 +265,16 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
     }
 
     pub(crate) fn march<'r, G: Field + ?Sized>(&'r self, field: &'r G) -> March<'r, G> {
+        self.march_packed(field, None)
+    }
+
+    /// [`Renderer::march`] over `field`, which samples `packed` when given (a
+    /// `PackedField` over it, `packet.rs`).
+    pub(crate) fn march_packed<'r, G: Field + ?Sized>(
+        &'r self,
+        field: &'r G,
+        packed: Option<&'r crate::packed::PackedVolume>,
+    ) -> March<'r, G> {
         let c = self.constants;
         March {
             field,
@@ -282,6 +292,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
             light_volumes: &self.light_volumes,
             iso_mask: self.iso_mask.as_ref(),
             iso_starts: None,
+            packed,
         }
     }
 
@@ -317,7 +328,7 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
                     image.height,
                 )
             });
-            let mut march = self.march(&field);
+            let mut march = self.march_packed(&field, Some(packed));
             march.iso_starts = starts.as_ref();
             return self.render_march(&march, camera, progress);
         }

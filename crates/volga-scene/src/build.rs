@@ -89,6 +89,10 @@ pub struct BuildOptions {
     /// Refuse builds estimated to need more than this; `None`: the machine's available
     /// memory.
     pub memory_limit: Option<u64>,
+    /// Called at the start of every build stage: `Some(`[`reset_peak_rss`](crate::reset_peak_rss)`)`
+    /// makes each stage's reported peak its own (what the `volga` CLI does); `None`
+    /// leaves process-wide state alone and reports the process's peak so far.
+    pub stage_start: Option<fn()>,
 }
 
 /// Builds a scene: every output is staged under a temporary name and renamed only
@@ -115,7 +119,10 @@ fn build_with(
     progress: &dyn Progress,
 ) -> Result<Report, BuildError> {
     let start = Instant::now();
-    let mut stages = Stages::default();
+    let mut stages = match options.stage_start {
+        Some(hook) => Stages::with_stage_start(hook),
+        None => Stages::default(),
+    };
     let mut scene = stages.run("load", || match file {
         Some(file) => crate::validate::validate(path, file),
         None => validate_scene(path),

@@ -21,6 +21,7 @@
 //!
 //! World coordinates in scenes are `f64`; the serde types stay in this crate, and the
 //! kernel crates only ever see validated values.
+#![forbid(unsafe_code)]
 
 mod build;
 mod ctx;
@@ -40,5 +41,5 @@ pub use build::{
 pub use error::{BuildError, SceneError};
 pub use load::{parse_file, parse_json, parse_ron};
 pub use plan::{Decision, MemoryEstimate, Plan};
-pub use stages::{peak_rss_bytes, StageReport, Stages};
+pub use stages::{peak_rss_bytes, reset_peak_rss, StageReport, Stages};
 pub use validate::{content_bounds, validate, ImageJob, RenderSource, Scene};

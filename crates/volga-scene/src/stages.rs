@@ -8,20 +8,39 @@ use serde::Serialize;
 pub struct StageReport {
     pub name: String,
     pub wall_s: f64,
-    /// Peak resident memory of the process during the stage (bytes), measured by
-    /// resetting the kernel's high-water mark (`/proc/self/clear_refs`) at the stage's
-    /// start and reading `VmHWM` at its end. 0 where /proc is unavailable.
+    /// Peak resident memory of the process (bytes, `VmHWM` read at the stage's end;
+    /// 0 where /proc is unavailable): the peak during the stage when the program
+    /// resets the high-water mark at each stage's start (a
+    /// [`Stages::with_stage_start`] hook, as the `volga` CLI does), else the process's
+    /// peak so far.
     pub peak_mem_bytes: u64,
 }
 
+/// Wall time and peak memory of the named stages of a job, in order.
 #[derive(Debug, Default)]
 pub struct Stages {
+    /// The stages run so far.
     pub list: Vec<StageReport>,
+    /// Called at the start of every stage (see [`Stages::with_stage_start`]).
+    stage_start: Option<fn()>,
 }
 
 impl Stages {
+    /// Stages that call `hook` at the start of each one. The library never changes
+    /// process-wide state itself; a program that owns its process may pass
+    /// [`reset_peak_rss`] so each stage's peak is its own.
+    pub fn with_stage_start(hook: fn()) -> Self {
+        Stages {
+            list: Vec::new(),
+            stage_start: Some(hook),
+        }
+    }
+
+    /// Runs `f` as the stage `name`, recording its wall time and peak memory.
     pub fn run<T>(&mut self, name: impl Into<String>, f: impl FnOnce() -> T) -> T {
-        reset_peak_rss();
+        if let Some(hook) = self.stage_start {
+            hook();
+        }
         let start = Instant::now();
         let out = f();
         self.list.push(StageReport {
@@ -33,8 +52,12 @@ impl Stages {
     }
 }
 
-fn reset_peak_rss() {
-    // Writing "5" resets VmHWM to the current RSS (Linux ≥ 4.0); ignore failure.
+/// Resets the process's peak resident set (`VmHWM`) to its current size by writing 5
+/// to `/proc/self/clear_refs` (Linux ≥ 4.0; nothing elsewhere). It changes state that
+/// belongs to the whole process (what an embedding program's own peak-memory readings
+/// see), so only a program that owns its process should call it, e.g. as a
+/// [`Stages::with_stage_start`] hook.
+pub fn reset_peak_rss() {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
 }
 

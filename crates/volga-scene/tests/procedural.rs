@@ -13,6 +13,7 @@ fn run(dir: &Path, name: &str, scene: &str) -> Report {
     let options = BuildOptions {
         out_dir: dir.join(name),
         memory_limit: Some(1 << 30),
+        stage_start: None,
     };
     build(&path, &options, &NoProgress).unwrap()
 }

@@ -237,6 +237,8 @@ pub struct March<'a, F: ?Sized> {
     pub(crate) iso_mask: Option<&'a crate::iso_packed::IsoCellMask>,
     /// The packed iso path's start map of the view, when the renderer built one.
     pub(crate) iso_starts: Option<&'a crate::iso_packed::IsoStarts>,
+    /// The packed copy `field` samples, when the renderer took the packed path.
+    pub(crate) packed: Option<&'a crate::packed::PackedVolume>,
 }
 
 impl<F: Field + ?Sized> March<'_, F> {

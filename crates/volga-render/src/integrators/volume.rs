@@ -105,7 +105,7 @@ impl Integrator for Volume {
     ) -> (Vec3, f32) {
         let colour = self.colour_from_field;
         match (&self.classifier, m.preint) {
-            (Classifier::Transfer(tf), None) => match (m.field.packed(), tf.lanes()) {
+            (Classifier::Transfer(tf), None) => match (m.packed, tf.lanes()) {
                 (Some(p), Some(lanes)) if !colour => crate::packet::composite(m, p, lanes, ray, interval, stats),
                 _ => composite(m, &PostClassified(tf), tf, colour, ray, interval, stats),
             },

@@ -5,8 +5,8 @@
 //! trilinear reconstructions.
 //!
 //! Why this equals the central-difference gradient of the trilinear reconstruction:
-//! that gradient ([`GradientMethod::CentralDifference`](crate::GradientMethod) with
-//! [`Filter::Trilinear`](crate::Filter)) is, per axis, the trilinear interpolation of
+//! that gradient ([`GradientMethod::CentralDifference`](volga_core::GradientMethod) with
+//! [`Filter::Trilinear`](volga_core::Filter)) is, per axis, the trilinear interpolation of
 //! the voxels' own differences `(v[i + 1] − v[i − 1]) / 2h` at the cell's eight corners
 //! (see `filters::trilinear_central_gradient`). Storing those per-voxel differences
 //! and interpolating them gives the same quantity, rounded to `f32` once per voxel.
@@ -16,7 +16,7 @@ use std::collections::HashMap;
 use glam::{DVec3, IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use crate::{Grid, IndexBox, VoxelSource, MAX_ATLAS_BYTES};
+use volga_core::{Field, Filter, GradientMethod, Grid, IndexBox, Shape3, VoxelBlock, MAX_ATLAS_BYTES};
 
 const TILE_LOG2: i32 = 4;
 const TILE: i32 = 1 << TILE_LOG2;
@@ -35,12 +35,12 @@ const SHIFT: i32 = 2;
 pub type PackedVoxel = [f32; 4];
 
 /// A voxel source's densities and central-difference gradients, packed for ray
-/// sampling (see the [module docs](self)). Built by
-/// [`Field::packed`](crate::Field::packed) of a trilinear, central-difference
-/// [`Sampled`](crate::Sampled) field; read-only.
+/// sampling (see the [module docs](self)). Built from the voxels
+/// ([`Field::voxels`](volga_core::Field::voxels)) of a trilinear, central-difference
+/// [`Sampled`](volga_core::Sampled) field; read-only.
 ///
 /// Densities are the source's own `f32` (the same bits), so [`PackedVolume::value`]
-/// equals the trilinear [`Sampled`](crate::Sampled)'s value bit for bit; gradients are
+/// equals the trilinear [`Sampled`](volga_core::Sampled)'s value bit for bit; gradients are
 /// the same formula rounded to `f32` per voxel (relative error ~1e-7).
 pub struct PackedVolume {
     grid: Grid,
@@ -59,11 +59,16 @@ pub struct PackedVolume {
 
 /// Where eight samples read ([`PackedVolume::cells_avx2`]): per lane the offset of the
 /// cell's base voxel entry (the background block's outside the stored region) and the
-/// fractions per axis. The default reads the first stored entry with zero fractions.
+/// fractions per axis, with the length of the volume's storage they were located in:
+/// [`PackedVolume::sample_cells_avx2`] refuses cells of any other length, so offsets
+/// located in one volume never read beyond another. The default belongs to no volume
+/// (a placeholder; sampling it panics).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct LaneCells {
     offset: [u32; 8],
     frac: [[f32; 8]; 3],
+    /// `voxels.len()` of the volume that located them.
+    voxel_len: usize,
 }
 
 /// Where a trilinear sample reads: the offset of its base voxel's entry (or `None`
@@ -76,31 +81,44 @@ pub struct PackedCell {
 }
 
 impl PackedVolume {
+    /// The packed copy of `field`'s voxels when the field is their trilinear
+    /// reconstruction with central-difference gradients (what a packed sample
+    /// reproduces, see [`Field::voxels`]); `None` for any other field, filter or gradient
+    /// method, or if the copy would exceed [`MAX_ATLAS_BYTES`].
+    pub fn of_field<F: Field + ?Sized>(field: &F) -> Option<Self> {
+        let voxels = field.voxels()?;
+        if voxels.filter != Filter::Trilinear || voxels.gradient != GradientMethod::CentralDifference {
+            return None;
+        }
+        Self::build(&*voxels.source)
+    }
+
     /// Packs `source`, or `None` if the copy would take more than
     /// [`MAX_ATLAS_BYTES`] (checked before allocating). Tiles whose voxels and
     /// neighbours are one finite value share one stored tile. Filled in parallel; the
     /// result does not depend on the thread count.
-    pub fn build<S: VoxelSource>(source: &S) -> Option<Self> {
-        let grid = *source.grid();
+    pub fn build(source: &dyn VoxelBlock) -> Option<Self> {
+        let grid = *source.block_grid();
         let dims = grid.dims().as_ivec3();
         let tiles = (dims + IVec3::splat(2 * SHIFT + TILE - 1)) >> TILE_LOG2;
         let n = tiles.as_uvec3().as_u64vec3().element_product();
         if n >= u32::MAX as u64 {
             return None;
         }
-        let bg = source.background();
+        let tile_shape = Shape3::new(tiles.as_uvec3()).ok()?;
+        let bg = source.block_background();
         // Per tile: its value if every voxel it stores and their six neighbours are
         // one finite value (gradients then all exactly zero).
         let uniform: Vec<Option<f32>> = (0..n as usize)
             .into_par_iter()
             .map(|tile| {
-                let first = delinearize(tile, tiles) * TILE - IVec3::splat(SHIFT) - IVec3::ONE;
+                let first = tile_shape.delinearize(tile) * TILE - IVec3::splat(SHIFT) - IVec3::ONE;
                 let needed = IndexBox::new(first, first + IVec3::splat(PADDED + 2));
                 let inside = needed.intersection(&grid.index_box());
                 let (mut lo, mut hi) = if inside.is_empty() {
                     (bg, bg)
                 } else {
-                    source.density_range(&inside)
+                    source.block_range(&inside)
                 };
                 if inside != needed {
                     lo = lo.min(bg);
@@ -149,13 +167,10 @@ impl PackedVolume {
                 None => {
                     // The densities the block needs: one voxel beyond it on every side.
                     const E: usize = (PADDED + 2) as usize;
-                    let first = delinearize(tile, tiles) * TILE - IVec3::splat(SHIFT);
-                    let mut reader = source.reader();
+                    let first = tile_shape.delinearize(tile) * TILE - IVec3::splat(SHIFT);
                     let mut d = vec![0.0f32; E * E * E];
-                    for (o, out) in d.iter_mut().enumerate() {
-                        let local = IVec3::new((o % E) as i32, ((o / E) % E) as i32, (o / (E * E)) as i32);
-                        *out = crate::VoxelReader::density(&mut reader, first - IVec3::ONE + local);
-                    }
+                    let lo = first - IVec3::ONE;
+                    source.read_block(&IndexBox::new(lo, lo + IVec3::splat(E as i32)), &mut d);
                     let at = |x: usize, y: usize, z: usize| d[x + E * (y + E * z)] as f64;
                     for (o, out) in block.iter_mut().enumerate() {
                         let (x, y, z) = (o % STRIDE_Y + 1, (o / STRIDE_Y) % STRIDE_Y + 1, o / STRIDE_Z + 1);
@@ -189,11 +204,6 @@ impl PackedVolume {
         self.background
     }
 
-    /// Bytes held (table and stored tiles).
-    pub fn memory_bytes(&self) -> u64 {
-        (self.table.len() * 4 + self.voxels.len() * 16) as u64
-    }
-
     /// Offset of base voxel `base`'s entry; its cell's eight corners are at
     /// `offset + {0, 1} + {0, STRIDE_Y} + {0, STRIDE_Z}`. `None` outside the stored
     /// region, where all eight corners are background voxels whose neighbours are
@@ -211,11 +221,11 @@ impl PackedVolume {
     }
 
     /// The base voxel and fractions of continuous index coordinates (as
-    /// [`Sampled`](crate::Sampled) computes them).
+    /// [`Sampled`](volga_core::Sampled) computes them).
     ///
     /// The floor is taken through one `i32` conversion per axis (on coordinates clamped
     /// to ±10⁹, far outside any grid): the same base voxel and fractions as
-    /// [`fast_floor`](crate::fast_floor) inside that range, and the background beyond it either way.
+    /// [`fast_floor`](volga_core::fast_floor) inside that range, and the background beyond it either way.
     #[inline(always)]
     pub fn cell_at_index(&self, index_pos: DVec3) -> PackedCell {
         const LIM: f64 = 1e9;
@@ -325,7 +335,11 @@ impl PackedVolume {
     pub unsafe fn cells_avx2(&self, index_pos: &[[f32; 8]; 3]) -> LaneCells {
         // SAFETY: the caller guarantees AVX2.
         let (offset, frac) = unsafe { self.cells_lanes_avx2(index_pos) };
-        LaneCells { offset, frac }
+        LaneCells {
+            offset,
+            frac,
+            voxel_len: self.voxels.len(),
+        }
     }
 
     /// Prefetches into L1 the corner rows that [`PackedVolume::sample_cells_avx2`] will
@@ -466,7 +480,7 @@ impl PackedVolume {
     /// caller should be compiled with it (`#[target_feature(enable = "avx2")]`): the
     /// function is always inlined into its caller (which a target-feature function
     /// cannot be), so its intrinsics compile to the caller's instructions.
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(test, target_arch = "x86_64"))]
     #[inline(always)]
     pub unsafe fn sample_lanes_avx2(&self, index_pos: &[[f32; 8]; 3]) -> ([f32; 8], [[f32; 8]; 3]) {
         // SAFETY: the caller guarantees AVX2 (this function's own contract).
@@ -476,22 +490,32 @@ impl PackedVolume {
     /// [`PackedVolume::sample_lanes_avx2`] at cells already located
     /// ([`PackedVolume::cells_avx2`]): the same bits.
     ///
+    /// Panics if `cells` were located in a volume whose storage has another length
+    /// (cells of this volume, or of one laid out alike, only read inside it).
+    ///
     /// # Safety
     /// As [`PackedVolume::sample_lanes_avx2`]: the CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub unsafe fn sample_cells_avx2(&self, cells: &LaneCells) -> ([f32; 8], [[f32; 8]; 3]) {
         use std::arch::x86_64::*;
+        assert_eq!(
+            cells.voxel_len,
+            self.voxels.len(),
+            "lane cells of another packed volume"
+        );
         let (offset, frac) = (&cells.offset, &cells.frac);
         let base = self.voxels.as_ptr() as *const f32;
         let mut q = [_mm_setzero_ps(); 8];
         for l in 0..8 {
             let o = offset[l] as usize * 4;
             debug_assert!(o + 4 * (STRIDE_Z + STRIDE_Y + 2) <= self.voxels.len() * 4);
-            // SAFETY: `offset[l]` is a base voxel entry of a stored padded block (a table
-            // entry plus a local offset below 16 per axis, or the background block's
-            // first entry), so its cell's far corner `+ STRIDE_Z + STRIDE_Y + 1` lies in
-            // the same block, inside `voxels`; unaligned loads need no alignment.
+            // SAFETY: `offset[l]` is a base voxel entry of a stored padded block of a
+            // volume with this storage length (asserted above; `LaneCells` are made
+            // only by `cells_avx2`): a table entry plus a local offset below 16 per axis,
+            // or the background block's first entry. Its cell's far corner
+            // `+ STRIDE_Z + STRIDE_Y + 1` lies in the same block, inside `voxels`;
+            // unaligned loads need no alignment.
             let (r00, r10, r01, r11) = unsafe {
                 (
                     _mm256_loadu_ps(base.add(o)),
@@ -532,7 +556,7 @@ impl PackedVolume {
     }
 
     /// The trilinear value at continuous index coordinates, in `f64` exactly as
-    /// [`Sampled`](crate::Sampled) computes it (the same bits).
+    /// [`Sampled`](volga_core::Sampled) computes it (the same bits).
     #[inline(always)]
     pub fn value_at_index(&self, index_pos: DVec3) -> f64 {
         let cell = self.cell_at_index(index_pos);
@@ -551,7 +575,7 @@ impl PackedVolume {
     }
 
     /// The trilinear value at a world position (the same bits as the trilinear
-    /// [`Sampled::value`](crate::Field::value)).
+    /// [`Sampled::value`](volga_core::Field::value)).
     #[inline(always)]
     pub fn value(&self, world_pos: DVec3) -> f64 {
         self.value_at_index(self.grid.transform.world_to_index(world_pos))
@@ -559,7 +583,7 @@ impl PackedVolume {
 
     /// The central-difference gradient of the trilinear reconstruction at a world
     /// position, from the per-voxel gradients (within `f32` rounding of
-    /// [`Sampled::gradient`](crate::Field::gradient)).
+    /// [`Sampled::gradient`](volga_core::Field::gradient)).
     #[inline(always)]
     pub fn gradient(&self, world_pos: DVec3) -> DVec3 {
         let g = self.sample4(&self.cell_at_index(self.grid.transform.world_to_index(world_pos)));
@@ -567,154 +591,6 @@ impl PackedVolume {
     }
 }
 
-#[inline]
-fn delinearize(tile: usize, tiles: IVec3) -> IVec3 {
-    let (nx, ny) = (tiles.x as usize, tiles.y as usize);
-    IVec3::new((tile % nx) as i32, ((tile / nx) % ny) as i32, (tile / (nx * ny)) as i32)
-}
-
 #[cfg(test)]
-mod tests {
-    use glam::UVec3;
-
-    use super::*;
-    use crate::{DenseVolume, Field, Filter, GradientMethod, Sampled, SparseVolume, Transform};
-
-    /// A deterministic uniform generator on `[0, 1)` (a 64-bit LCG's top 53 bits).
-    fn uniform(mut state: u64) -> impl FnMut() -> f64 {
-        move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
-
-    fn volume(dims: UVec3, background: f32) -> SparseVolume {
-        let grid = Grid::new(
-            Transform::new(DVec3::new(-3.0, 1e3, 2.0), DVec3::new(0.5, 0.25, 0.75)).unwrap(),
-            dims,
-        )
-        .unwrap();
-        let mut dense = DenseVolume::new(grid, background, false).unwrap();
-        for ijk in grid.index_box().iter() {
-            let h = ijk.x.wrapping_mul(73_856_093) ^ ijk.y.wrapping_mul(19_349_663) ^ ijk.z.wrapping_mul(83_492_791);
-            // Noise plus a uniform slab (z < 20) to exercise shared tiles.
-            let v = if ijk.z < 20 { 0.75 } else { (h & 1023) as f32 / 1023.0 };
-            dense.density.set(ijk, v);
-        }
-        SparseVolume::from_dense(&dense)
-    }
-
-    /// Values equal the trilinear `Sampled` bit for bit and gradients its central
-    /// differences within f32 rounding, everywhere around and inside the grid
-    /// (including the stored region's edges and beyond it).
-    #[test]
-    fn values_and_gradients_match_the_sampled_field() {
-        for (dims, bg) in [
-            (UVec3::new(37, 20, 45), 0.0),
-            (UVec3::ONE, 0.5),
-            (UVec3::new(16, 3, 30), -1.0),
-        ] {
-            let v = volume(dims, bg);
-            let field = Sampled::new(&v, Filter::Trilinear).with_gradient(GradientMethod::CentralDifference);
-            let packed = PackedVolume::build(&v).expect("small volume");
-            let t = &v.grid.transform;
-            let mut next = uniform(12345u64);
-            let lo = DVec3::splat(-4.0);
-            let hi = dims.as_dvec3() + 4.0;
-            for _ in 0..20_000 {
-                let index = lo + (hi - lo) * DVec3::new(next(), next(), next());
-                let p = t.index_to_world(index);
-                assert_eq!(packed.value(p).to_bits(), field.value(p).to_bits(), "{index}");
-                let (a, b) = (packed.gradient(p), field.gradient(p));
-                let scale = 1.0 + b.abs().max_element();
-                assert!((a - b).abs().max_element() <= 1e-6 * scale, "{index}: {a} vs {b}");
-            }
-            // Whole-voxel positions hit the tile borders exactly.
-            for ijk in IndexBox::new(IVec3::splat(-3), dims.as_ivec3() + 3).iter() {
-                let p = t.voxel_center(ijk);
-                assert_eq!(packed.value(p).to_bits(), field.value(p).to_bits(), "{ijk}");
-                let (a, b) = (packed.gradient(p), field.gradient(p));
-                assert!(
-                    (a - b).abs().max_element() <= 1e-6 * (1.0 + b.abs().max_element()),
-                    "{ijk}"
-                );
-            }
-        }
-    }
-
-    /// The eight-lane fetch equals `sample4` within `f32` rounding of its other
-    /// blend order, inside, on tile borders, outside the stored region and at
-    /// non-finite positions (the background with a zero gradient); the AVX2 fetch
-    /// equals the portable one bit for bit.
-    #[test]
-    #[allow(clippy::needless_range_loop)]
-    fn lane_fetch_matches_the_one_sample_fetch() {
-        for (dims, bg) in [
-            (UVec3::new(37, 20, 45), 0.0),
-            (UVec3::ONE, 0.5),
-            (UVec3::new(16, 3, 30), -1.0),
-        ] {
-            let v = volume(dims, bg);
-            let packed = PackedVolume::build(&v).expect("small volume");
-            let mut next = uniform(99u64);
-            let lo = DVec3::splat(-40.0);
-            let hi = dims.as_dvec3() + 40.0;
-            let mut lanes_checked = 0;
-            for round in 0..4000 {
-                let mut pos = [[0.0f32; 8]; 3];
-                for l in 0..8 {
-                    let mut p = lo + (hi - lo) * DVec3::new(next(), next(), next());
-                    if round % 7 == 0 {
-                        p = p.round(); // whole voxels: tile borders and the far corners
-                    }
-                    for a in 0..3 {
-                        pos[a][l] = p[a] as f32;
-                    }
-                }
-                if round == 1 {
-                    pos[0][1] = f32::NAN;
-                    pos[1][2] = f32::INFINITY;
-                    pos[2][3] = f32::NEG_INFINITY;
-                    pos[0][4] = 3e9;
-                    pos[1][5] = -3e9;
-                }
-                let (val, grad) = packed.sample_lanes(&pos);
-                for l in 0..8 {
-                    let p = DVec3::new(pos[0][l] as f64, pos[1][l] as f64, pos[2][l] as f64);
-                    let expect = if p.is_finite() {
-                        packed.sample4(&packed.cell_at_index(p))
-                    } else {
-                        Vec4::new(bg, 0.0, 0.0, 0.0)
-                    };
-                    let got = Vec4::new(val[l], grad[0][l], grad[1][l], grad[2][l]);
-                    let scale = 1.0 + expect.abs().max_element();
-                    assert!(
-                        (got - expect).abs().max_element() <= 4.0 * f32::EPSILON * scale,
-                        "{p}: {got} vs {expect}"
-                    );
-                    lanes_checked += 1;
-                }
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: AVX2 is present (checked just above).
-                    let (val2, grad2) = unsafe { packed.sample_lanes_avx2(&pos) };
-                    assert_eq!(val2.map(f32::to_bits), val.map(f32::to_bits));
-                    assert_eq!(grad2.map(|g| g.map(f32::to_bits)), grad.map(|g| g.map(f32::to_bits)));
-                }
-            }
-            assert_eq!(lanes_checked, 32_000);
-        }
-    }
-
-    #[test]
-    fn uniform_tiles_share_storage() {
-        let grid = Grid::new(Transform::new(DVec3::ZERO, DVec3::ONE).unwrap(), UVec3::splat(60)).unwrap();
-        let v = SparseVolume::new(grid, 0.0, false);
-        let packed = PackedVolume::build(&v).unwrap();
-        assert_eq!(packed.voxels.len(), PADDED_VOXELS);
-        assert_eq!(packed.table.len(), 4 * 4 * 4);
-        assert_eq!(packed.value(DVec3::splat(30.5)), 0.0);
-    }
-}
+#[path = "packed_tests.rs"]
+mod tests;
