@@ -1,6 +1,6 @@
 //! The volume-sampled sphere's volume, against exact references.
 //!
-//! The issue asked that Σ density × voxel volume lie within 0.5 % of 4/3·π·r³ for
+//! One would like Σ density × voxel volume to lie within 0.5 % of 4/3·π·r³ for
 //! r ≥ 8 voxels. With the prescribed profile (linear over ±√3 voxels, 0.5 on the
 //! surface) that is impossible: the outer half of the ramp lies on a larger sphere than
 //! the inner half, so the sum is exactly 4/3·π·r³·(1 + w²/r²) with w = √3 voxels

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Nothing lost: runs two volga binaries on the same jobs and compares every output
-# byte for byte (issue 10). Jobs: every committed scene (`volga build`: PNG, NRRD/raw)
+# byte for byte. Jobs: every committed scene (`volga build`: PNG, NRRD/raw)
 # and `volga voxelize` of the five meshes of tests/data at N = 128 and 256 in
 # every mode (6/18/26-separating surfaces, 26-separating solid, anti-aliased surface
 # and solid, signed distance ±3). Reports differ only in timings and are not compared.

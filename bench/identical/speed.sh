@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Speed before/after a change (issue 10): `volga bench voxelize` of the Stanford bunny
+# Speed of two binaries (a base and a changed one): `volga bench voxelize` of the Stanford bunny
 # with two binaries, taking turns round by round, on the peer benchmark's two jobs
 # (signed distance ±3 voxels, 26-separating surface) at N = 128, 256, 512. Prints one
 # line per job with each binary's median of the round medians and their ratio. Since

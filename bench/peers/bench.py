@@ -1,4 +1,4 @@
-"""Peer benchmark of volga's mesh voxelization (issue 4): OpenVDB, Open3D, trimesh.
+"""Peer benchmark of volga's mesh voxelization: OpenVDB, Open3D, trimesh.
 
 Run through bench/peers/run.sh, which installs the peers and builds volga first. Each
 (tool, N) runs in its own process, so no tool's caches or heap help another, and the
@@ -341,7 +341,7 @@ def _validate_summary(text):
 
 
 def _find_count(text, key):
-    """A count of `key`s in validate's JSON (schema owned by issue 5), if findable."""
+    """A count of `key`s in validate's JSON (schema in docs/VALIDATE.md), if findable."""
     try:
         doc = json.loads(text)
     except ValueError:

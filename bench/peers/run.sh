@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Peer benchmark of `volga voxelize` against OpenVDB, Open3D and trimesh (issue 4).
+# Peer benchmark of `volga voxelize` against OpenVDB, Open3D and trimesh (docs/BENCHMARKS.md).
 # Heavy (tens of minutes, ~7 GiB peak for trimesh at N=512) and needs root for apt:
 # kept out of CI on purpose. Arguments go to bench.py, e.g.
 #   bench/peers/run.sh                          # N = 128 256 512, writes docs/BENCHMARKS.md

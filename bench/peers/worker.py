@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 
 from common import load_obj, voxel_size, write_binvox  # noqa: E402
 
-HALF_WIDTH = 3  # narrow band half-width in voxels, as in the issue
+HALF_WIDTH = 3  # narrow band half-width in voxels, task (a) of docs/BENCHMARKS.md
 
 
 def openvdb_setup(verts, tris, h):

@@ -285,7 +285,7 @@ def build(
     ``out``, all or nothing. Returns the build report (dict).
 
     ``scene`` is a scene file (``.ron`` or ``.json``) or a dict with the same field names
-    as a JSON scene file (docs/SCENES.md); a dict's relative paths are read from
+    as a JSON scene file (docs/SCENE_FORMAT.md); a dict's relative paths are read from
     ``base_dir`` (default: the current directory).
     """
     if isinstance(scene, dict):

@@ -93,7 +93,7 @@ pub struct AdfOptions {
 }
 
 impl AdfOptions {
-    /// A tolerance given as a fraction of the bounds' diagonal (how the issue and the
+    /// A tolerance given as a fraction of the bounds' diagonal (how the docs and the
     /// benchmarks state it), with the default depth 12 and a cell limit from the memory
     /// available.
     pub fn relative(tolerance_fraction: f64, bounds: &Aabb) -> Self {

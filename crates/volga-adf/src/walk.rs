@@ -368,7 +368,7 @@ impl Adf {
 
 /// Rays walked together by [`Adf::first_crossings_between`]: 12 was the fastest window
 /// measured on the bunny (6: 0.080, 8: 0.076, 10 and 12: 0.072 CPU s per 512² pass;
-/// docs/ADF.md, session 24).
+/// docs/ADF.md, "Rendering: the leaf walk").
 pub const WALK_WINDOW: usize = 12;
 
 /// What every ray's walk of one ADF shares.
@@ -425,7 +425,7 @@ struct RayWalk {
 fn prefetch<T>(x: &T) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: a prefetch never faults and reads nothing architecturally; `x` is a live
-    // reference. Measured reason: docs/ADF.md (the batched walk, session 24).
+    // reference. Measured reason: docs/ADF.md ("Rendering: the leaf walk", the batched walk).
     unsafe {
         std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(x as *const T as *const i8)
     };

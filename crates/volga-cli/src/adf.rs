@@ -232,7 +232,7 @@ pub fn bench(args: AdfBenchArgs) -> Result<(), Failure> {
     value["walk_index_build_s"] = json!(index_s.0);
     value["walk_index_bytes"] = json!(index_bytes);
     value["walk_reach_bytes"] = json!(built.adf.walk_reach_bytes());
-    // The reference walk (no index), rendered in the same run for a before/after ratio.
+    // The reference walk (no index), rendered in the same run for a ratio against the index.
     let descent = DescentWalk(&built.adf);
     let (descent_frames, descent_cpu, _) = time_frames(&descent, &iso, &settings, &cam, args.frames)?;
     value["render_fps_descent"] = json!(1.0 / median(&descent_frames));

@@ -1,4 +1,4 @@
-//! `volga bench noise --json`: the keys the issue asks for, and values equal to the
+//! `volga bench noise --json`: the keys docs/BENCHMARKS.md names, and values equal to the
 //! `noise` crate's.
 
 mod common;

@@ -1,5 +1,5 @@
 //! Planning: decide before running what the scene calls for (channels, effects) and
-//! what it will cost in memory, and refuse what does not fit (MISSION: simulate only
+//! what it will cost in memory, and refuse what does not fit (design rule: simulate only
 //! the effects a scene calls for; check memory before allocating).
 
 use serde::Serialize;

@@ -1,5 +1,5 @@
 //! The sculpting session against exact references: a dense voxel grid edited by the same
-//! per-voxel rule, undo, collapse, files, meshes, threads and the hard cases of issue 15.
+//! per-voxel rule, undo, collapse, files, meshes, threads and the hard cases (docs/SCULPT.md, Tests).
 
 use std::collections::HashMap;
 
