@@ -37,6 +37,11 @@ pub enum MeshError {
     /// A glTF/GLB file that does not parse or whose buffers and accessors are inconsistent.
     #[error("{}: {message}", path.display())]
     Gltf { path: PathBuf, message: String },
+    /// The glTF parser panicked on the file (a malformed document that volga's own checks
+    /// did not catch first); the panic was caught and its message kept. Kept apart from
+    /// [`MeshError::Gltf`] so tests and fuzzing can tell a caught panic from a refusal.
+    #[error("{}: malformed glTF (parser failure: {reason})", path.display())]
+    GltfPanic { path: PathBuf, reason: String },
     /// A glTF primitive whose topology is not a triangle list.
     #[error("{}: mesh {mesh}, primitive {primitive}: mode {mode} is not supported (only TRIANGLES)", path.display())]
     UnsupportedPrimitive {

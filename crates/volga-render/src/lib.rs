@@ -164,6 +164,7 @@ mod error;
 mod integrators;
 mod iso_packed;
 mod light_volume;
+mod macro_grid;
 mod march;
 mod packed;
 mod packet;
@@ -182,7 +183,8 @@ pub use classify::{Classifier, Classify, ClassifySample};
 pub use error::RenderError;
 // The integrators and every registered mode's types (`Iso`, `SurfaceColour`, `Volume`, `Mip`, `XRay`).
 pub use integrators::*;
-pub use march::{first_hit, CellClass, Hit};
+pub use macro_grid::CellClass;
+pub use march::{first_hit, Hit};
 pub use preint::{PreIntegrated, PRE_INTEGRATION_TABLE_SIZE};
 pub use render::{render, render_with, Image, RenderStats, Renderer};
 pub use settings::{

@@ -4,7 +4,7 @@ use volga_core::{Aabb, Field, FieldKind, Progress};
 
 use crate::integrators::{clip, over_background, March, ModeJob};
 use crate::light_volume::LightVolume;
-use crate::march::MacroGrid;
+use crate::macro_grid::MacroGrid;
 use crate::shadow::ShadowParams;
 use crate::{Camera, Integrator, Mode, PreIntegrated, RenderError, RenderSettings, Shader};
 

@@ -1,6 +1,6 @@
 //! The macro-cell walk of the packed DVR loop, in units of the ray's sample lattice.
 //!
-//! [`CellWalk`](crate::march::CellWalk) answers "which cell holds the sample at ray
+//! [`CellWalk`](crate::macro_grid::CellWalk) answers "which cell holds the sample at ray
 //! parameter `t`, and where does the ray leave it" with a division per face crossed,
 //! and the packed loop then turns that exit parameter back into a sample index with
 //! another division ([`index_after`](crate::march::index_after)). Callgrind measured
@@ -17,7 +17,7 @@
 //! sample (`render::empty_space_skipping_never_changes_the_image`).
 
 use crate::camera::Ray;
-use crate::march::{CellClass, MacroGrid};
+use crate::macro_grid::{CellClass, MacroGrid};
 
 /// See the [module docs](self).
 pub(crate) struct SampleWalk<'g> {
@@ -123,7 +123,7 @@ impl<'g> SampleWalk<'g> {
     /// cell, beyond the run of Active cells the ray crosses from it. In an Outside
     /// cell whose whole block of reach `r ≥ 2` is Outside, the index is that beyond the
     /// block (`r` cells on every side, clipped to the grid), as
-    /// [`CellWalk::class_at`](crate::march::CellWalk::class_at) does.
+    /// [`CellWalk::class_at`](crate::macro_grid::CellWalk::class_at) does.
     #[inline(always)]
     pub(crate) fn class_at(&mut self, i: u64, n: u64) -> (CellClass, u64) {
         let j = i as i64 as f64;
@@ -246,7 +246,8 @@ mod tests {
     use volga_core::{Aabb, Field, Filter, Grid, Sampled, SparseVolume, Transform};
 
     use super::SampleWalk;
-    use crate::march::{midpoint_lattice_len, CellClass, MacroGrid};
+    use crate::macro_grid::{CellClass, MacroGrid};
+    use crate::march::midpoint_lattice_len;
     use crate::Ray;
 
     fn uniform(mut state: u64) -> impl FnMut() -> f64 {

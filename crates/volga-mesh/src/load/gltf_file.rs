@@ -48,10 +48,9 @@ pub fn read_gltf(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
             .map(|s| s.to_string())
             .or_else(|| panic.downcast_ref::<String>().cloned())
             .unwrap_or_default();
-        let message = format!("malformed glTF (parser failure: {reason})");
-        Err(MeshError::Gltf {
+        Err(MeshError::GltfPanic {
             path: path.to_owned(),
-            message,
+            reason,
         })
     })
 }

@@ -5,7 +5,7 @@
 use glam::{DVec3, Vec3, Vec4};
 use volga_core::{Aabb, Field, FieldKind};
 
-use crate::march::MacroGrid;
+use crate::macro_grid::MacroGrid;
 use crate::shadow::ShadowParams;
 use crate::{CellClass, PreIntegrated, Ray, RenderError, RenderSettings, RenderStats, Shader};
 
