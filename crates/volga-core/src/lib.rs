@@ -38,6 +38,7 @@
 //! assert_eq!(field.value(DVec3::new(0.5, 0.5, 0.75)), 0.5);
 //! ```
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod aabb;
 mod adjacency;

@@ -42,6 +42,7 @@
 //! convention (`world = origin + ijk ⊙ spacing`, see [`volga_core`]), so a volume
 //! round-trips through [`write_nrrd`] and [`read_nrrd`] with its transform bit-exact.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod atomic;
 mod binvox;

@@ -157,6 +157,7 @@
 //! assert_ne!(image.get(8, 8), settings.image.background); // the centre ray hits the ball
 //! assert_eq!(image.get(0, 0), settings.image.background); // a corner ray misses
 //! ```
+#![warn(missing_docs)]
 
 mod camera;
 mod classify;

@@ -22,6 +22,7 @@
 //! World coordinates in scenes are `f64`; the serde types stay in this crate, and the
 //! kernel crates only ever see validated values.
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod build;
 mod ctx;
