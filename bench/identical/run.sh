@@ -2,7 +2,7 @@
 # Nothing lost: runs two volga binaries on the same jobs and compares every output
 # byte for byte. Jobs: every committed scene (`volga build`: PNG, NRRD/raw)
 # and `volga voxelize` of the five meshes of tests/data at N = 128 and 256 in
-# every mode (6/18/26-separating surfaces, 26-separating solid, anti-aliased surface
+# every mode (sizes: SIZES="128 256" by default; 6/18/26-separating surfaces, 26-separating solid, anti-aliased surface
 # and solid, signed distance ±3). Reports differ only in timings and are not compared.
 #
 #   bench/identical/run.sh BASE_BIN NEW_BIN [WORKDIR]
@@ -38,7 +38,7 @@ run_all() {
         rm -f "$out/scene_$name/report.json"
     done
     for mesh in stanford-bunny spot teapot fandisk rocker-arm; do
-        for n in 128 256; do
+        for n in ${SIZES:-128 256}; do
             local stem="$out/${mesh}_$n"
             for s in 6 18 26; do
                 "$bin" voxelize "$data/$mesh.obj" --resolution $n --separability $s --out "${stem}_sep$s.binvox" >/dev/null
