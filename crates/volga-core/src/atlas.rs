@@ -186,10 +186,10 @@ fn tile_classes<S: VoxelSource>(source: &S) -> (IVec3, Vec<Option<f32>>) {
     (tiles, uniform)
 }
 
+/// Tile `tile`'s coordinates among `tiles` (x fastest; at least one tile per axis).
 #[inline]
 fn delinearize(tile: usize, tiles: IVec3) -> IVec3 {
-    let (nx, ny) = (tiles.x as usize, tiles.y as usize);
-    IVec3::new((tile % nx) as i32, ((tile / nx) % ny) as i32, (tile / (nx * ny)) as i32)
+    crate::Shape3::new_unchecked(tiles.as_uvec3()).delinearize(tile)
 }
 
 impl<S: VoxelSource> VoxelSource for BrickAtlas<S> {

@@ -25,9 +25,11 @@
 //! None of these changes a hit: the walk over the cells is the same; they only pass
 //! cells whose reading would say "outside" (tests: `iso_packed_tests.rs`).
 
-use crate::packed::PackedVolume;
 use glam::{DVec3, IVec3, UVec3};
 use rayon::prelude::*;
+use volga_core::Shape3;
+
+use crate::packed::PackedVolume;
 
 /// Largest reach stored, in blocks of 4 cells (a 255-block cube spans 1020 cells
 /// each way from its centre: more than any volume the packed copy holds per axis).
@@ -201,8 +203,7 @@ fn cell_base(blocks: [u32; 3], w: usize, bit: u32) -> IVec3 {
 }
 
 fn delinearize(blocks: [u32; 3], w: usize) -> IVec3 {
-    let (nx, ny) = (blocks[0] as usize, blocks[1] as usize);
-    IVec3::new((w % nx) as i32, ((w / nx) % ny) as i32, (w / (nx * ny)) as i32)
+    Shape3::new(UVec3::from_array(blocks)).map_or(IVec3::ZERO, |s| s.delinearize(w))
 }
 
 /// Per block, the L∞ distance (in blocks, capped at [`MAX_REACH`]) to the nearest block

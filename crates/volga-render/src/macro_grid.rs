@@ -2,9 +2,9 @@
 //! value ranges ([`CellClass`]), each with its Chebyshev reach to the nearest cell that
 //! is not empty, and the 3D DDA ([`CellWalk`]) that jumps across empty blocks.
 
-use glam::DVec3;
+use glam::{DVec3, UVec3};
 use rayon::prelude::*;
-use volga_core::{Aabb, Field};
+use volga_core::{Aabb, Field, Shape3};
 
 use crate::Ray;
 
@@ -210,8 +210,8 @@ impl MacroGrid {
     }
 
     fn delinearize(&self, lin: usize) -> [usize; 3] {
-        let [nx, ny, _] = self.dims;
-        [lin % nx, (lin / nx) % ny, lin / (nx * ny)]
+        let shape = Shape3::new(UVec3::from_array(self.dims.map(|d| d as u32))).expect("1 to 64 cells per axis");
+        shape.delinearize(lin).as_uvec3().to_array().map(|c| c as usize)
     }
 
     /// World box of cell `ijk`; the last cell on each axis ends exactly at the bounds.
