@@ -3,7 +3,9 @@ use glam::DVec3;
 /// An axis-aligned box in **world space**; `min ≤ max` on every axis for a non-empty box.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Aabb {
+    /// Lowest corner (world units); `+∞` on every axis for [`Aabb::EMPTY`].
     pub min: DVec3,
+    /// Highest corner (world units); `−∞` on every axis for [`Aabb::EMPTY`].
     pub max: DVec3,
 }
 
@@ -14,18 +16,27 @@ impl Aabb {
         max: DVec3::splat(f64::NEG_INFINITY),
     };
 
+    /// The box from `min` to `max` as given: not reordered or validated (`min > max` on
+    /// an axis gives an empty box).
     pub fn new(min: DVec3, max: DVec3) -> Self {
         Aabb { min, max }
     }
 
+    /// Whether the box holds no point: `min > max` on some axis. A flat box (equal `min`
+    /// and `max` on an axis) is not empty.
     pub fn is_empty(&self) -> bool {
         self.min.cmpgt(self.max).any()
     }
 
+    /// The smallest box containing both (per-axis min of the mins, max of the maxes).
+    /// [`Aabb::EMPTY`] is its identity; another empty box with finite corners is not,
+    /// and can widen the result.
     pub fn union(&self, other: &Aabb) -> Aabb {
         Aabb::new(self.min.min(other.min), self.max.max(other.max))
     }
 
+    /// The points in both boxes; empty (by [`Aabb::is_empty`], not equal to
+    /// [`Aabb::EMPTY`]) if they are disjoint, flat if they only touch.
     pub fn intersection(&self, other: &Aabb) -> Aabb {
         Aabb::new(self.min.max(other.min), self.max.min(other.max))
     }
@@ -35,14 +46,19 @@ impl Aabb {
         Aabb::new(self.min - margin, self.max + margin)
     }
 
+    /// Whether `world_pos` lies in the closed box (faces included). Always false for an
+    /// empty box or a NaN position.
     pub fn contains(&self, world_pos: DVec3) -> bool {
         world_pos.cmpge(self.min).all() && world_pos.cmple(self.max).all()
     }
 
+    /// Edge lengths `max − min` (world units), clamped to 0 on axes where the box is
+    /// empty.
     pub fn size(&self) -> DVec3 {
         (self.max - self.min).max(DVec3::ZERO)
     }
 
+    /// The midpoint `(min + max) / 2` (world units); NaN for [`Aabb::EMPTY`].
     pub fn center(&self) -> DVec3 {
         (self.min + self.max) * 0.5
     }

@@ -19,8 +19,11 @@ use glam::{DVec3, IVec3};
 /// and through which neighbours a voxel set is connected.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Adjacency {
+    /// Face neighbours only: 6 per voxel.
     Six,
+    /// Face and edge neighbours: 18 per voxel.
     Eighteen,
+    /// Face, edge and vertex neighbours: 26 per voxel.
     TwentySix,
 }
 
@@ -72,6 +75,7 @@ static HALF_18: [IVec3; 9] = upper_half(offsets::<18>(2));
 static HALF_26: [IVec3; 13] = upper_half(offsets::<26>(3));
 
 impl Adjacency {
+    /// The three adjacencies, smallest neighbourhood first (6, 18, 26).
     pub const ALL: [Adjacency; 3] = [Adjacency::Six, Adjacency::Eighteen, Adjacency::TwentySix];
 
     /// 6, 18 or 26: the number of neighbours of a voxel.

@@ -11,6 +11,8 @@ pub struct Dense<T> {
 }
 
 impl<T: Copy + Send + Sync> Dense<T> {
+    /// An array of `shape` with every element `value`, reading `background` outside it.
+    /// Allocates `shape.len()` elements.
     pub fn filled(shape: Shape3, value: T, background: T) -> Self {
         Dense {
             shape,
@@ -19,14 +21,17 @@ impl<T: Copy + Send + Sync> Dense<T> {
         }
     }
 
+    /// The array's dims and layout.
     pub fn shape(&self) -> Shape3 {
         self.shape
     }
 
+    /// The value [`Dense::get`] returns outside the array.
     pub fn background(&self) -> T {
         self.background
     }
 
+    /// The values, x fastest ([`Shape3::linearize`] order).
     pub fn as_slice(&self) -> &[T] {
         &self.data
     }
@@ -36,10 +41,12 @@ impl<T: Copy + Send + Sync> Dense<T> {
         self.data
     }
 
+    /// The values for writing, x fastest ([`Shape3::linearize`] order).
     pub fn as_mut_slice(&mut self) -> &mut [T] {
         &mut self.data
     }
 
+    /// The value at `ijk`, or the background outside `0 ≤ ijk < dims`.
     #[inline]
     pub fn get(&self, ijk: IVec3) -> T {
         if self.shape.contains(ijk) {
@@ -68,8 +75,13 @@ impl<T: Copy + Send + Sync> Dense<T> {
 /// so a build that never reads colour never pays for it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DenseVolume {
+    /// Placement and extent; [`DenseVolume::new`] gives both channels its dims.
     pub grid: Grid,
+    /// The scalar channel, one value per voxel; reads outside the grid return its
+    /// background (the `background` passed to [`DenseVolume::new`]).
     pub density: Dense<f32>,
+    /// Linear RGB per voxel, each component in \[0, 1\]; present only for a volume made
+    /// `with_colour`, black where not written and outside the grid.
     pub colour: Option<Dense<Rgb>>,
 }
 

@@ -6,12 +6,28 @@ use thiserror::Error;
 /// always usable (no zero spacing, no NaN origin, no zero-sized grid).
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum CoreError {
+    /// A [`Transform`](crate::Transform) spacing with a zero, negative, infinite or NaN
+    /// component; holds, and the message shows, the spacing given (x, y, z).
     #[error("spacing must be finite and > 0 on every axis, got {0:?}")]
     BadSpacing([f64; 3]),
+    /// A [`Transform`](crate::Transform) origin with an infinite or NaN component; holds,
+    /// and the message shows, the origin given (x, y, z).
     #[error("origin must be finite, got {0:?}")]
     BadOrigin([f64; 3]),
+    /// A [`Grid`](crate::Grid) or [`Shape3`](crate::Shape3) with 0 voxels along some axis;
+    /// holds, and the message shows, the dims given.
     #[error("grid dimensions must be ≥ 1 on every axis, got {0:?}")]
     EmptyGrid([u32; 3]),
+    /// A grid too large to represent: [`Grid::new`](crate::Grid::new) with an axis above
+    /// `i32::MAX / 2` voxels, or [`Grid::shape`](crate::Grid::shape) /
+    /// [`Shape3::new`](crate::Shape3::new) (and so the dense volumes) with a voxel count that
+    /// does not fit in `usize`. The message names the dims and `bytes`.
     #[error("grid of {dims:?} voxels needs {bytes} bytes, which does not fit in this address space")]
-    TooLarge { dims: [u32; 3], bytes: u128 },
+    TooLarge {
+        /// The dims asked for.
+        dims: [u32; 3],
+        /// Despite the name (and the message's "bytes"), the voxel count
+        /// `dims.x · dims.y · dims.z` at every place volga-core raises this error.
+        bytes: u128,
+    },
 }

@@ -74,9 +74,13 @@ pub enum Crossing {
 /// One ray of [`Field::first_crossings`]: `world_origin + t·world_dir`, `t ∈ [t0, t1]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CrossingRay {
+    /// World position at `t = 0`.
     pub world_origin: DVec3,
+    /// World direction; `t` is measured in multiples of it (need not be unit length).
     pub world_dir: DVec3,
+    /// Start of the searched interval (ray parameter).
     pub t0: f64,
+    /// End of the searched interval (ray parameter), `≥ t0` for a non-empty search.
     pub t1: f64,
 }
 

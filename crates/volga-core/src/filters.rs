@@ -83,6 +83,7 @@ pub enum GradientMethod {
 }
 
 impl GradientMethod {
+    /// Both methods, in the order the experiments show them (central differences first).
     pub const ALL: [GradientMethod; 2] = [GradientMethod::CentralDifference, GradientMethod::Analytic];
 
     /// A short lowercase name (`central`, `analytic`).

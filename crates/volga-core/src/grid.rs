@@ -14,6 +14,11 @@ pub struct Transform {
 }
 
 impl Transform {
+    /// The transform with voxel (0, 0, 0)'s centre at `origin` and voxel centres `spacing`
+    /// apart along x, y and z (world units).
+    ///
+    /// Errors: [`CoreError::BadOrigin`] if `origin` is not finite, [`CoreError::BadSpacing`]
+    /// if a spacing component is not finite and > 0 (checked in that order).
     pub fn new(origin: DVec3, spacing: DVec3) -> Result<Self, CoreError> {
         if !origin.is_finite() {
             return Err(CoreError::BadOrigin(origin.to_array()));
@@ -24,10 +29,13 @@ impl Transform {
         Ok(Transform { origin, spacing })
     }
 
+    /// World position of voxel (0, 0, 0)'s centre (finite).
     pub fn origin(&self) -> DVec3 {
         self.origin
     }
 
+    /// World distance between neighbouring voxel centres along x, y and z (each positive
+    /// and finite).
     pub fn spacing(&self) -> DVec3 {
         self.spacing
     }
@@ -90,11 +98,18 @@ pub(crate) fn clamp_to_ivec3(v: DVec3) -> IVec3 {
 /// A transform plus a voxel extent: voxels `0 ≤ ijk < dims`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Grid {
+    /// Placement of the voxels in world space.
     pub transform: Transform,
     dims: UVec3,
 }
 
 impl Grid {
+    /// A grid of `dims` voxels (`0 ≤ ijk < dims`) placed by `transform`.
+    ///
+    /// Errors: [`CoreError::EmptyGrid`] if an axis is 0; [`CoreError::TooLarge`] if an axis
+    /// exceeds `i32::MAX / 2` (1 073 741 823) voxels, so voxel coordinates and their
+    /// neighbours fit in `i32`. The voxel count is not checked against memory here (see
+    /// [`Grid::shape`]).
     pub fn new(transform: Transform, dims: UVec3) -> Result<Self, CoreError> {
         if dims.cmpeq(UVec3::ZERO).any() {
             return Err(CoreError::EmptyGrid(dims.to_array()));
@@ -115,6 +130,7 @@ impl Grid {
         Grid::new(transform, dims)
     }
 
+    /// Number of voxels along x, y and z (each ≥ 1).
     pub fn dims(&self) -> UVec3 {
         self.dims
     }
@@ -134,10 +150,12 @@ impl Grid {
             })
     }
 
+    /// All the grid's voxels: the index box `0 ≤ ijk < dims`.
     pub fn index_box(&self) -> IndexBox {
         IndexBox::new(IVec3::ZERO, self.dims.as_ivec3())
     }
 
+    /// Whether voxel `ijk` is inside the grid (`0 ≤ ijk < dims`).
     pub fn contains(&self, ijk: IVec3) -> bool {
         self.index_box().contains(ijk)
     }
@@ -178,23 +196,31 @@ impl Grid {
 /// A half-open box of voxel coordinates `min ≤ ijk < max` in **index space**.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct IndexBox {
+    /// First voxel of the box on each axis (inclusive).
     pub min: IVec3,
+    /// One past the last voxel on each axis (exclusive); `max ≤ min` on any axis makes
+    /// the box empty.
     pub max: IVec3,
 }
 
 impl IndexBox {
+    /// The box `min ≤ ijk < max` as given (not reordered: `max ≤ min` on an axis makes it
+    /// empty).
     pub fn new(min: IVec3, max: IVec3) -> Self {
         IndexBox { min, max }
     }
 
+    /// Whether the box holds no voxel (`max ≤ min` on some axis).
     pub fn is_empty(&self) -> bool {
         self.min.cmpge(self.max).any()
     }
 
+    /// Whether voxel `ijk` is in the box (`min` inclusive, `max` exclusive).
     pub fn contains(&self, ijk: IVec3) -> bool {
         ijk.cmpge(self.min).all() && ijk.cmplt(self.max).all()
     }
 
+    /// The voxels in both boxes; empty (possibly with `max < min`) if they are disjoint.
     pub fn intersection(&self, other: &IndexBox) -> IndexBox {
         IndexBox::new(self.min.max(other.min), self.max.min(other.max))
     }

@@ -39,18 +39,23 @@ impl Shape3 {
         }
     }
 
+    /// Number of elements along x, y and z (each ≥ 1).
     pub fn dims(&self) -> UVec3 {
         self.dims
     }
 
+    /// Number of elements, `dims.x · dims.y · dims.z` (fits in `usize` by construction).
     pub fn len(&self) -> usize {
         self.dims.x as usize * self.dims.y as usize * self.dims.z as usize
     }
 
+    /// Whether the layout holds no element: always false, as every `Shape3` has at least
+    /// one element per axis.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
+    /// Whether `ijk` is inside the array: `0 ≤ ijk < dims` on every axis.
     pub fn contains(&self, ijk: IVec3) -> bool {
         ijk.cmpge(IVec3::ZERO).all() && ijk.as_uvec3().cmplt(self.dims).all()
     }

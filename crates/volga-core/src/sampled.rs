@@ -69,8 +69,11 @@ impl<S: VoxelSource> VoxelBlock for SourceBlock<'_, S> {
 /// Voxel storage that [`Sampled`] can reconstruct from. Reads outside the grid
 /// return the background value.
 pub trait VoxelSource: Sync {
+    /// The grid the voxels live on: their extent and world placement.
     fn grid(&self) -> &Grid;
+    /// The density of every voxel outside the grid.
     fn background(&self) -> f32;
+    /// Density of voxel `ijk`; the background outside the grid.
     fn density(&self, ijk: IVec3) -> f32;
     /// The 2×2×2 densities at `base + {0,1}³`, x fastest.
     fn density_cube(&self, base: IVec3) -> [f32; 8] {
@@ -78,13 +81,17 @@ pub trait VoxelSource: Sync {
     }
     /// `(min, max)` density over the voxels of `index_box`, already clipped to the grid.
     fn density_range(&self, index_box: &IndexBox) -> (f32, f32);
+    /// Whether the source carries a colour channel.
     fn has_colour(&self) -> bool;
+    /// Linear RGB of voxel `ijk`, each component in \[0, 1\]; black outside the grid and
+    /// when the source has no colour channel.
     fn colour(&self, ijk: IVec3) -> Rgb;
     /// A reader for runs of nearby reads (the samples of one ray): it may cache what it
     /// looked up last, so it is made per run and dropped after.
     type Reader<'a>: VoxelReader
     where
         Self: 'a;
+    /// A new [`VoxelSource::Reader`] for one run of reads (its cache starts empty).
     fn reader(&self) -> Self::Reader<'_>;
     /// What [`Field::prepare`] returns for a [`Sampled`] over this source with
     /// `filter` and `gradient`: the same reconstruction over a faster copy of the voxels (the same
@@ -98,6 +105,8 @@ pub trait VoxelSource: Sync {
 /// Reads densities like [`VoxelSource::density`] and [`VoxelSource::density_cube`]
 /// (same values, background outside the grid), remembering what it looked up.
 pub trait VoxelReader {
+    /// Density of voxel `ijk`, equal to [`VoxelSource::density`]: the background outside
+    /// the grid.
     fn density(&mut self, ijk: IVec3) -> f32;
     /// The 2×2×2 densities at `base + {0,1}³`, x fastest.
     #[inline]
@@ -344,6 +353,8 @@ pub struct Sampled<S> {
 }
 
 impl<S: VoxelSource> Sampled<S> {
+    /// Reconstructs `source` with `filter`; gradients by central differences (the default
+    /// [`GradientMethod`]; see [`Sampled::with_gradient`]).
     pub fn new(source: S, filter: Filter) -> Self {
         Sampled {
             source,
@@ -358,14 +369,17 @@ impl<S: VoxelSource> Sampled<S> {
         self
     }
 
+    /// The voxels being reconstructed.
     pub fn source(&self) -> &S {
         &self.source
     }
 
+    /// The reconstruction filter of values.
     pub fn filter(&self) -> Filter {
         self.filter
     }
 
+    /// How [`Field::gradient`] is computed.
     pub fn gradient_method(&self) -> GradientMethod {
         self.gradient
     }

@@ -24,7 +24,10 @@ pub const BRICK_SHAPE: Shape3 = Shape3::new_unchecked(UVec3::splat(BRICK_DIM as 
 /// volume and pay only for the bricks that changed ([`SparseGrid::changed_bricks`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Brick<T> {
+    /// All 512 voxels have this value (nothing allocated).
     Uniform(T),
+    /// Each voxel stored, x fastest ([`Brick::local_offset`]); shared copy-on-write
+    /// between clones.
     Dense(Arc<[T; BRICK_VOXELS]>),
 }
 
@@ -36,6 +39,8 @@ impl<T: Copy + PartialEq> Brick<T> {
         BRICK_SHAPE.linearize(ijk & IVec3::splat(BRICK_DIM - 1))
     }
 
+    /// Value of the voxel at `offset` in the brick (from [`Brick::local_offset`], below
+    /// 512). Panics if `offset ≥ 512` on a dense brick; a uniform brick ignores `offset`.
     #[inline]
     pub fn get_local(&self, offset: usize) -> T {
         match self {
@@ -114,6 +119,7 @@ pub struct SparseGrid<T> {
 }
 
 impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
+    /// An empty grid: no brick stored, every voxel reads `background`.
     pub fn new(background: T) -> Self {
         SparseGrid {
             bricks: FxHashMap::default(),
@@ -121,10 +127,13 @@ impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
         }
     }
 
+    /// The value of every voxel in an absent brick.
     pub fn background(&self) -> T {
         self.background
     }
 
+    /// Value of voxel `ijk`, the background in an absent brick. The grid has no extent:
+    /// any `ijk`, negative ones included, is valid.
     #[inline]
     pub fn get(&self, ijk: IVec3) -> T {
         match self.bricks.get(&brick_of(ijk)) {
@@ -133,6 +142,11 @@ impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
         }
     }
 
+    /// Writes `value` at voxel `ijk` (any coordinates). The brick is created if absent
+    /// (as uniform background), made dense unless `value` equals its uniform value, and
+    /// copied first if its voxels are shared with another version. A write never removes
+    /// or collapses a brick (even writing the background into an absent one stores it):
+    /// see [`SparseGrid::prune`].
     pub fn set(&mut self, ijk: IVec3, value: T) {
         let bg = self.background;
         let brick = self.bricks.entry(brick_of(ijk)).or_insert(Brick::Uniform(bg));
@@ -144,6 +158,7 @@ impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
         brick.densify()[Brick::<T>::local_offset(ijk)] = value;
     }
 
+    /// The brick at brick coordinate `brick`, or `None` if absent (all background).
     pub fn brick(&self, brick: IVec3) -> Option<&Brick<T>> {
         self.bricks.get(&brick)
     }
@@ -195,6 +210,8 @@ impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
         self.bricks.insert(brick, data);
     }
 
+    /// Removes the brick at brick coordinate `brick`, so its voxels read as background,
+    /// and returns it; `None` if it was absent.
     pub fn remove_brick(&mut self, brick: IVec3) -> Option<Brick<T>> {
         self.bricks.remove(&brick)
     }
@@ -217,10 +234,12 @@ impl<T: Copy + PartialEq + Send + Sync> SparseGrid<T> {
         self.bricks.retain(|_, b| *b != Brick::Uniform(bg));
     }
 
+    /// Number of stored bricks, uniform and dense.
     pub fn brick_count(&self) -> usize {
         self.bricks.len()
     }
 
+    /// Number of stored bricks that hold 512 values ([`Brick::Dense`]).
     pub fn dense_brick_count(&self) -> usize {
         self.bricks.values().filter(|b| matches!(b, Brick::Dense(_))).count()
     }
@@ -302,8 +321,15 @@ pub fn brick_index_box(brick: IVec3) -> IndexBox {
 /// copy-on-write (see [`Brick`]).
 #[derive(Debug, Clone)]
 pub struct SparseVolume {
+    /// Extent and world placement. The channels may hold bricks beyond it, but sampling
+    /// ([`VoxelSource`](crate::VoxelSource)), [`SparseVolume::to_dense`] and
+    /// [`SparseVolume::active_voxel_count`] treat voxels outside `0 ≤ ijk < dims` as
+    /// background.
     pub grid: Grid,
+    /// The scalar channel (what it holds: `density_kind`), indexed by voxel `ijk`.
     pub density: SparseGrid<f32>,
+    /// Linear RGB per voxel, each component in \[0, 1\]; present only for a volume made
+    /// `with_colour`, black in absent bricks.
     pub colour: Option<SparseGrid<Rgb>>,
     /// What the `density` channel holds (never [`ChannelKind::Colour`] from volga's
     /// producers). [`SparseVolume::new`] sets [`ChannelKind::Density`].
@@ -361,6 +387,7 @@ impl SparseVolume {
         self.density.count_active_in(&self.grid.index_box())
     }
 
+    /// Bytes held by both channels: the sum of their [`SparseGrid::memory_bytes`].
     pub fn memory_bytes(&self) -> u64 {
         self.density.memory_bytes() + self.colour.as_ref().map_or(0, |c| c.memory_bytes())
     }

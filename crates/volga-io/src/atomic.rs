@@ -123,6 +123,7 @@ pub struct StagedOutputs {
 }
 
 impl StagedOutputs {
+    /// An empty set: nothing staged, nothing written.
     pub fn new() -> Self {
         StagedOutputs::default()
     }
@@ -184,6 +185,7 @@ impl StagedOutputs {
         self.staged.len()
     }
 
+    /// Whether no file is staged.
     pub fn is_empty(&self) -> bool {
         self.staged.is_empty()
     }

@@ -28,12 +28,29 @@ use crate::{write_atomic, IoError};
 /// Errors constructing a [`Binvox`] in memory (file errors are [`IoError`]s).
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum BinvoxError {
+    /// A `dim` with a zero extent, or whose voxel count `DX·DY·DZ` overflows `u64`;
+    /// holds, and the message shows, the dims given.
     #[error("binvox dimensions must be ≥ 1 on every axis with a voxel count that fits in 64 bits, got {0:?}")]
     BadDims([u32; 3]),
+    /// A `translate` with an infinite or NaN component, or a `scale` that is not finite
+    /// and > 0; the message names both.
     #[error("binvox translate must be finite and scale finite and > 0, got translate {translate:?}, scale {scale}")]
-    BadTransform { translate: [f64; 3], scale: f64 },
+    BadTransform {
+        /// The `translate` given (world units).
+        translate: [f64; 3],
+        /// The `scale` given (world units: the edge of the cube the grid's longest axis
+        /// spans).
+        scale: f64,
+    },
+    /// A filled voxel given to [`Binvox::from_filled`] lies outside `0 ≤ ijk < dims`;
+    /// the message names the voxel and the dims.
     #[error("voxel {ijk:?} lies outside the binvox grid 0..{dims:?}")]
-    OutsideGrid { ijk: [u32; 3], dims: [u32; 3] },
+    OutsideGrid {
+        /// The first voxel found outside (x, y, z).
+        ijk: [u32; 3],
+        /// The grid's extents along x, y, z.
+        dims: [u32; 3],
+    },
 }
 
 /// A binary voxel model as stored in a `.binvox` file: extents, the normalization

@@ -70,7 +70,10 @@ pub enum IoError {
     /// The operating system refused an operation on `path` (open, write, rename…).
     #[error("cannot access {}: {source}", path.display())]
     Io {
+        /// The file or directory the operation concerned.
         path: PathBuf,
+        /// The operating system's error (also the error's
+        /// [`source`](std::error::Error::source)).
         #[source]
         source: std::io::Error,
     },
@@ -78,8 +81,11 @@ pub enum IoError {
     /// what the format requires, or a volume cannot be represented in it.
     #[error("{}{}: {message}", path.display(), line.map(|l| format!(" line {l}")).unwrap_or_default())]
     Format {
+        /// The file whose contents are wrong, or the output that cannot be written.
         path: PathBuf,
+        /// 1-based line of the file's text header, when the problem is on one line of it.
         line: Option<usize>,
+        /// What is wrong, e.g. ``unknown field `foo` ``.
         message: String,
     },
     /// The filesystem of directory `path` has less free space than the outputs need.
@@ -87,7 +93,14 @@ pub enum IoError {
         "{}: not enough free space: the outputs need {} ({needed} bytes), the filesystem has {} ({available} bytes) available",
         path.display(), volga_core::memory::Bytes(*needed as u128), volga_core::memory::Bytes(*available as u128)
     )]
-    NoSpace { path: PathBuf, needed: u64, available: u64 },
+    NoSpace {
+        /// The directory checked.
+        path: PathBuf,
+        /// Bytes the outputs need in that directory.
+        needed: u64,
+        /// Bytes available to an unprivileged user on its filesystem.
+        available: u64,
+    },
 }
 
 impl IoError {

@@ -114,7 +114,15 @@ pub enum VoxelValues {
     /// Distances (volga's narrow-band fields, or any NRRD whose values leave [0, 1]):
     /// not occupancy. `min`/`max` are the sample range, `background` the value outside
     /// the band (volga writes `+half-width`).
-    Distance { min: f32, max: f32, background: f32 },
+    Distance {
+        /// Smallest sample value.
+        min: f32,
+        /// Largest sample value.
+        max: f32,
+        /// The volume's background, the value outside the grid (volga writes
+        /// `+half-width`, the band's outer value).
+        background: f32,
+    },
 }
 
 impl VoxelValues {
@@ -158,15 +166,20 @@ impl VoxelValues {
 /// A voxel model read from disk.
 #[derive(Debug, Clone)]
 pub enum VoxelModel {
+    /// A `.binvox` model: binary occupancy.
     Binvox(Binvox),
     /// A NRRD volume and what its values mean.
     Nrrd {
+        /// The density channel as [`read_nrrd`] reads it (no colour), every sample
+        /// finite.
         volume: DenseVolume,
+        /// What the samples mean ([`VoxelValues::classify`] of `volume`).
         values: VoxelValues,
     },
 }
 
 impl VoxelModel {
+    /// The format the model was read from.
     pub fn format(&self) -> VoxelFormat {
         match self {
             VoxelModel::Binvox(_) => VoxelFormat::Binvox,

@@ -7,15 +7,24 @@ use crate::RenderError;
 pub enum Projection {
     /// Parallel rays; the image spans `height_world` world units vertically (the
     /// horizontal extent follows the image's aspect ratio).
-    Orthographic { height_world: f64 },
+    Orthographic {
+        /// Full vertical extent of the image in world units; finite and > 0.
+        height_world: f64,
+    },
     /// Rays from the eye; `fov_y_deg` is the full vertical field of view in degrees.
-    Perspective { fov_y_deg: f64 },
+    Perspective {
+        /// Full vertical field of view in degrees; finite, in (0, 180).
+        fov_y_deg: f64,
+    },
 }
 
 /// A ray `origin + t·dir` in world space; cameras produce unit `dir`.
 #[derive(Clone, Copy, Debug)]
 pub struct Ray {
+    /// World position at `t = 0`: the eye (perspective) or a point of the image plane
+    /// through the eye (orthographic).
     pub origin: DVec3,
+    /// World direction; unit length from a [`Camera`], so `t` is a world distance.
     pub dir: DVec3,
 }
 
@@ -135,6 +144,8 @@ impl Camera {
         }
     }
 
+    /// World position of the eye: where perspective rays start, and the centre of the
+    /// plane orthographic rays start on.
     pub fn eye(&self) -> DVec3 {
         self.eye
     }
@@ -154,6 +165,7 @@ impl Camera {
         self.up
     }
 
+    /// The projection the camera was made with.
     pub fn projection(&self) -> Projection {
         self.projection
     }

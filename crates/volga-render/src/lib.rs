@@ -108,9 +108,10 @@
 //!   function of its sample index alone and invisible lanes add exactly nothing, so
 //!   skipping never changes the image and any thread count gives the same bits. Images equal the general path's within 1/255 per channel (tests: 7e-7 seen).
 //!   One predicate decides it (`packet_path_allowed`: [`Sampling::packed_path`], the
-//!   integrator's [`Integrator::packed_path`], no shadows, ≤ 8 lights); everything else
-//!   — iso-surfaces, projections, other filters and gradient methods, analytic fields,
-//!   CVG trees, octrees, ADFs — takes the general path.
+//!   integrator's [`Integrator::packed_path`], no shadows, ≤ 8 lights); iso-surfaces of
+//!   such volumes have their own packed path (`iso_packed.rs`: exact crossings cell by
+//!   cell); everything else — projections, other filters and gradient methods, analytic
+//!   fields, CVG trees, octrees, ADFs — takes the general path.
 //! * Reconstruction and gradients are the field's: [`volga_core::Sampled`] offers
 //!   nearest, trilinear, Catmull–Rom and cubic B-spline filters
 //!   ([`volga_core::Filter`]) with central-difference or analytic gradients
@@ -126,7 +127,8 @@
 //!    `impl Integrator` (`name`, `validate`, `effects`, `classify_cell` — or
 //!    `skips_cells() == false` — and `integrate`, built from the crate's marching
 //!    helpers in `march.rs`: sample lattices, `march_iso`, macro-grid lookups).
-//! 2. Add one line `<mode>::<Type>,` to the `modes!` list at the end of
+//! 2. Add one line `<mode>::<Type>,`, under a `///` line that documents the
+//!    `Mode::<Type>` variant, to the `modes!` list at the end of
 //!    `src/integrators/mod.rs`: it declares the module, re-exports the type and adds
 //!    the `Mode::<Type>` variant with its dispatch.
 //! 3. For scene files, map a scene mode to it in `volga-scene`'s validation (the

@@ -250,6 +250,7 @@ pub(crate) fn march_iso<F: Field + ?Sized>(
 pub struct Hit {
     /// Ray parameter: `world_pos = ray.origin + t·ray.dir`.
     pub t: f64,
+    /// World position of the crossing, `ray.at(t)`.
     pub world_pos: DVec3,
 }
 

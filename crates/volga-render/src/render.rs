@@ -12,8 +12,12 @@ use crate::{Camera, Integrator, Mode, PreIntegrated, RenderError, RenderSettings
 /// in \[0, 1\].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
+    /// Columns, in pixels.
     pub width: u32,
+    /// Rows, in pixels.
     pub height: u32,
+    /// `width × height` pixels, row by row from the top: pixel `(x, y)` is
+    /// `pixels[y · width + x]`.
     pub pixels: Vec<Vec4>,
 }
 
@@ -258,8 +262,10 @@ impl<'a, F: Field + ?Sized, I: Integrator> Renderer<'a, F, I> {
         self.prepared.is_some()
     }
 
-    /// Whether this renderer takes the packed fast path ([`Field::pack`] gave a packed
-    /// copy and [`Sampling::packed_path`](crate::Sampling::packed_path) allows it).
+    /// Whether this renderer takes the packed fast path: the settings and the mode allow
+    /// it ([`Sampling::packed_path`](crate::Sampling::packed_path), no shadows or point
+    /// lights) and the field is a trilinear, central-difference reconstruction of voxels
+    /// ([`Field::voxels`]) small enough to pack.
     pub fn is_packed(&self) -> bool {
         self.packed.is_some()
     }

@@ -16,7 +16,9 @@ pub const MAX_SAMPLES_PER_RAY: u64 = 1 << 24;
 /// The picture: its size, what lies behind the content, and how it is tiled.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImageSettings {
+    /// Image width in pixels; ≥ 1, with `width × height ≤` [`MAX_PIXELS`]; default 512.
     pub width: u32,
+    /// Image height in pixels; ≥ 1; default 512.
     pub height: u32,
     /// Straight RGBA composited behind everything; default (0.05, 0.05, 0.08, 1).
     pub background: Vec4,
@@ -65,8 +67,8 @@ pub struct Sampling {
     pub prepare_field: bool,
     /// Render trilinear, central-difference sampled volumes through the packed fast path
     /// (per-voxel gradients, `f32` shading; see `packet.rs` in this crate): the same
-    /// image within 1/255 per channel, faster; default on. Fields that do not pack
-    /// themselves ([`Field::pack`](volga_core::Field::pack)) ignore it.
+    /// image within 1/255 per channel, faster; default on. Fields that are not such a
+    /// reconstruction of voxels ([`Field::voxels`](volga_core::Field::voxels)) ignore it.
     pub packed_path: bool,
     /// Pre-integrated classification (Engel et al., survey §7 "transfer functions"):
     /// volume rendering looks up each ray segment `(s_front, s_back)` in a 2D table
@@ -149,6 +151,8 @@ pub struct Lighting {
     pub shadows: ShadowSettings,
     /// Ambient colour `C_a` of survey eq. 9; default white.
     pub ambient_colour: Vec3,
+    /// Blinn-Phong coefficients of every surface and sample; default
+    /// [`Material::default`]. Unused when unlit.
     pub material: Material,
 }
 
@@ -237,8 +241,12 @@ impl Lighting {
 /// settings are validated.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RenderSettings {
+    /// The picture: size, background, tiles, supersampling.
     pub image: ImageSettings,
+    /// Ray sampling: step, opacity reference step, early termination, skipping and
+    /// the fast paths.
     pub sampling: Sampling,
+    /// Lights, shadows, ambient colour and material.
     pub lighting: Lighting,
 }
 

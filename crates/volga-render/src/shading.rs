@@ -34,6 +34,9 @@ pub struct PointLight {
     pub position: DVec3,
     /// Linear RGB colour `C_l` of survey eq. 9 (at distance 0 when attenuated).
     pub colour: Vec3,
+    /// How the colour falls off with distance; [`PointLight::new`] sets none
+    /// ([`Attenuation::NONE`]). The coefficients must be finite and ≥ 0 with at least
+    /// one positive (checked as `lighting.point_lights[i].attenuation`).
     pub attenuation: Attenuation,
 }
 
@@ -74,8 +77,11 @@ impl PointLight {
 /// `constant + linear·d + quadratic·d²` at world distance `d`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Attenuation {
+    /// Constant term `c` of the divisor; finite and ≥ 0.
     pub constant: f64,
+    /// Coefficient `l` of the distance `d` (per world unit); finite and ≥ 0.
     pub linear: f64,
+    /// Coefficient `q` of `d²` (per square world unit); finite and ≥ 0.
     pub quadratic: f64,
 }
 
@@ -116,16 +122,26 @@ impl Default for Attenuation {
 /// (directional) or its `point_lights`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LightId {
+    /// Index into [`Lighting::lights`](crate::Lighting::lights).
     Directional(usize),
+    /// Index into [`Lighting::point_lights`](crate::Lighting::point_lights).
     Point(usize),
 }
 
 /// Blinn-Phong material coefficients of survey eq. 9: `k_a`, `k_d`, `k_s`, `ns`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
+    /// `k_a`: weight of the ambient term `C_a·C_o`, added whatever the light directions;
+    /// finite and ≥ 0, default 0.15.
     pub ambient: f32,
+    /// `k_d`: weight of the diffuse term `C_l·C_o·max(N·L, 0)`; finite and ≥ 0,
+    /// default 0.75.
     pub diffuse: f32,
+    /// `k_s`: weight of the highlight `C_l·max(N·H, 0)^ns`, in the light's colour (not
+    /// tinted by `C_o`); finite and ≥ 0, default 0.3.
     pub specular: f32,
+    /// `ns`: the highlight exponent, larger for smaller, sharper highlights; finite and
+    /// ≥ 0, default 32.
     pub shininess: f32,
 }
 

@@ -26,7 +26,11 @@ pub enum SurfaceColour {
 /// with the outward normal (`−∇` for densities, `+∇` for signed distances).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Iso {
+    /// The iso value, in the field's value units (a density for densities, a world
+    /// distance for signed distances); must be finite (checked as `mode.value`).
     pub value: f64,
+    /// The surface colour `C_o`; a constant colour must be finite and ≥ 0 on every channel
+    /// (checked as `mode.colour`).
     pub colour: SurfaceColour,
 }
 

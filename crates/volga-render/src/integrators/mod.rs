@@ -125,17 +125,22 @@ pub(crate) fn integrate_each<F: Field + ?Sized, I: Integrator>(
 /// One effect a render needs, and why (shown in the build report).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Effect {
+    /// Whether the render performs the effect.
     pub enabled: bool,
+    /// Why it does or does not run, in a few words for the build report (e.g.
+    /// `"disabled in the settings"`).
     pub why: String,
 }
 
 impl Effect {
+    /// An effect that runs, for the reason `why`.
     pub fn on(why: impl Into<String>) -> Self {
         Effect {
             enabled: true,
             why: why.into(),
         }
     }
+    /// An effect that does not run, for the reason `why`.
     pub fn off(why: impl Into<String>) -> Self {
         Effect {
             enabled: false,
@@ -328,17 +333,18 @@ pub(crate) fn clip(bounds: &Aabb, ray: &Ray) -> Option<(f64, f64)> {
 
 /// Registers the modes: declares each integrator's module and generates [`Mode`]
 /// (one variant per integrator, named after its type), `From` conversions,
-/// [`Mode::integrator`] and the once-per-image dispatch [`Mode::render_with`].
-/// Adding a mode is one new file here plus one line in this list.
+/// [`Mode::integrator`] and the once-per-image dispatch [`Mode::dispatch`].
+/// Adding a mode is one new file here plus one line (and its `///` doc, which becomes
+/// the variant's) in this list.
 macro_rules! modes {
-    ($($module:ident :: $ty:ident),* $(,)?) => {
+    ($($(#[$doc:meta])* $module:ident :: $ty:ident),* $(,)?) => {
         $(mod $module; pub use $module::*;)*
 
         /// The registered render modes, one per integrator (a thin convenience over
         /// the [`Integrator`] types: every method forwards to the integrator).
         #[derive(Clone, Debug)]
         pub enum Mode {
-            $($ty($ty),)*
+            $($(#[$doc])* $ty($ty),)*
         }
 
         $(impl From<$ty> for Mode {
@@ -372,8 +378,12 @@ pub(crate) trait ModeJob {
 }
 
 modes! {
+    /// An opaque iso-surface ([`Iso`]).
     iso::Iso,
+    /// Direct volume rendering with a classifier ([`Volume`]).
     volume::Volume,
+    /// Maximum intensity projection ([`Mip`]).
     mip::Mip,
+    /// The mean value along each ray ([`XRay`]).
     xray::XRay,
 }

@@ -16,7 +16,12 @@ use crate::{CellClass, PreIntegrated, Ray, RenderError, RenderSettings, RenderSt
 /// the opacity from the classifier.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Volume {
+    /// Maps each sample to straight RGBA, its opacity defined per
+    /// [`Sampling::reference_step_voxels`](crate::Sampling::reference_step_voxels); valid
+    /// by construction.
     pub classifier: Classifier,
+    /// Take the RGB from [`Field::colour`] (white where the field has none) and only the
+    /// opacity from the classifier. Turns off the packed fast path.
     pub colour_from_field: bool,
 }
 
