@@ -13,13 +13,18 @@ pub struct Machine {
     pub cpu_model: Option<String>,
     /// `PRETTY_NAME` from `/etc/os-release`, and the kernel release.
     pub os: Option<String>,
+    /// Kernel release, from `/proc/sys/kernel/osrelease`.
     pub kernel: Option<String>,
+    /// Physical memory (`MemTotal` of `/proc/meminfo`), in bytes.
     pub memory_total_bytes: Option<u64>,
+    /// The version of volga that ran.
     pub volga_version: &'static str,
     /// `git describe --always --dirty` of the working directory, if it is a checkout.
     pub commit: Option<String>,
     /// 1-, 5- and 15-minute load averages (`/proc/loadavg`) at the start and the end.
     pub load_average_start: Option<[f64; 3]>,
+    /// Load averages at the end of the run (`None` until the run finishes, or without
+    /// `/proc/loadavg`).
     pub load_average_end: Option<[f64; 3]>,
 }
 

@@ -46,6 +46,7 @@ pub struct SurfaceErrors {
     pub normal_rms_deg: f64,
     /// Area of the triangulated level set (world units²).
     pub area: f64,
+    /// Triangles of the level set's triangulation.
     pub triangles: u64,
 }
 

@@ -29,7 +29,9 @@ pub struct Setting {
 /// The settings of one method or input along the knob (one curve of the plot).
 #[derive(Debug, Clone, Serialize)]
 pub struct Series {
+    /// Legend label of the curve (a method or input, e.g. `binary`, `bunny (… triangles)`).
     pub name: String,
+    /// Its settings, in the order the curve joins them.
     pub settings: Vec<Setting>,
 }
 
@@ -37,6 +39,8 @@ pub struct Series {
 /// for each.
 #[derive(Debug, Clone, Serialize)]
 pub struct Metric {
+    /// Key of the metric in [`Setting::errors`] and the raw JSON (`position_rms`,
+    /// `max_error`).
     pub id: &'static str,
     /// Axis and column label, with its unit.
     pub label: &'static str,
@@ -47,6 +51,7 @@ pub struct Metric {
 pub struct KnobResult {
     /// File stem of its table and plot (`resolution` → `resolution.md`, `resolution.svg`).
     pub id: &'static str,
+    /// Heading of the table and title of the plot.
     pub title: &'static str,
     /// What is varied.
     pub knob: &'static str,
@@ -54,11 +59,16 @@ pub struct KnobResult {
     pub reference: &'static str,
     /// What the time measures.
     pub timed: &'static str,
+    /// The error measures reported, one table column and plot panel each.
     pub metrics: Vec<Metric>,
+    /// The curves: one per method or input.
     pub series: Vec<Series>,
 }
 
 impl Setting {
+    /// A measured setting with no errors yet: `label` for the plot, its parameters as
+    /// `(name, value)`, the [`Timing`] from [`timed`] and `memory_bytes` of the data it
+    /// produced. Add errors with [`Setting::error`].
     pub fn new(label: impl Into<String>, params: &[(&str, f64)], timing: Timing, memory_bytes: u64) -> Self {
         Setting {
             label: label.into(),
@@ -80,7 +90,10 @@ impl Setting {
 /// How long an operation took and the peak memory while it ran.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Timing {
+    /// Wall time of the fastest run, in seconds.
     pub seconds: f64,
+    /// Peak resident set of the process while `op` ran, in bytes; `None` where the peak
+    /// could not be reset or read (outside Linux).
     pub peak_rss_bytes: Option<u64>,
 }
 

@@ -24,8 +24,11 @@ pub fn scene_box() -> Aabb {
 /// signed distance; flat faces, cylindrical edges and spherical corners in one shape.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RoundedBox {
+    /// World position of the box's centre.
     pub center: DVec3,
+    /// Half the edge lengths of the inner box, before rounding (world units).
     pub half_extents: DVec3,
+    /// The rounding radius: how far the surface lies outside the inner box (world units).
     pub radius: f64,
 }
 
@@ -46,8 +49,11 @@ impl SignedDistance for RoundedBox {
 /// and surface area.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ReferenceShape {
+    /// A ball ([`ReferenceShape::sphere`]).
     Sphere(Sphere),
+    /// A ring torus with a tilted axis ([`ReferenceShape::torus`]).
     Torus(Torus),
+    /// A rounded box ([`ReferenceShape::rounded_box`]).
     RoundedBox(RoundedBox),
     /// Capped cone: the apex is a point where the normal is undefined and binary
     /// voxels cannot follow the tip.
@@ -87,6 +93,7 @@ impl ReferenceShape {
         [Self::sphere(), Self::torus(), Self::rounded_box(), Self::cone()]
     }
 
+    /// The shape's name in tables and plots (`sphere`, `torus`, `rounded box`, `cone`).
     pub fn name(&self) -> &'static str {
         match self {
             ReferenceShape::Sphere(_) => "sphere",
@@ -183,6 +190,7 @@ impl MarschnerLobb {
     /// Spacing of the classic 41³ sampling (world units).
     pub const SPACING: f64 = 0.05;
 
+    /// The signal ρ at world position `p`, in \[0, 1\].
     pub fn density(p: DVec3) -> f64 {
         let r = (p.x * p.x + p.y * p.y).sqrt();
         let rho_r = (2.0 * PI * Self::F_M * (PI * r / 2.0).cos()).cos();

@@ -18,7 +18,9 @@ pub struct Report {
     pub size: &'static str,
     /// Wall time of the whole run (seconds).
     pub wall_time_s: f64,
+    /// The machine the run measured, with its load before and after.
     pub machine: Machine,
+    /// One result per experiment run, in registry order.
     pub experiments: Vec<KnobResult>,
     /// Files the experiments attached (rendered images), written after the tables.
     #[serde(skip)]

@@ -17,55 +17,87 @@ use crate::{load, BuildError, RenderSource, Scene, SceneError};
 /// What `volga build` did, written to `{out}/report.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
+    /// The scene file built.
     pub scene: PathBuf,
+    /// The version of volga that built it.
     pub volga_version: &'static str,
+    /// Worker threads the build ran with (rayon's pool).
     pub threads: usize,
+    /// The voxel grid the scene asked for.
     pub grid: GridReport,
+    /// What the planner decided and why, with its memory estimate.
     pub plan: Plan,
+    /// Every stage in the order run, with its wall time and peak memory.
     pub stages: Vec<StageReport>,
+    /// What the baked volume holds; zeros when nothing was voxelized.
     pub voxels: VoxelReport,
+    /// One entry per PNG written (per frame for turntables).
     pub images: Vec<ImageReport>,
+    /// Every file written, `report.json` last.
     pub outputs: Vec<PathBuf>,
     /// Perlin evaluations (one per octave) and Worley searches over the whole build.
     pub noise_evaluations: u64,
     /// Per procedural node: samples taken and noise evaluated (bake and renders).
     pub node_counters: Vec<crate::nodes::procedural::NodeCounters>,
+    /// Wall time of the whole build in seconds.
     pub total_wall_s: f64,
 }
 
+/// The voxel grid of a build, as `report.json` lists it.
 #[derive(Debug, Clone, Serialize)]
 pub struct GridReport {
+    /// Voxels along x, y and z.
     pub dims: [u32; 3],
+    /// Voxel edge lengths along x, y and z (world units).
     pub voxel_size: [f64; 3],
     /// World position of voxel (0, 0, 0)'s centre.
     pub origin: [f64; 3],
+    /// Voxels in all (`dims` multiplied).
     pub voxels: u64,
 }
 
+/// What the baked volume holds, as `report.json` lists it (all zero when nothing was
+/// voxelized).
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct VoxelReport {
     /// Voxels with non-zero density.
     pub active: u64,
+    /// Bricks of 8³ voxels stored.
     pub bricks: usize,
+    /// Bricks stored voxel by voxel.
     pub dense_bricks: usize,
+    /// Bricks stored as one value (all their voxels equal).
     pub uniform_bricks: usize,
+    /// Bricks of the colour channel (0 without one).
     pub colour_bricks: usize,
+    /// Bytes the volume holds (bricks and map).
     pub volume_memory_bytes: u64,
 }
 
+/// One image written, as `report.json` lists it: the renderer's counters.
 #[derive(Debug, Clone, Serialize)]
 pub struct ImageReport {
+    /// File stem (`name`, or `{name}_0007` for a turntable frame).
     pub name: String,
+    /// The PNG written.
     pub file: PathBuf,
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// Rays cast (`supersampling²` per pixel).
     pub rays: u64,
+    /// Field values evaluated along the rays.
     pub samples: u64,
+    /// Gradient evaluations for shading (0 when unlit).
     pub gradient_evaluations: u64,
+    /// `Volume` rays stopped by early ray termination.
     pub rays_terminated_early: u64,
+    /// Empty-space skips (a count of skips, each over one or more macro cells).
     pub cells_skipped: u64,
     /// Shadow rays cast and field values they read (0 when no light casts shadows).
     pub shadow_rays: u64,
+    /// Field values read along shadow rays.
     pub shadow_samples: u64,
 }
 
@@ -85,6 +117,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 /// Options of a build.
 #[derive(Debug, Clone)]
 pub struct BuildOptions {
+    /// Folder the outputs and `report.json` are written to; created when missing.
     pub out_dir: PathBuf,
     /// Refuse builds estimated to need more than this; `None`: the machine's available
     /// memory.

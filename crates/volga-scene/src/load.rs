@@ -22,6 +22,9 @@ pub fn parse_file(path: &Path) -> Result<SceneFile, SceneError> {
     }
 }
 
+/// Parses a scene from RON text; `path` only names it in errors. Optional fields may be
+/// written without `Some(…)`. Syntax errors, unknown fields and wrong types are
+/// [`SceneError::Parse`] with line and column.
 pub fn parse_ron(path: &Path, text: &str) -> Result<SceneFile, SceneError> {
     // `implicit_some` lets users write `name: "ball"` for optional fields.
     ron::Options::default()
@@ -35,6 +38,8 @@ pub fn parse_ron(path: &Path, text: &str) -> Result<SceneFile, SceneError> {
         })
 }
 
+/// Parses a scene from JSON text; `path` only names it in errors. Syntax errors, unknown
+/// fields and wrong types are [`SceneError::Parse`] with line and column.
 pub fn parse_json(path: &Path, text: &str) -> Result<SceneFile, SceneError> {
     serde_json::from_str(text).map_err(|e| SceneError::Parse {
         path: path.to_owned(),

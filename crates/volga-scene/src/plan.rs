@@ -12,8 +12,11 @@ use crate::{RenderSource, Scene, SceneError};
 /// One decision of the plan with the reason for it, as shown in `report.json`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct Decision {
+    /// What was decided, e.g. `voxelize`, `colour` or `{image}: shadow rays`.
     pub name: String,
+    /// Whether it is on.
     pub enabled: bool,
+    /// Why, in words.
     pub why: String,
 }
 
@@ -32,23 +35,33 @@ impl Decision {
 pub struct MemoryEstimate {
     /// Bricks the voxelizer may allocate (bricks within the filter band of any solid).
     pub bricks_upper_bound: u64,
+    /// Bytes of the baked volume's bricks (density, and colour when allocated) plus the
+    /// nodes' own data (meshes' BVHs, loaded volumes).
     pub volume_bytes: u64,
     /// The largest image's buffers (float pixels, 8-bit copy, PNG).
     pub image_bytes: u64,
     /// One z-slab of every written volume (raw output is streamed slab by slab).
     pub output_slab_bytes: u64,
+    /// The sum of the above, checked against the memory limit.
     pub total_bytes: u64,
 }
 
+/// What a build will do and what it will cost, decided before anything runs.
 #[derive(Debug, Clone, Serialize)]
 pub struct Plan {
     /// Whether the node tree is voxelized at all.
     pub voxelize: Decision,
+    /// The volume channels: `density` (always) and `colour` (when an output reads it).
     pub channels: Vec<Decision>,
+    /// Per image: gradients, shadow rays, early ray termination and empty-space skipping,
+    /// as its mode asks under its settings.
     pub effects: Vec<Decision>,
     /// Where procedural work (noise) runs, per node; one disabled entry when nowhere.
     pub procedural: Vec<Decision>,
+    /// Upper bounds on the memory the build holds.
     pub memory: MemoryEstimate,
+    /// The limit `memory` was checked against, in bytes: the caller's, else the machine's
+    /// available memory.
     pub memory_limit_bytes: u64,
     /// Whether the colour channel is allocated.
     #[serde(skip)]
@@ -58,6 +71,13 @@ pub struct Plan {
 /// Bytes a hash-map entry costs beyond its payload (key, enum tag, box pointer, control).
 const BRICK_OVERHEAD_BYTES: u64 = 48;
 
+/// Plans a validated and resolved scene: which channels and effects each output calls for,
+/// whether the tree is voxelized, and an upper bound on memory. `memory_limit` (bytes)
+/// defaults to the machine's available memory.
+///
+/// # Errors
+/// [`SceneError::TooLarge`] when the estimate exceeds the limit; nothing has been
+/// allocated.
 pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError> {
     let colour_readers: Vec<&str> = scene
         .images

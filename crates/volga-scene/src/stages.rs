@@ -4,9 +4,13 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+/// One stage of a job as `report.json` lists it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StageReport {
+    /// The stage's name: `load`, `resolve`, `plan`, `voxelize`, `render:{image}`,
+    /// `encode:{image}`, `write`, `mesh:{name}`.
     pub name: String,
+    /// Wall time of the stage in seconds.
     pub wall_s: f64,
     /// Peak resident memory of the process (bytes, `VmHWM` read at the stage's end;
     /// 0 where /proc is unavailable): the peak during the stage when the program

@@ -41,6 +41,7 @@ pub struct StrokeFile {
     /// A new sculpt (needed unless the strokes apply to a saved one).
     #[serde(default)]
     pub start: Option<StartSpec>,
+    /// The strokes, applied in order.
     pub strokes: Vec<StrokeSpec>,
 }
 
@@ -48,19 +49,33 @@ pub struct StrokeFile {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, rename = "Start")]
 pub struct StartSpec {
+    /// World box the sculpt must cover (`min < max` on every axis); the grid is centred on
+    /// it with a margin of a few voxels.
     pub bounds: BoundsSpec,
     /// Voxel edge length (cubic voxels; the grid is `8·2^L` voxels per axis).
     pub voxel_size: f64,
+    /// The object the sculpt starts from, voxelized through the same node as in a scene
+    /// (`objects[N]`'s fields: `name`, `shape`, `colour`).
     pub object: ObjectSpec,
 }
 
+/// One stroke: an operation applied within a tool, placed by `rotation_deg` then
+/// `translate`, optionally swept along `path`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StrokeSpec {
+    /// What the stroke does to the voxels within the tool.
     pub op: OpSpec,
+    /// The tool's shape (world units before `rotation_deg` and `translate`): any bounded
+    /// shape, i.e. not a `Quadric`, a `Cylinder` without `half_length` or a `Cone` without
+    /// `height`; `Triangles` and `Mesh` tools must be closed (a mesh path is relative to
+    /// the file).
     pub tool: ShapeSpec,
+    /// Rotation of the tool about the world origin as X-then-Y-then-Z Euler angles in
+    /// degrees, finite; default `(0, 0, 0)`.
     #[serde(default)]
     pub rotation_deg: V3,
+    /// Offset of the tool after the rotation (world units), finite; default `(0, 0, 0)`.
     #[serde(default)]
     pub translate: V3,
     /// Sweep the tool along this polyline (the saw).
@@ -68,23 +83,34 @@ pub struct StrokeSpec {
     pub path: Option<Vec<V3>>,
 }
 
+/// What a stroke does within its tool (strengths in (0, 1]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum OpSpec {
+    /// Remove the tool's volume (with a `path`: sawing).
     Carve,
+    /// Add the tool's volume (fuzzy union).
     Add,
+    /// Add density little by little, like an airbrush.
     Spray {
+        /// Density added per stroke where the tool is solid (less in its soft edge), in
+        /// (0, 1]; densities stop at 1.
         strength: f64,
-        /// Extra soft-edge width (world units).
+        /// Extra soft-edge width (world units), finite and ≥ 0; default 0.
         #[serde(default)]
         falloff: f64,
     },
+    /// Recolour the voxels within the tool; the shape is unchanged.
     Paint {
+        /// Linear RGB, each component in \[0, 1\].
         colour: V3,
+        /// How far the colour moves towards `colour`, in (0, 1]; default 1 (replace).
         #[serde(default = "one")]
         strength: f64,
     },
+    /// Blend densities within the tool towards their 27-neighbour mean.
     Smooth {
+        /// How far each voxel moves towards the mean, in (0, 1]; default 1.
         #[serde(default = "one")]
         strength: f64,
     },

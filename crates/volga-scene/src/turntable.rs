@@ -16,6 +16,8 @@ pub const MAX_TURNTABLE_FRAMES: u32 = 3600;
 /// A validated turntable.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Turntable {
+    /// Number of frames, 1 to [`MAX_TURNTABLE_FRAMES`]; frame `k` is turned by
+    /// `360°·k/frames`.
     pub frames: u32,
     /// Unit rotation axis.
     pub axis: DVec3,

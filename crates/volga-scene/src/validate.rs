@@ -23,12 +23,18 @@ use crate::SceneError;
 /// stage ([`Scene::resolve`]).
 #[derive(Debug)]
 pub struct Scene {
+    /// The scene file; relative paths in the scene (meshes, volumes) are read from its
+    /// folder.
     pub source: PathBuf,
+    /// The voxel grid, from `grid`: world box, voxel size and voxels per axis.
     pub grid: Grid,
     /// The node tree; its root is a union (the implicit union of `objects`, or `root`).
     pub root: Union,
+    /// The image outputs, in file order.
     pub images: Vec<ImageJob>,
+    /// The volume outputs, as written in the file (names checked).
     pub volumes: Vec<VolumeOutputSpec>,
+    /// The mesh outputs, as written in the file (names checked).
     pub meshes: Vec<crate::model::MeshOutputSpec>,
 }
 
@@ -68,16 +74,24 @@ pub enum RenderSource {
 /// One image output: a camera, a mode and the render settings for it.
 #[derive(Debug, Clone)]
 pub struct ImageJob {
+    /// File stem of the PNG (`{out}/{name}.png`; turntable frames append `_0000`, …).
     pub name: String,
+    /// The `name` of the camera it is seen by.
     pub camera_name: String,
+    /// The validated camera (world space).
     pub camera: Camera,
+    /// The render mode, with its transfer function for `Volume` images.
     pub mode: Mode,
+    /// Image size, ray sampling and lighting; lights are dropped when the mode does not
+    /// shade.
     pub settings: RenderSettings,
+    /// How the baked volume is reconstructed (unused by `Lazy` images).
     pub filter: Filter,
     /// How the baked volume's gradients are taken.
     pub gradient: GradientMethod,
     /// PNG bits per channel: 8 or 16.
     pub bit_depth: u8,
+    /// Whether it samples the baked volume or the node tree.
     pub source: RenderSource,
     /// The image reads the volume's colour channel.
     pub reads_colour: bool,
@@ -88,6 +102,14 @@ pub struct ImageJob {
 /// Largest voxel count per axis a scene may ask for (the grid type's own limit).
 const MAX_DIM: f64 = (i32::MAX / 2) as f64;
 
+/// Validates a parsed scene file: every value's range, the grid, the node tree, cameras,
+/// lights and output names. `path` names the file in errors and is where relative paths
+/// start. Reads no file (see [`Scene::resolve`]).
+///
+/// # Errors
+/// [`SceneError::Invalid`] naming the field path of the first value refused, e.g.
+/// `objects[1].shape.radius`, `outputs.images[0].width` or `grid` (give either `resolution`
+/// or `voxel_size`).
 pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
     let cx = Ctx { path };
     let grid = validate_grid(&cx, &file.grid)?;

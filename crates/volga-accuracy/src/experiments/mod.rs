@@ -36,6 +36,7 @@ pub enum Size {
 }
 
 impl Size {
+    /// `quick` or `full`, as the report and `volga accuracy` name the size.
     pub fn name(self) -> &'static str {
         match self {
             Size::Quick => "quick",
@@ -55,6 +56,7 @@ impl Size {
 /// What an experiment is given: its size and where to report progress (one unit
 /// per setting).
 pub struct Context<'a> {
+    /// The size to run the experiment's settings at.
     pub size: Size,
     progress: &'a dyn Progress,
     /// Extra output files (images) the experiments attach, in attachment order.
@@ -62,6 +64,8 @@ pub struct Context<'a> {
 }
 
 impl<'a> Context<'a> {
+    /// A context for experiments of `size`, reporting progress to `progress`, with no
+    /// attachments yet.
     pub fn new(size: Size, progress: &'a dyn Progress) -> Self {
         Context {
             size,
@@ -94,6 +98,7 @@ impl<'a> Context<'a> {
         self.progress.inc(1);
     }
 
+    /// The experiment is done: ends its progress report.
     pub fn finish(&self) {
         self.progress.finish();
     }
@@ -104,6 +109,7 @@ impl<'a> Context<'a> {
 pub struct Experiment {
     /// File stem of its outputs (`<id>.md`, `<id>.svg`).
     pub id: &'static str,
+    /// Sweeps the knob and measures every setting, reporting progress through the context.
     pub run: fn(&Context) -> KnobResult,
 }
 

@@ -28,6 +28,8 @@ use crate::SceneError;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AdfSpec {
+    /// A label for reports; default `objectN`, N counting the tree's leaf nodes (objects,
+    /// `Fuzzy`, `Volume`, `Hypertexture`, `Adf`) in file order from 0.
     #[serde(default)]
     pub name: Option<String>,
     /// What the distance field is built from: a mesh (`Mesh(path: ..)`, `Triangles(..)`)
@@ -55,6 +57,8 @@ enum Source {
     Shape(Shape),
 }
 
+/// Leaf node: an adaptively sampled distance field of a mesh or an analytic shape, built on
+/// first use and seen through the grid's oriented box filter.
 #[derive(Debug)]
 pub struct AdfNode {
     name: String,

@@ -24,24 +24,40 @@ use crate::SceneError;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CvgSpec {
+    /// A label for the report; default the node's field path (`root.Cvg`).
     #[serde(default)]
     pub name: Option<String>,
+    /// The operator.
     pub op: CvgOpSpec,
+    /// The operand nodes, A then B: one for `Complement`, two for every other operator.
     pub operands: Vec<NodeSpec>,
 }
 
+/// A CVG operator on the operands' densities `dA`, `dB` (each in \[0, 1\]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum CvgOpSpec {
+    /// Fuzzy union `max(dA, dB)` (eq. 17); colour of the denser operand (A on ties).
     Union,
+    /// Fuzzy intersection `min(dA, dB)` (eq. 17); colour of the thinner operand (A on
+    /// ties).
     Intersection,
+    /// Fuzzy difference `min(dA, 1 − dB)` (eq. 17): B carves A; A's colour.
     Difference,
+    /// Complement `1 − d` of its one operand, whose colour it keeps; 1 far from the
+    /// operand, so it fills the grid.
     Complement,
+    /// Algebraic intersection `dA·dB` (eq. 18); colours weighted by density.
     Product,
+    /// Algebraic union `dA + dB − dA·dB` (eq. 18); colours weighted by density.
     ProbabilisticSum,
+    /// Algebraic difference `dA − dA·dB` (eq. 18): B carves A; A's colour.
     AlgebraicDifference,
+    /// Blend `w·dA + (1 − w)·dB` with the weight `w` in \[0, 1\]; colours weighted by
+    /// `w·dA` and `(1 − w)·dB`.
     Blend(f64),
 }
 
+/// Operator node: a CVG operator over one or two nodes (`NodeSpec::Cvg`).
 #[derive(Debug)]
 pub struct CvgNode {
     name: String,
@@ -52,6 +68,13 @@ pub struct CvgNode {
 }
 
 impl CvgNode {
+    /// Checks a `Cvg` spec at field path `f` (`root.Cvg`) and its operands; `leaves` counts
+    /// the leaf nodes met so far, for their default names.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming the field refused: `{f}.op.Blend` for a weight
+    /// outside \[0, 1\], `{f}.operands` for the wrong number of operands, or an operand's
+    /// own field.
     pub fn validate(cx: &Ctx, f: &str, spec: &CvgSpec, leaves: &mut usize) -> Result<Self, SceneError> {
         let (op, arity) = match spec.op {
             CvgOpSpec::Union => (Some(Op::Union), 2),

@@ -18,9 +18,13 @@ use crate::SceneError;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FuzzySpec {
+    /// A label for the report; default `fuzzyN`, N counting the tree's leaf nodes (objects,
+    /// `Fuzzy`, `Volume`, `Hypertexture`, `Adf`) in file order from 0.
     #[serde(default)]
     pub name: Option<String>,
+    /// What the distance is measured from: a point or a segment.
     pub core: FuzzyCore,
+    /// Distance from the core at which the density reaches 0 (world units, finite and > 0).
     pub radius: f64,
     /// Colour at density 0 (white when absent).
     #[serde(default)]
@@ -30,13 +34,30 @@ pub struct FuzzySpec {
     pub inner_colour: Option<V3>,
 }
 
+/// The core of a fuzzy primitive.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum FuzzyCore {
-    Sphere { center: V3 },
-    Cylinder { center: V3, axis: V3, half_length: f64 },
+    /// A point: a fuzzy ball of radius `radius`.
+    Sphere {
+        /// World position of the point.
+        center: V3,
+    },
+    /// A segment along an axis: a fuzzy cylinder of radius `radius` with soft caps.
+    Cylinder {
+        /// World position of the segment's middle.
+        center: V3,
+        /// Direction of the axis (any length, not zero).
+        axis: V3,
+        /// Half the cylinder's length along the axis (world units, finite and > 0): the
+        /// density falls to 0 at the caps, `half_length` from `center`, and is 1 on the
+        /// axis only within `half_length − radius` of it.
+        half_length: f64,
+    },
 }
 
+/// Leaf node: a fuzzy primitive, density `max(0, 1 − dist/radius)` from its core, coloured
+/// by a ramp from `colour` to `inner_colour`.
 #[derive(Debug)]
 pub struct FuzzyNode {
     name: String,
@@ -46,6 +67,12 @@ pub struct FuzzyNode {
 }
 
 impl FuzzyNode {
+    /// Checks a `Fuzzy` spec at field path `f` (`root.Fuzzy`); `index` numbers its default
+    /// name `fuzzy{index}`.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming the field refused, e.g. `{f}.radius` or
+    /// `{f}.core.Cylinder.axis`.
     pub fn validate(cx: &Ctx, f: &str, spec: &FuzzySpec, index: usize) -> Result<Self, SceneError> {
         let radius = cx.positive(&format!("{f}.radius"), spec.radius)?;
         let core = match &spec.core {

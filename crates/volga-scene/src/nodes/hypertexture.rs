@@ -20,56 +20,85 @@ use crate::SceneError;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct HypertextureSpec {
+    /// A label for the report; default `hypertextureN`, N counting the tree's leaf nodes
+    /// (objects, `Fuzzy`, `Volume`, `Hypertexture`, `Adf`) in file order from 0.
     #[serde(default)]
     pub name: Option<String>,
+    /// The solid the texture grows from: `Sphere(center, radius)` or
+    /// `Volume(path, translate)`.
     pub object: HyperObjectSpec,
     /// Half-width of the soft band (world units): density `½ − d/(2·soft_width)` there.
     pub soft_width: f64,
+    /// Modulation steps applied in order to the soft band's density `t` (or, for
+    /// `Displace`, to the distance `d`); default none.
     #[serde(default)]
     pub chain: Vec<ModulationSpec>,
+    /// Linear RGB in \[0, 1\] of the whole hypertexture; white when absent.
     #[serde(default)]
     pub colour: Option<V3>,
 }
 
+/// The object a hypertexture grows from: density 1 inside, 0 outside, soft only within the
+/// band around its surface.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum HyperObjectSpec {
+    /// An analytic ball.
     Sphere {
+        /// World position of the centre.
         center: V3,
+        /// Radius in world units, finite and > 0.
         radius: f64,
     },
     /// A voxel model (`.binvox` or density `.nrrd`, relative to the scene file), moved
     /// by `translate`: inside where density > ½, its signed distance by the exact EDT
     /// on the model's grid padded by the soft band's reach.
     Volume {
+        /// The file, relative to the scene file's folder; read in the resolve stage, and
+        /// refused when it or its padded distance grid exceeds the memory limit.
         path: String,
+        /// Offset from where the file places the model (world units); default `(0, 0, 0)`.
         #[serde(default)]
         translate: V3,
     },
 }
 
+/// One step of the modulation chain, applied to the soft band only.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum ModulationSpec {
     /// `d ← d − amplitude · noise(p ⊙ stretch)`.
     Displace {
+        /// The noise sampled at `p ⊙ stretch`.
         noise: NoiseSpec,
+        /// World units the surface moves per unit of noise, finite (negative moves it the
+        /// other way).
         amplitude: f64,
+        /// Per-axis factors on the noise's input position, finite (e.g. `(1, 0.3, 1)`
+        /// stretches the pattern along y); default `(1, 1, 1)`.
         #[serde(default = "ones")]
         stretch: V3,
     },
     /// Strands along the surface normals: `t ← t · bias(sharpness, ½ + ½·noise(foot))`
     /// with `foot` the point moved onto the surface along the distance gradient.
     Fur {
+        /// The noise sampled at each point's foot on the surface.
         noise: NoiseSpec,
+        /// Strand sharpness `b` of Perlin's bias, in \[0, 1\].
         sharpness: f64,
     },
-    /// `t ← t · (1 + amplitude · noise(p))`.
+    /// `t ← t · (1 + amplitude · noise(p))`, clamped to \[0, 1\].
     Scale {
+        /// The noise sampled at each point.
         noise: NoiseSpec,
+        /// Relative change of `t` per unit of noise, finite.
         amplitude: f64,
     },
+    /// `t ← bias(b, t)`: Perlin's bias with `b` in \[0, 1\] (½ leaves `t` unchanged,
+    /// below ½ lowers the densities, above raises them).
     Bias(f64),
+    /// `t ← gain(g, t)`: Perlin's gain with `g` in \[0, 1\] (½ leaves `t` unchanged,
+    /// above ½ steepens the ramp around ½, below flattens it).
     Gain(f64),
 }
 
@@ -87,6 +116,8 @@ enum Object {
     },
 }
 
+/// Leaf node: a Perlin–Hoffert hypertexture on a ball or a voxel model
+/// (`NodeSpec::Hypertexture`); noise runs only in the soft band.
 #[derive(Debug)]
 pub struct HypertextureNode {
     name: String,
@@ -98,6 +129,13 @@ pub struct HypertextureNode {
 }
 
 impl HypertextureNode {
+    /// Checks a `Hypertexture` spec at field path `f` (`root.Hypertexture`); `index`
+    /// numbers its default name `hypertexture{index}`. A ball's hypertexture is built now,
+    /// a volume's in the resolve stage.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming the field refused, e.g. `{f}.soft_width` or
+    /// `{f}.chain[2].Fur.sharpness`.
     pub fn validate(cx: &Ctx, f: &str, spec: &HypertextureSpec, index: usize) -> Result<Self, SceneError> {
         let soft_width = cx.positive(&format!("{f}.soft_width"), spec.soft_width)?;
         let object = match &spec.object {

@@ -29,6 +29,9 @@ enum Source {
     Inline,
 }
 
+/// Leaf node: a triangle mesh (a file or inline triangles) as a solid, inside where its
+/// generalized winding number is ≥ ½, with one colour. A file is loaded, scaled then
+/// translated, in the resolve stage.
 #[derive(Debug, Clone)]
 pub struct MeshNode {
     name: String,
@@ -39,6 +42,12 @@ pub struct MeshNode {
 }
 
 impl MeshNode {
+    /// Checks a `ShapeSpec::Mesh` or `ShapeSpec::Triangles` at field path `f`: a non-empty
+    /// path, finite `translate`, `scale` > 0; or finite vertices and at least one triangle
+    /// with indices in range. Reads no file.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming the field refused, e.g. `{f}.triangles`.
     pub fn validate(cx: &Ctx, f: &str, name: String, spec: &ShapeSpec, colour: Rgb) -> Result<Self, SceneError> {
         let (source, mesh) = match spec {
             ShapeSpec::Mesh { path, translate, scale } => {

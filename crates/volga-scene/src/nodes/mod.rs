@@ -46,6 +46,7 @@ pub struct Estimate {
 }
 
 impl Estimate {
+    /// The two estimates added (saturating): what baking both nodes allocates at most.
     pub fn plus(self, o: Estimate) -> Estimate {
         Estimate {
             bricks: self.bricks.saturating_add(o.bricks),
@@ -162,6 +163,8 @@ pub struct Clipped<F> {
 }
 
 impl<F: Field> Clipped<F> {
+    /// `field` restricted to `world_box` (its bounds become their intersection), with the
+    /// field's own colour.
     pub fn new(field: F, world_box: Aabb) -> Self {
         let bounds = field.bounds().intersection(&world_box);
         Clipped {

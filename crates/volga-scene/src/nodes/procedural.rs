@@ -16,24 +16,32 @@ use crate::SceneError;
 pub enum NoiseSpec {
     /// Perlin noise in \[-1, 1\].
     Perlin {
+        /// Seed of the noise's permutation; default 0.
         #[serde(default)]
         seed: u32,
+        /// Frequency in periods per world unit, finite and > 0.
         frequency: f64,
     },
     /// Perlin's turbulence Σ|noise(2ⁱ·f·x)|/2ⁱ, i < octaves.
     Turbulence {
+        /// Seed of the noise's permutation; default 0.
         #[serde(default)]
         seed: u32,
+        /// Number of octaves, 1 to 16; default 4.
         #[serde(default = "four")]
         octaves: u32,
+        /// Frequency of the first octave in periods per world unit, finite and > 0.
         frequency: f64,
     },
     /// fBm as the `noise` crate's `Fbm<Perlin>` (lacunarity 2, persistence ½).
     Fbm {
+        /// Seed of the noise's permutation; default 0.
         #[serde(default)]
         seed: u32,
+        /// Number of octaves, 1 to 16; default 4.
         #[serde(default = "four")]
         octaves: u32,
+        /// Frequency of the first octave in periods per world unit, finite and > 0.
         frequency: f64,
     },
 }
@@ -84,8 +92,9 @@ impl NoiseSpec {
 /// What one node did, for `report.json`.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
 pub struct NodeCounters {
-    /// The node's name and kind.
+    /// The node's name (as in the scene, or its default).
     pub node: String,
+    /// The node's kind (`fuzzy`, `volume`, `hypertexture`, …).
     pub kind: String,
     /// Density samples taken of this node (lazy renders and baking).
     pub samples: u64,
@@ -96,7 +105,9 @@ pub struct NodeCounters {
 /// Counters a node keeps across renders and bakes.
 #[derive(Debug, Default)]
 pub struct Counters {
+    /// Density samples taken (lazy renders and baking).
     pub samples: Counter,
+    /// Noise evaluations: one per Perlin octave, one per Worley search.
     pub noise: Counter,
 }
 
@@ -107,7 +118,9 @@ pub fn bake_field(field: &dyn Field, grid: &Grid, colour: bool) -> SparseVolume 
 
 /// A field that counts its samples (value calls and batch entries).
 pub struct Counted<'a, F> {
+    /// The field whose samples are counted.
     pub field: F,
+    /// The counter each sample adds one to.
     pub samples: &'a Counter,
 }
 

@@ -14,6 +14,8 @@ use super::{Clipped, Estimate, Node, Resolve};
 use crate::strokes::{validate_stroke_list, StrokeSpec};
 use crate::SceneError;
 
+/// Operator node: its operand sampled into a sculpt on the scene grid and edited by strokes
+/// (`NodeSpec::Sculpt`). Needs cubic voxels; strokes may add material anywhere in the grid.
 #[derive(Debug)]
 pub struct SculptNode {
     field: String,

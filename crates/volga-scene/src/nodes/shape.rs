@@ -17,11 +17,20 @@ use crate::SceneError;
 /// An analytic solid of the scene.
 #[derive(Debug, Clone)]
 pub struct ShapeNode {
+    /// A label for reports (`objectN` when the scene gives none).
     pub name: String,
+    /// The validated shape with its colour, as the voxelizer takes it.
     pub solid: Solid,
 }
 
 impl ShapeNode {
+    /// Checks the analytic shape `spec` (not a torus or a mesh: they are nodes of their
+    /// own) at field path `f` (`objects[1].shape`) and pairs it with `colour`; `name`
+    /// labels it in reports.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming the field refused (`{f}.radius`: must be finite
+    /// and > 0, …).
     pub fn validate(cx: &Ctx, f: &str, name: String, spec: &ShapeSpec, colour: Rgb) -> Result<Self, SceneError> {
         let shape = validate_shape(cx, f, spec)?;
         Ok(ShapeNode {

@@ -18,46 +18,69 @@ use crate::SceneError;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TexturedSpec {
+    /// A label for the report; default the node's field path (`root.Textured`).
     #[serde(default)]
     pub name: Option<String>,
+    /// The pattern: `Noise`, `Turbulence`, `Marble`, `Wood` or `Cells`, each with a preset
+    /// colour ramp.
     pub texture: TextureSpec,
+    /// The node whose density is kept; its colour is replaced by the texture's.
     pub operand: Box<NodeSpec>,
     /// `(position in [0, 1], linear RGB)` knots, increasing; the preset's when absent.
     #[serde(default)]
     pub spline: Option<Vec<(f64, V3)>>,
 }
 
+/// A solid texture's pattern: a value in \[0, 1\] at each world point, which `spline` (or
+/// the preset ramp) turns into a colour.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum TextureSpec {
     /// `½ + ½·noise(frequency·p)`, grey ramp by default.
     Noise {
+        /// Seed of the noise's permutation; default 0.
         #[serde(default)]
         seed: u32,
+        /// Frequency in periods per world unit, finite and > 0.
         frequency: f64,
     },
     /// Turbulence scaled to \[0, 1\], grey ramp by default.
     Turbulence {
+        /// Seed of the noise's permutation; default 0.
         #[serde(default)]
         seed: u32,
+        /// Number of octaves, 1 to 16; default 4.
         #[serde(default = "four")]
         octaves: u32,
+        /// Frequency of the first octave in periods per world unit, finite and > 0.
         frequency: f64,
     },
+    /// White marble with grey-blue veins: `½ + ½·sin(2π·x/scale + 5·turbulence(p))`, veins
+    /// across the x axis.
     Marble {
+        /// Seed of the turbulence; default 0.
         #[serde(default)]
         seed: u32,
+        /// Vein period along x (world units), finite and > 0.
         scale: f64,
     },
+    /// Wood rings around the vertical line (along y) through `center`, perturbed by
+    /// turbulence.
     Wood {
+        /// Seed of the turbulence; default 0.
         #[serde(default)]
         seed: u32,
+        /// A world point on the rings' axis.
         center: V3,
+        /// Distance between rings (world units), finite and > 0.
         ring_width: f64,
     },
+    /// Worley cells (`F2 − F1`): light cells with dark borders.
     Cells {
+        /// Seed of the cell points; default 0.
         #[serde(default)]
         seed: u32,
+        /// Typical cell size (world units), finite and > 0.
         cell_size: f64,
     },
 }
@@ -66,6 +89,8 @@ fn four() -> u32 {
     4
 }
 
+/// Operator node: a solid texture colouring its operand (`NodeSpec::Textured`); the texture
+/// is evaluated only where a colour is read.
 #[derive(Debug)]
 pub struct TexturedNode {
     name: String,
@@ -75,6 +100,12 @@ pub struct TexturedNode {
 }
 
 impl TexturedNode {
+    /// Checks a `Textured` spec at field path `f` (`root.Textured`) and its operand;
+    /// `leaves` counts the leaf nodes met so far, for their default names.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming the field refused, e.g. `{f}.texture.Marble.scale` or
+    /// `{f}.spline` (knots not increasing).
     pub fn validate(cx: &Ctx, f: &str, spec: &TexturedSpec, leaves: &mut usize) -> Result<Self, SceneError> {
         let tf = format!("{f}.texture");
         let grey = ColourSpline::new(vec![(0.0, Vec3::splat(0.05)), (1.0, Vec3::ONE)]).expect("increasing knots");

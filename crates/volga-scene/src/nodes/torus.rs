@@ -10,6 +10,8 @@ use crate::ctx::Ctx;
 use crate::model::ShapeSpec;
 use crate::SceneError;
 
+/// Leaf node: a ring torus (`ShapeSpec::Torus`) with a colour, voxelized through its exact
+/// signed distance.
 #[derive(Debug, Clone)]
 pub struct TorusNode {
     name: String,

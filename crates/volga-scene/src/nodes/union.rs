@@ -22,6 +22,7 @@ pub struct Union {
 }
 
 impl Union {
+    /// The union of `children` in order, labelled `name` in reports.
     pub fn new(name: impl Into<String>, children: Vec<Box<dyn Node>>) -> Self {
         Union {
             name: name.into(),

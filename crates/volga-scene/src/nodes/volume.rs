@@ -19,13 +19,21 @@ use crate::SceneError;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VolumeSpec {
+    /// A label for the report; default `volumeN`, N counting the tree's leaf nodes
+    /// (objects, `Fuzzy`, `Volume`, `Hypertexture`, `Adf`) in file order from 0.
     #[serde(default)]
     pub name: Option<String>,
+    /// The `.binvox` (occupancy: 1 in filled voxels, 0 elsewhere) or `.nrrd` (densities;
+    /// NRRDs of distances are refused) file, relative to the scene file's folder; read in
+    /// the resolve stage and refused when it exceeds the memory limit.
     pub path: String,
+    /// Linear RGB in \[0, 1\]; white when absent.
     #[serde(default)]
     pub colour: Option<V3>,
 }
 
+/// Leaf node: a voxel model read from a file in the resolve stage, placed where the file
+/// says and sampled trilinearly.
 #[derive(Debug)]
 pub struct VolumeNode {
     name: String,
@@ -37,6 +45,11 @@ pub struct VolumeNode {
 }
 
 impl VolumeNode {
+    /// Checks a `Volume` spec at field path `f` (`root.Volume`): a non-empty path and the
+    /// colour; `index` numbers its default name `volume{index}`. Reads no file.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming `{f}.path` or `{f}.colour`.
     pub fn validate(cx: &Ctx, f: &str, spec: &VolumeSpec, index: usize) -> Result<Self, SceneError> {
         if spec.path.is_empty() {
             return Err(cx.err(format!("{f}.path"), "must name a .binvox or .nrrd file"));
