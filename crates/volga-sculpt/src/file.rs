@@ -30,16 +30,39 @@ const HEADER: usize = 8 + 4 + 24 + 8 + 4;
 /// Why a sculpt file was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FileError {
+    /// The first eight bytes are not `VOLGASCT`.
     #[error("not a volga sculpt file (magic bytes differ)")]
     Magic,
+    /// Too short for a header, a node and the checksum.
     #[error("sculpt file is truncated: {len} bytes, at least {need} needed")]
-    Truncated { len: usize, need: usize },
+    Truncated {
+        /// Bytes given.
+        len: usize,
+        /// The fewest bytes a sculpt file has.
+        need: usize,
+    },
+    /// A format version this build does not read.
     #[error("sculpt file version {found} is not supported (this build reads version {FORMAT_VERSION})")]
-    Version { found: u32 },
+    Version {
+        /// The version in the file.
+        found: u32,
+    },
+    /// The CRC-32 of the bytes differs from the one stored.
     #[error("sculpt file is corrupted: checksum {found:08x}, expected {expected:08x}")]
-    Checksum { found: u32, expected: u32 },
+    Checksum {
+        /// CRC-32 of the bytes before the stored checksum.
+        found: u32,
+        /// The checksum stored at the end.
+        expected: u32,
+    },
+    /// The checksum holds but the content is not a valid sculpt.
     #[error("sculpt file is malformed at byte {offset}: {message}")]
-    Malformed { offset: usize, message: String },
+    Malformed {
+        /// Byte offset of the fault.
+        offset: usize,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 /// CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320).

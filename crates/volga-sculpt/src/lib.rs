@@ -44,6 +44,9 @@
 //! assert_eq!(sculpt.stats().nodes(), before);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 mod edit;
 mod export;
 mod field;
@@ -61,14 +64,20 @@ pub use tool::{MeshTool, Pose, Tool, ToolError, ToolShape, MAX_SWEEP_SAMPLES};
 /// Why a sculpt could not be made or edited.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SculptError {
+    /// The grid's placement or depth is not valid ([`SculptGrid::new`]).
     #[error("sculpt grid needs a finite origin, a finite positive spacing and at most {MAX_LEVELS} levels; got origin {origin:?}, spacing {spacing}, levels {levels}")]
     Grid {
+        /// The origin given.
         origin: [f64; 3],
+        /// The spacing given.
         spacing: f64,
+        /// The number of levels given.
         levels: u32,
     },
+    /// An operation's parameters are out of range (the message says which).
     #[error("invalid operation {0}")]
     Operation(String),
+    /// The tool was refused.
     #[error(transparent)]
     Tool(#[from] ToolError),
 }
