@@ -9,6 +9,7 @@
 //! * [`Sculpt`]: the session — [`Sculpt::apply`] a [`Stroke`] (a [`Tool`] and an
 //!   [`Operation`]), [`Sculpt::undo`] / [`Sculpt::redo`] (history steps share unchanged
 //!   subtrees), [`Sculpt::to_bytes`] / [`Sculpt::from_bytes`] (versioned, checksummed),
+//!   [`Sculpt::save`] / [`Sculpt::open`] (the same on a path: atomic, errors naming it),
 //!   [`Sculpt::to_sparse_volume`] and [`Sculpt::surface`] (mesh) exports.
 //! * The sculpt is a [`volga_core::Field`] (trilinear density, density-weighted colour,
 //!   per-node value ranges), so `volga-render` draws it and skips its homogeneous nodes;
@@ -56,7 +57,7 @@ mod sculpt;
 mod tool;
 
 pub use edit::{EditReport, Operation, Stroke};
-pub use file::{crc32, FileError, FORMAT_VERSION};
+pub use file::{crc32, FileError, SculptFileError, FORMAT_VERSION};
 pub use octree::{NodeStats, SculptGrid, Voxel, BRICK, MAX_LEVELS};
 pub use sculpt::Sculpt;
 pub use tool::{MeshTool, Pose, Tool, ToolError, ToolShape, MAX_SWEEP_SAMPLES};
