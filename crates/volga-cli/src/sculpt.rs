@@ -49,10 +49,9 @@ pub struct SculptArgs {
 pub fn run(args: SculptArgs) -> Result<(), Failure> {
     let file = parse_stroke_file(&args.strokes).map_err(|e| bad_input(e.to_string()))?;
     let mut sculpt = match (&args.sculpt, &file.start) {
-        (Some(path), _) => {
-            let bytes = std::fs::read(path).map_err(|e| bad_input(format!("{}: {e}", path.display())))?;
-            Sculpt::from_bytes(&bytes).map_err(|e| bad_input(format!("{}: {e}", path.display())))?
-        }
+        // Regular files only, refused before reading if too large for memory; the error
+        // names the file ("PATH: what is wrong").
+        (Some(path), _) => Sculpt::open(path).map_err(|e| bad_input(e.to_string()))?,
         (None, Some(start)) => start_sculpt(
             &args.strokes,
             start,

@@ -2,7 +2,6 @@
 //! operations are the stroke files' (`volga sculpt --strokes`), given as JSON text by the
 //! Python layer, validated with errors naming the field.
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
@@ -12,7 +11,7 @@ use pyo3::types::{PyBytes, PyTuple};
 use serde_json::json;
 use volga_core::{Aabb, Field};
 use volga_scene::strokes::{StartSpec, StrokeSpec};
-use volga_sculpt::{SculptGrid, Stroke};
+use volga_sculpt::{SculptFileError, SculptGrid, Stroke};
 
 use crate::arrays;
 use crate::errors::{check_memory, os_error, scene_error, value_error};
@@ -63,6 +62,18 @@ fn sample_bytes_bound(dims: u64) -> u64 {
 
 fn bytes_error(path: &Path, e: volga_sculpt::FileError) -> PyErr {
     value_error(format!("{}: {e}", path.display()))
+}
+
+/// A sculpt file's error as Python's: `ValueError` for bytes that are not a sculpt,
+/// `MemoryError` for a file too large, `OSError` otherwise; messages as before the crate
+/// read and wrote paths itself ("PATH: …", writes "cannot access PATH: …").
+fn file_error(e: SculptFileError) -> PyErr {
+    match e {
+        SculptFileError::Format { .. } => value_error(e.to_string()),
+        SculptFileError::TooLarge { .. } => pyo3::exceptions::PyMemoryError::new_err(e.to_string()),
+        SculptFileError::Write { path, source } => os_error(format!("cannot access {}: {source}", path.display())),
+        SculptFileError::Read { .. } | SculptFileError::NotAFile { .. } => os_error(e.to_string()),
+    }
 }
 
 #[pymethods]
@@ -231,12 +242,11 @@ impl Sculpt {
 
     /// Writes the sculpt file, all or nothing (a temporary file renamed once complete).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let bytes = self.inner.to_bytes();
+        let inner = &self.inner;
         py.detach(|| {
-            volga_io::check_free_space_for(&[(path.clone(), bytes.len() as u64)])?;
-            volga_io::write_atomic(&path, |w| w.write_all(&bytes))
+            volga_io::check_free_space_for(&[(path.clone(), inner.file_len())]).map_err(crate::errors::io_error)?;
+            inner.save(&path).map_err(file_error)
         })
-        .map_err(crate::errors::io_error)
     }
 
     /// Opens a sculpt file. Only regular files are read, and only when their size fits in
@@ -254,18 +264,10 @@ impl Sculpt {
             meta.len().saturating_mul(3),
             memory_limit,
         )?;
-        let bytes = py
-            .detach(|| {
-                let mut data = Vec::with_capacity(meta.len() as usize);
-                std::fs::File::open(&path)?
-                    .take(meta.len())
-                    .read_to_end(&mut data)
-                    .map(|_| data)
-            })
-            .map_err(|e| os_error(format!("{}: {e}", path.display())))?;
-        volga_sculpt::Sculpt::from_bytes(&bytes)
+        // The memory check above is this method's (`memory_limit`), so no other limit here.
+        py.detach(|| volga_sculpt::Sculpt::open_with_limit(&path, u64::MAX))
             .map(|inner| Sculpt { inner })
-            .map_err(|e| bytes_error(&path, e))
+            .map_err(file_error)
     }
 
     fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyTuple>> {

@@ -37,11 +37,27 @@ pub enum Operation {
     Add,
     /// Additive spray: `strength` in (0, 1] per stroke, `falloff_world ≥ 0` widens the
     /// tool's soft edge (world units) beyond the filter's band.
-    Spray { strength: f64, falloff_world: f64 },
+    ///
+    /// `ρ' = min(1, ρ + strength·t_f)` with `t_f = clamp(½ − d/W_f, 0, 1)`,
+    /// `W_f = 2·(√3·h + falloff_world)`: the filter's half-width grown by the falloff.
+    Spray {
+        /// Density added where the tool is fully present, in (0, 1].
+        strength: f64,
+        /// World distance by which the ramp's half-width exceeds the filter's `√3·h`, ≥ 0.
+        falloff_world: f64,
+    },
     /// Colour within the tool, `strength` in (0, 1]; shape unchanged.
-    Paint { colour: [f32; 3], strength: f64 },
+    Paint {
+        /// The paint's linear RGB colour, each channel in \[0, 1\].
+        colour: [f32; 3],
+        /// Fraction of the way to `colour` where the tool is fully present, in (0, 1].
+        strength: f64,
+    },
     /// Blend towards the 27-neighbour mean, `strength` in (0, 1].
-    Smooth { strength: f64 },
+    Smooth {
+        /// Fraction of the way to the mean where the tool is fully present, in (0, 1].
+        strength: f64,
+    },
 }
 
 impl Operation {
@@ -76,11 +92,15 @@ impl Operation {
 /// A tool and what to do with it: one edit.
 #[derive(Debug, Clone)]
 pub struct Stroke {
+    /// Where the stroke acts.
     pub tool: Tool,
+    /// What it does there.
     pub operation: Operation,
 }
 
 impl Stroke {
+    /// A stroke; refuses an operation whose parameters are out of range (strengths in
+    /// (0, 1], colours in \[0, 1\], a finite falloff ≥ 0).
     pub fn new(tool: Tool, operation: Operation) -> Result<Stroke, SculptError> {
         operation.validate()?;
         Ok(Stroke { tool, operation })

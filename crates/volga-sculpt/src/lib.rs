@@ -9,6 +9,7 @@
 //! * [`Sculpt`]: the session — [`Sculpt::apply`] a [`Stroke`] (a [`Tool`] and an
 //!   [`Operation`]), [`Sculpt::undo`] / [`Sculpt::redo`] (history steps share unchanged
 //!   subtrees), [`Sculpt::to_bytes`] / [`Sculpt::from_bytes`] (versioned, checksummed),
+//!   [`Sculpt::save`] / [`Sculpt::open`] (the same on a path: atomic, errors naming it),
 //!   [`Sculpt::to_sparse_volume`] and [`Sculpt::surface`] (mesh) exports.
 //! * The sculpt is a [`volga_core::Field`] (trilinear density, density-weighted colour,
 //!   per-node value ranges), so `volga-render` draws it and skips its homogeneous nodes;
@@ -44,6 +45,9 @@
 //! assert_eq!(sculpt.stats().nodes(), before);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 mod edit;
 mod export;
 mod field;
@@ -53,7 +57,7 @@ mod sculpt;
 mod tool;
 
 pub use edit::{EditReport, Operation, Stroke};
-pub use file::{crc32, FileError, FORMAT_VERSION};
+pub use file::{crc32, FileError, SculptFileError, FORMAT_VERSION};
 pub use octree::{NodeStats, SculptGrid, Voxel, BRICK, MAX_LEVELS};
 pub use sculpt::Sculpt;
 pub use tool::{MeshTool, Pose, Tool, ToolError, ToolShape, MAX_SWEEP_SAMPLES};
@@ -61,14 +65,20 @@ pub use tool::{MeshTool, Pose, Tool, ToolError, ToolShape, MAX_SWEEP_SAMPLES};
 /// Why a sculpt could not be made or edited.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SculptError {
+    /// The grid's placement or depth is not valid ([`SculptGrid::new`]).
     #[error("sculpt grid needs a finite origin, a finite positive spacing and at most {MAX_LEVELS} levels; got origin {origin:?}, spacing {spacing}, levels {levels}")]
     Grid {
+        /// The origin given.
         origin: [f64; 3],
+        /// The spacing given.
         spacing: f64,
+        /// The number of levels given.
         levels: u32,
     },
+    /// An operation's parameters are out of range (the message says which).
     #[error("invalid operation {0}")]
     Operation(String),
+    /// The tool was refused.
     #[error(transparent)]
     Tool(#[from] ToolError),
 }

@@ -27,7 +27,9 @@ pub(crate) const BRICK_VOXELS: usize = 512;
 /// One voxel's payload: density in \[0, 1\] (volume-sampled, ½ on the surface) and linear RGB.
 #[derive(Debug, Clone, Copy)]
 pub struct Voxel {
+    /// Density in \[0, 1\]: 0 empty, 1 solid, ½ on the surface.
     pub density: f32,
+    /// Linear RGB colour.
     pub colour: [f32; 3],
 }
 
@@ -237,6 +239,7 @@ pub struct NodeStats {
 }
 
 impl NodeStats {
+    /// All nodes: uniform leaves, bricks and branches.
     pub fn nodes(&self) -> u64 {
         self.uniform + self.bricks + self.branches
     }
@@ -309,12 +312,15 @@ impl SculptGrid {
         SculptGrid::new(origin, spacing, levels)
     }
 
+    /// World position of voxel `(0, 0, 0)`'s centre.
     pub fn origin(&self) -> DVec3 {
         self.origin
     }
+    /// Distance between neighbouring voxel centres (world units).
     pub fn spacing(&self) -> f64 {
         self.spacing
     }
+    /// Levels of the octree: the grid has `8·2^levels` voxels per axis.
     pub fn levels(&self) -> u32 {
         self.levels
     }
@@ -326,10 +332,12 @@ impl SculptGrid {
     pub fn index_box(&self) -> IndexBox {
         IndexBox::new(IVec3::ZERO, IVec3::splat(self.dims()))
     }
+    /// World position of voxel `ijk`'s centre: `origin + ijk·spacing`.
     #[inline]
     pub fn voxel_center(&self, ijk: IVec3) -> DVec3 {
         self.origin + ijk.as_dvec3() * self.spacing
     }
+    /// Continuous index coordinates of a world position (voxel centres at integers).
     #[inline]
     pub fn world_to_index(&self, world_pos: DVec3) -> DVec3 {
         (world_pos - self.origin) / self.spacing

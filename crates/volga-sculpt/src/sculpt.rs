@@ -67,6 +67,7 @@ impl Sculpt {
         Sculpt::from_root(grid, root)
     }
 
+    /// The grid the voxels live on.
     pub fn grid(&self) -> &SculptGrid {
         &self.grid
     }
@@ -123,10 +124,12 @@ impl Sculpt {
         }
     }
 
+    /// Edits [`Sculpt::undo`] can undo.
     pub fn undo_len(&self) -> usize {
         self.undo.len()
     }
 
+    /// Undone edits [`Sculpt::redo`] can redo.
     pub fn redo_len(&self) -> usize {
         self.redo.len()
     }

@@ -15,14 +15,27 @@ use volga_shapes::{Shape, SignedDistance, Torus};
 /// Why a tool was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ToolError {
+    /// The pose is not finite or its rotation is zero.
     #[error("tool pose must be finite with a non-zero rotation")]
     Pose,
+    /// The mesh has holes or no triangles.
     #[error("tool mesh must be closed (it has {boundary_edges} boundary edges) and have triangles")]
-    OpenMesh { boundary_edges: usize },
+    OpenMesh {
+        /// Edges used by one triangle only.
+        boundary_edges: usize,
+    },
+    /// The saw path is empty, has a non-finite point, or its step is not finite and positive.
     #[error("saw path needs at least one point, all finite")]
     Path,
+    /// The saw path needs more tool copies than [`MAX_SWEEP_SAMPLES`].
     #[error("saw path is too long for the sculpt: {samples} tool positions (at most {max})")]
-    PathTooLong { samples: u64, max: u64 },
+    PathTooLong {
+        /// Tool positions the path needs (`u64::MAX` if beyond counting).
+        samples: u64,
+        /// The most allowed.
+        max: u64,
+    },
+    /// The shape was refused (the message says why).
     #[error("tool shape: {0}")]
     Shape(String),
 }
@@ -44,6 +57,7 @@ impl Default for Pose {
 }
 
 impl Pose {
+    /// No rotation, no translation.
     pub const IDENTITY: Pose = Pose {
         rotation: DQuat::IDENTITY,
         translation: DVec3::ZERO,
@@ -66,6 +80,7 @@ impl Pose {
         })
     }
 
+    /// A translation only (refused if not finite).
     pub fn translation(translation: DVec3) -> Result<Pose, ToolError> {
         Pose::new(DQuat::IDENTITY, translation)
     }
@@ -125,7 +140,9 @@ impl MeshTool {
 pub enum ToolShape {
     /// Any analytic shape of the geometry layer (sphere, boxes, ellipsoid, cylinder, cone, capsule, quadric).
     Shape(Shape),
+    /// A torus (exact distance).
     Torus(Torus),
+    /// A closed triangle mesh (exact distance, winding-number sign).
     Mesh(Arc<MeshTool>),
 }
 

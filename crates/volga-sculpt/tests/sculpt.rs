@@ -1,5 +1,8 @@
-//! The sculpting session against exact references: a dense voxel grid edited by the same
-//! per-voxel rule, undo, collapse, files, meshes, threads and the hard cases (docs/SCULPT.md, Tests).
+//! The sculpting session against references: every operation against an independent dense
+//! reference written from its documented definition (within a tolerance derived from the
+//! f32 storage), a dense grid edited by the crate's own per-voxel rule (bit for bit: the
+//! octree applies that rule everywhere), undo, collapse, files, meshes, threads and the hard
+//! cases (docs/SCULPT.md, Tests).
 
 use std::collections::HashMap;
 
@@ -175,9 +178,10 @@ fn stroke_from(op: &Op, centre: DVec3, size: f64, boxy: bool, angle: f64, grid: 
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
 
-    /// After random strokes the octree holds the dense reference's voxels bit for bit,
-    /// samples like it to 1e-6, and is canonical (collapsed); undoing every stroke gives
-    /// the starting tree back.
+    /// After random strokes the octree holds the dense grid's voxels bit for bit (the same
+    /// per-voxel rule), samples like it to 1e-6, agrees with the independent reference
+    /// within its tolerance, and is canonical (collapsed); undoing every stroke gives the
+    /// starting tree back.
     #[test]
     fn random_strokes_match_a_dense_grid(
         strokes in proptest::collection::vec(
@@ -189,12 +193,16 @@ proptest! {
         let mut s = block(grid, 6.0, 24.0);
         let start = s.clone();
         let mut dense = Dense::of(&s);
+        let mut reference = Reference::block(&grid, 6.0, 24.0, CLAY);
         for (op, (x, y, z), size, boxy, angle) in &strokes {
             let stroke = stroke_from(op, DVec3::new(*x, *y, *z), *size, *boxy, *angle, &grid);
             s.apply(&stroke);
             dense.apply(&stroke);
+            let (tool, op) = reference_from(op, DVec3::new(*x, *y, *z), *size, *boxy, *angle, &grid);
+            reference.apply(&tool, op);
         }
         assert_same_voxels(&s, &dense);
+        reference.assert_matches(&s, "random strokes");
         prop_assert!(s.is_canonical());
         for (x, y, z) in probes {
             let p = grid.origin() + DVec3::new(x, y, z) * grid.spacing();
@@ -496,4 +504,525 @@ fn sparse_volume_export_holds_the_same_voxels() {
         }
     }
     let _ = Sphere::new(DVec3::ZERO, 1.0);
+}
+
+// ── Independent references ────────────────────────────────────────────────────────────
+//
+// `Dense` above checks the octree against the crate's own per-voxel rule
+// (`Stroke::voxel_after`), bit for bit: it proves the tree applies that rule everywhere
+// (edit boxes, shortcuts, collapsing), not that the rule is the documented one. The
+// `Reference` below is written from the definitions in docs/SCULPT.md and `edit.rs`'s
+// module documentation, from scratch: its own tool distances (sphere; box rotated about y),
+// its own filter ramp, its own operations, every stroke applied to every voxel of the grid
+// in f64, and a start block sampled from the box's distance. No crate function computing a
+// distance, a filter density or a voxel update is called.
+//
+//   t   = clamp(½ − d/W, 0, 1),  W = 2·(√3·h)           d: the tool's signed distance at the voxel centre
+//   t_f = clamp(½ − d/W_f, 0, 1), W_f = 2·(√3·h + f)     spray: the half-width widened by the falloff f
+//   carve  ρ' = min(ρ, 1 − t)        add    ρ' = max(ρ, t)       spray  ρ' = min(1, ρ + s·t_f)
+//   paint  c' = c + (p − c)·s·t (ρ unchanged)
+//   smooth ρ' = ρ + (ρ̄ − ρ)·s·t, ρ̄ the mean of the 3×3×3 block around the voxel (itself
+//          included) before the stroke, 0 outside the grid
+//
+// Tolerance: the sculpt stores f32 and rounds each stroke's f64 result once, an error of at
+// most half an ulp, 2⁻²⁵, for values in [0, 1] (densities and colours here); the start block
+// is rounded once too. Every operation is 1-Lipschitz in the sup norm of what it reads
+// (min, max, a clamped sum, convex blends — smoothing's mean included), so the errors of
+// successive strokes add up and are never amplified. Evaluating the same distances by
+// other means (a quaternion against the rotation written out here) differs by ~1e-15 of a
+// voxel, far below 2⁻²⁵. So after k strokes every density and colour agrees to within
+// (k + 1)·2⁻²⁴ (one f32 rounding per step, with a factor of 2 to spare for the f64 noise),
+// and trilinear samples, convex combinations of voxels, to the same bound.
+//
+// The saw is a carve with a sphere of radius r swept along a polyline; the reference takes
+// the exact sweep (distance to the polyline − r). The tool places copies at most `step`
+// apart (documented: `Tool::swept`), so a point at distance D from the path is at most
+// step/2 along it from a copy, and the copies' distance exceeds the sweep's by at most
+// √(D² + step²/4) − D ≤ step²/(8D). Where the ramp is not saturated D ≥ r − √3·h, so the
+// density differs by at most step²/(8(r − √3·h))/W more per saw stroke (W = 2√3·h); with
+// step = h/2 that is the documented h²/(32r) surface error, taken over the filter band.
+
+/// A tool's geometry, written out here.
+#[derive(Debug, Clone)]
+enum RefTool {
+    Sphere {
+        centre: DVec3,
+        radius: f64,
+    },
+    /// The box `[lo, hi]` (its own frame) rotated by `angle` about the y axis, then moved to `at`.
+    RotatedBox {
+        lo: DVec3,
+        hi: DVec3,
+        angle: f64,
+        at: DVec3,
+    },
+    /// The saw: a sphere of `radius` swept along the polyline `path` (exactly; the tool
+    /// places copies `step` apart).
+    Saw {
+        path: Vec<DVec3>,
+        radius: f64,
+        step: f64,
+    },
+}
+
+/// Distance from `p` to the segment from `a` to `b`.
+fn segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    let u = if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + ab * u)).length()
+}
+
+/// Exact signed distance to the box `[lo, hi]` (negative inside).
+fn box_distance(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
+    let q = (p - (lo + hi) * 0.5).abs() - (hi - lo) * 0.5;
+    q.max(DVec3::ZERO).length() + q.max_element().min(0.0)
+}
+
+impl RefTool {
+    fn distance(&self, p: DVec3) -> f64 {
+        match *self {
+            RefTool::Sphere { centre, radius } => (p - centre).length() - radius,
+            RefTool::RotatedBox { lo, hi, angle, at } => {
+                // A rotation by θ about y maps (x, z) to (x cos θ + z sin θ, −x sin θ + z cos θ);
+                // its inverse takes the world point into the box's frame.
+                let q = p - at;
+                let (s, c) = angle.sin_cos();
+                box_distance(DVec3::new(c * q.x - s * q.z, q.y, s * q.x + c * q.z), lo, hi)
+            }
+            RefTool::Saw { ref path, radius, .. } => {
+                let d = if path.len() == 1 {
+                    (p - path[0]).length()
+                } else {
+                    path.windows(2)
+                        .map(|w| segment_distance(p, w[0], w[1]))
+                        .fold(f64::INFINITY, f64::min)
+                };
+                d - radius
+            }
+        }
+    }
+}
+
+/// An operation with its parameters, as the documentation defines it.
+#[derive(Debug, Clone, Copy)]
+enum RefOp {
+    Carve,
+    Add,
+    Spray { strength: f64, falloff: f64 },
+    Paint { colour: [f64; 3], strength: f64 },
+    Smooth { strength: f64 },
+}
+
+/// The oriented box filter's ramp of half-width `half`: 1 at `d = −half`, ½ at 0, 0 at `half`.
+fn ramp(d: f64, half: f64) -> f64 {
+    (0.5 - d / (2.0 * half)).clamp(0.0, 1.0)
+}
+
+/// Every voxel of the grid in f64, edited by the documented definitions.
+#[derive(Clone)]
+struct Reference {
+    origin: DVec3,
+    h: f64,
+    n: i32,
+    density: Vec<f64>,
+    colour: Vec<[f64; 3]>,
+    strokes: u32,
+    /// Density the documented tool sampling may differ from the exact tools by (saws).
+    slack: f64,
+}
+
+impl Reference {
+    /// The solid box from `lo` to `hi` voxels (as `block` builds it), sampled through the
+    /// ramp of half-width √3·h, coloured `colour`.
+    fn block(grid: &SculptGrid, lo: f64, hi: f64, colour: [f32; 3]) -> Reference {
+        let (origin, h, n) = (grid.origin(), grid.spacing(), grid.dims());
+        let mut r = Reference {
+            origin,
+            h,
+            n,
+            density: Vec::new(),
+            colour: vec![colour.map(f64::from); (n * n * n) as usize],
+            strokes: 0,
+            slack: 0.0,
+        };
+        let (b0, b1) = (origin + DVec3::splat(lo * h), origin + DVec3::splat(hi * h));
+        r.density = (0..n * n * n)
+            .map(|k| ramp(box_distance(r.centre(r.ijk(k)), b0, b1), 3f64.sqrt() * h))
+            .collect();
+        r
+    }
+    fn ijk(&self, k: i32) -> IVec3 {
+        IVec3::new(k % self.n, (k / self.n) % self.n, k / (self.n * self.n))
+    }
+    fn centre(&self, ijk: IVec3) -> DVec3 {
+        self.origin + ijk.as_dvec3() * self.h
+    }
+    /// Density at `ijk` in `density` (this grid's layout), 0 outside the grid.
+    fn density_in(&self, density: &[f64], ijk: IVec3) -> f64 {
+        let n = self.n;
+        if ijk.cmpge(IVec3::ZERO).all() && ijk.cmplt(IVec3::splat(n)).all() {
+            density[(ijk.x + n * (ijk.y + n * ijk.z)) as usize]
+        } else {
+            0.0
+        }
+    }
+    fn apply(&mut self, tool: &RefTool, op: RefOp) {
+        let band = 3f64.sqrt() * self.h;
+        let half = match op {
+            RefOp::Spray { falloff, .. } => band + falloff,
+            _ => band,
+        };
+        let before = self.density.clone();
+        for k in 0..self.n * self.n * self.n {
+            let ijk = self.ijk(k);
+            let t = ramp(tool.distance(self.centre(ijk)), half);
+            let mut sum = 0.0;
+            if let RefOp::Smooth { .. } = op {
+                for dz in -1..=1 {
+                    for dy in -1..=1 {
+                        for dx in -1..=1 {
+                            sum += self.density_in(&before, ijk + IVec3::new(dx, dy, dz));
+                        }
+                    }
+                }
+            }
+            let (rho, c) = (&mut self.density[k as usize], &mut self.colour[k as usize]);
+            match op {
+                RefOp::Carve => *rho = rho.min(1.0 - t),
+                RefOp::Add => *rho = rho.max(t),
+                RefOp::Spray { strength, .. } => *rho = (*rho + strength * t).min(1.0),
+                RefOp::Paint { colour, strength } => {
+                    for i in 0..3 {
+                        c[i] += (colour[i] - c[i]) * strength * t;
+                    }
+                }
+                RefOp::Smooth { strength } => *rho += (sum / 27.0 - *rho) * strength * t,
+            }
+        }
+        self.strokes += 1;
+        if let RefTool::Saw { radius, step, .. } = *tool {
+            assert!(radius > band, "the saw's bound needs r > √3·h");
+            self.slack += step * step / (8.0 * (radius - band)) / (2.0 * band);
+        }
+    }
+    /// The bound derived above: one f32 rounding per stroke and for the start, 2⁻²⁴ each,
+    /// plus the saws' sampling.
+    fn tolerance(&self) -> f64 {
+        f64::from(self.strokes + 1) * 2f64.powi(-24) + self.slack
+    }
+    /// Trilinear density, background 0.
+    fn value(&self, world: DVec3) -> f64 {
+        let idx = (world - self.origin) / self.h;
+        let lo = idx.floor();
+        let f = idx - lo;
+        let mut v = 0.0;
+        for c in 0..8 {
+            let o = IVec3::new(c & 1, c >> 1 & 1, c >> 2 & 1);
+            let w = (if o.x == 0 { 1.0 - f.x } else { f.x })
+                * (if o.y == 0 { 1.0 - f.y } else { f.y })
+                * (if o.z == 0 { 1.0 - f.z } else { f.z });
+            v += w * self.density_in(&self.density, lo.as_ivec3() + o);
+        }
+        v
+    }
+    /// Asserts every voxel of `s` (density and colour) within the tolerance of this reference.
+    fn assert_matches(&self, s: &Sculpt, what: &str) {
+        assert_eq!(s.grid().dims(), self.n);
+        let tol = self.tolerance();
+        let (mut worst, mut at) = (0.0f64, IVec3::ZERO);
+        for k in 0..self.n * self.n * self.n {
+            let ijk = self.ijk(k);
+            let v = s.voxel(ijk).unwrap();
+            let mut e = (f64::from(v.density) - self.density[k as usize]).abs();
+            for i in 0..3 {
+                e = e.max((f64::from(v.colour[i]) - self.colour[k as usize][i]).abs());
+            }
+            if e > worst {
+                (worst, at) = (e, ijk);
+            }
+        }
+        let k = (at.x + self.n * (at.y + self.n * at.z)) as usize;
+        assert!(
+            worst <= tol,
+            "{what}: voxel {at} is {:?}, the reference has density {} colour {:?}: error {worst:e} > tolerance {tol:e}",
+            s.voxel(at).unwrap(),
+            self.density[k],
+            self.colour[k]
+        );
+    }
+    /// Voxels whose density or colour differs from `other`'s by more than `by`.
+    fn changed_from(&self, other: &Reference, by: f64) -> usize {
+        (0..self.density.len())
+            .filter(|&k| {
+                (self.density[k] - other.density[k]).abs() > by
+                    || (0..3).any(|i| (self.colour[k][i] - other.colour[k][i]).abs() > by)
+            })
+            .count()
+    }
+}
+
+/// The crate's stroke for a reference tool and operation (parameters only: the geometry
+/// and the update are computed by the crate, the reference computes its own).
+fn crate_stroke(tool: &RefTool, op: RefOp) -> Stroke {
+    let tool = match tool {
+        RefTool::Sphere { centre, radius } => Tool::sphere(*centre, *radius).unwrap(),
+        RefTool::RotatedBox { lo, hi, angle, at } => Tool::new(
+            ToolShape::Shape(Shape::AxisBox(AxisBox::new(*lo, *hi).unwrap())),
+            Pose::new(DQuat::from_rotation_y(*angle), *at).unwrap(),
+        )
+        .unwrap(),
+        RefTool::Saw { path, radius, step } => Tool::sphere(DVec3::ZERO, *radius).unwrap().swept(path, *step).unwrap(),
+    };
+    let operation = match op {
+        RefOp::Carve => Operation::Carve,
+        RefOp::Add => Operation::Add,
+        RefOp::Spray { strength, falloff } => Operation::Spray {
+            strength,
+            falloff_world: falloff,
+        },
+        RefOp::Paint { colour, strength } => Operation::Paint {
+            // The reference's colours are f32 values, so this is exact.
+            colour: colour.map(|c| c as f32),
+            strength,
+        },
+        RefOp::Smooth { strength } => Operation::Smooth { strength },
+    };
+    Stroke::new(tool, operation).unwrap()
+}
+
+/// The reference of `stroke_from`'s stroke (same parameters).
+fn reference_from(op: &Op, centre: DVec3, size: f64, boxy: bool, angle: f64, grid: &SculptGrid) -> (RefTool, RefOp) {
+    let (h, at) = (grid.spacing(), grid.origin() + centre * grid.spacing());
+    let r = size * h;
+    let tool = if boxy {
+        RefTool::RotatedBox {
+            lo: DVec3::splat(-r),
+            hi: DVec3::new(r, r * 0.5, r * 0.7),
+            angle,
+            at,
+        }
+    } else {
+        RefTool::Sphere { centre: at, radius: r }
+    };
+    let op = match *op {
+        Op::Carve => RefOp::Carve,
+        Op::Add => RefOp::Add,
+        Op::Spray(strength, f) => RefOp::Spray {
+            strength,
+            falloff: f * h,
+        },
+        Op::Paint(strength) => RefOp::Paint {
+            colour: [0.2f32, (strength * 0.5) as f32, 0.9].map(f64::from),
+            strength,
+        },
+        Op::Smooth(strength) => RefOp::Smooth { strength },
+    };
+    (tool, op)
+}
+
+/// The grid of the reference tests: 32³ voxels of 0.5 at an origin off the lattice.
+fn reference_grid() -> SculptGrid {
+    SculptGrid::new(DVec3::new(0.25, -1.0, 3.0), 0.5, 2).unwrap()
+}
+
+/// World position of the voxel coordinates `(x, y, z)` of `reference_grid()`.
+fn at(x: f64, y: f64, z: f64) -> DVec3 {
+    DVec3::new(0.25, -1.0, 3.0) + DVec3::new(x, y, z) * 0.5
+}
+
+/// Applies `strokes` to the sculpt `block(lo, hi)` and to its reference, comparing every
+/// voxel (density and colour) and 300 trilinear samples after each stroke. Each stroke must
+/// change at least 20 voxels of the reference by more than 0.01, so no comparison is vacuous.
+fn check_against_reference(what: &str, lo: f64, hi: f64, strokes: &[(RefTool, RefOp)]) {
+    let grid = reference_grid();
+    let mut s = block(grid, lo, hi);
+    let mut r = Reference::block(&grid, lo, hi, CLAY);
+    r.assert_matches(&s, &format!("{what}: the start"));
+    for (k, (tool, op)) in strokes.iter().enumerate() {
+        let before = r.clone();
+        s.apply(&crate_stroke(tool, *op));
+        r.apply(tool, *op);
+        let changed = r.changed_from(&before, 0.01);
+        assert!(changed >= 20, "{what}: stroke {k} changes only {changed} voxels");
+        r.assert_matches(&s, &format!("{what}: stroke {k} ({op:?} with {tool:?})"));
+        let tol = r.tolerance() + 1e-12;
+        for j in 0..300 {
+            let p = at(
+                (j * 37 % 101) as f64 * 0.33 - 1.0,
+                (j * 53 % 97) as f64 * 0.34 - 1.0,
+                (j * 71 % 89) as f64 * 0.37 - 1.0,
+            );
+            let (a, b) = (s.value(p), r.value(p));
+            assert!(
+                (a - b).abs() <= tol,
+                "{what}: stroke {k}: value at {p}: {a} vs reference {b}"
+            );
+        }
+    }
+}
+
+fn rotated_box(size: f64, angle: f64, x: f64, y: f64, z: f64) -> RefTool {
+    let r = size * 0.5;
+    RefTool::RotatedBox {
+        lo: DVec3::new(-r, -0.6 * r, -0.8 * r),
+        hi: DVec3::new(r, 0.9 * r, 0.5 * r),
+        angle,
+        at: at(x, y, z),
+    }
+}
+
+fn ball(x: f64, y: f64, z: f64, size: f64) -> RefTool {
+    RefTool::Sphere {
+        centre: at(x, y, z),
+        radius: size * 0.5,
+    }
+}
+
+#[test]
+fn carve_matches_the_fuzzy_difference_computed_independently() {
+    check_against_reference(
+        "carve",
+        6.0,
+        24.0,
+        &[
+            (ball(15.3, 14.7, 24.2, 5.3), RefOp::Carve),
+            (rotated_box(4.0, 0.6, 7.0, 16.0, 16.0), RefOp::Carve),
+            (ball(20.2, 21.9, 16.4, 7.7), RefOp::Carve),
+        ],
+    );
+}
+
+#[test]
+fn add_matches_the_fuzzy_union_computed_independently() {
+    check_against_reference(
+        "add",
+        6.0,
+        24.0,
+        &[
+            (ball(15.5, 16.2, 26.0, 4.4), RefOp::Add),
+            (rotated_box(3.5, 1.1, 26.0, 10.0, 12.0), RefOp::Add),
+            (ball(3.1, 28.4, 5.2, 2.6), RefOp::Add),
+        ],
+    );
+}
+
+#[test]
+fn spray_matches_the_additive_falloff_computed_independently() {
+    check_against_reference(
+        "spray",
+        6.0,
+        24.0,
+        &[
+            // Partly inside the block: the sum saturates at 1 there.
+            (
+                ball(16.0, 16.0, 25.0, 3.5),
+                RefOp::Spray {
+                    strength: 0.6,
+                    falloff: 1.3 * 0.5,
+                },
+            ),
+            // In empty space: the falloff's ramp shows undiluted.
+            (
+                ball(16.2, 15.1, 29.3, 2.0),
+                RefOp::Spray {
+                    strength: 0.35,
+                    falloff: 2.7 * 0.5,
+                },
+            ),
+            (
+                rotated_box(3.0, 0.8, 27.0, 27.0, 10.0),
+                RefOp::Spray {
+                    strength: 1.0,
+                    falloff: 0.0,
+                },
+            ),
+            // Sprayed twice: additive.
+            (
+                ball(16.2, 15.1, 29.3, 2.0),
+                RefOp::Spray {
+                    strength: 0.35,
+                    falloff: 2.7 * 0.5,
+                },
+            ),
+        ],
+    );
+}
+
+#[test]
+fn paint_matches_the_colour_blend_computed_independently() {
+    check_against_reference(
+        "paint",
+        6.0,
+        24.0,
+        &[
+            (
+                ball(12.0, 12.0, 24.0, 5.0),
+                RefOp::Paint {
+                    colour: [0.25, 0.5, 0.875],
+                    strength: 0.7,
+                },
+            ),
+            (
+                rotated_box(4.0, 0.3, 14.0, 13.0, 22.0),
+                RefOp::Paint {
+                    colour: [1.0, 0.0, 0.125],
+                    strength: 1.0,
+                },
+            ),
+            (
+                ball(13.0, 12.5, 23.0, 3.0),
+                RefOp::Paint {
+                    colour: [0.0, 0.75, 0.25],
+                    strength: 0.45,
+                },
+            ),
+        ],
+    );
+}
+
+#[test]
+fn smooth_matches_the_27_neighbour_blend_computed_independently() {
+    // The block reaches the grid's faces at 0 (from −4), where the mean reads the background 0.
+    check_against_reference(
+        "smooth",
+        -4.0,
+        20.0,
+        &[
+            (ball(1.0, 10.0, 10.0, 6.0), RefOp::Smooth { strength: 0.8 }),
+            (rotated_box(5.0, 0.4, 20.0, 20.0, 20.0), RefOp::Smooth { strength: 0.5 }),
+            (ball(1.0, 10.0, 10.0, 6.0), RefOp::Smooth { strength: 1.0 }),
+        ],
+    );
+}
+
+#[test]
+fn saw_matches_the_exact_sweep_within_the_sampling_bound() {
+    check_against_reference(
+        "saw",
+        6.0,
+        24.0,
+        &[
+            (
+                RefTool::Saw {
+                    path: vec![at(9.0, 16.0, 24.0), at(23.0, 17.0, 23.5), at(23.0, 8.0, 20.0)],
+                    radius: 1.5,
+                    step: 0.25,
+                },
+                RefOp::Carve,
+            ),
+            (
+                RefTool::Saw {
+                    path: vec![at(6.0, 6.0, 12.0), at(6.0, 25.0, 12.0)],
+                    radius: 2.0,
+                    step: 0.25,
+                },
+                RefOp::Carve,
+            ),
+        ],
+    );
 }
