@@ -1,5 +1,5 @@
-//! Voxelize a mesh into a 26-separating solid and save it as `.binvox`; works on open
-//! and self-intersecting meshes too (inside = winding number ≥ ½, proven per voxel).
+//! Voxelize a mesh into a 26-separating solid `.binvox` (open and self-intersecting
+//! meshes too: inside = winding number ≥ ½, proven per voxel).
 //!
 //! `cargo run --release --example obj_to_binvox -- tests/data/spot.obj 128 spot.binvox`
 
@@ -14,18 +14,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = PathBuf::from(args.next().unwrap_or_else(|| "spot.binvox".into()));
 
     let mesh = load_mesh(&mesh_path)?;
-    let job = MeshJob {
-        resolution, // voxels along the mesh's longest side
-        mode: MeshJobMode::Binary {
-            separability: Separability::TwentySix,
-            solid: true,
-        },
+    // `resolution` voxels along the mesh's longest side; 26-separating surface, inside filled.
+    let mode = MeshJobMode::Binary {
+        separability: Separability::TwentySix,
+        solid: true,
     };
+    let job = MeshJob { resolution, mode };
     job.check()?;
     let grid = job.layout(&mesh.bounds())?;
     let needed = job.estimate(&mesh, &grid).peak_bytes;
     println!(
-        "{} triangles, grid {}, about {} MB at the peak",
+        "{} triangles, grid {}, peak ≤ {} MB",
         mesh.triangle_count(),
         grid.dims(),
         needed >> 20

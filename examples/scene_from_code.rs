@@ -34,10 +34,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         memory_limit: None,
         stage_start: None,
     };
-    // The path names the scene in messages and resolves relative file paths in it.
+    // The path names the scene in messages and is where relative file paths start.
     let report = build_parsed(Path::new("row_of_spheres"), &scene, &options, &NoProgress)?;
-    for path in &report.outputs {
-        println!("wrote {}", path.display());
-    }
+    println!("wrote {:?}", report.outputs);
     Ok(())
 }

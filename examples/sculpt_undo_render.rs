@@ -9,11 +9,9 @@ use volga::sculpt::SculptGrid;
 use volga::shapes::{FilteredDensity, OrientedBoxFilter, Sphere};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let (file, png) = (
-        args.next().unwrap_or("ball.vsculpt".into()),
-        args.next().unwrap_or("ball.png".into()),
-    );
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let file = args.first().map_or("ball.vsculpt", |s| s.as_str());
+    let png = args.get(1).map_or("ball.png", |s| s.as_str());
     let h = 1.0 / 64.0; // voxel size of the octree's finest level
     let grid = SculptGrid::covering(&Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)), h)?;
     let ball = FilteredDensity::new(
@@ -23,19 +21,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut sculpt = Sculpt::from_field(grid, &ball, [0.8, 0.7, 0.6]);
 
     for center in [DVec3::new(0.0, 0.0, 0.7), DVec3::new(0.7, 0.0, 0.0)] {
-        let report = sculpt.apply(&Stroke::new(Tool::sphere(center, 0.3)?, Operation::Carve)?);
-        println!("carved at {center}: {report:?}");
+        sculpt.apply(&Stroke::new(Tool::sphere(center, 0.3)?, Operation::Carve)?);
     }
     sculpt.undo(); // the second hole is gone; `redo` would bring it back
     sculpt.save(&file)?; // temporary file, then rename: never a partial file
     let sculpt = Sculpt::open(&file)?;
 
-    let camera = Camera::look_at(
-        DVec3::new(1.5, 1.0, 2.5),
-        DVec3::ZERO,
-        DVec3::Y,
-        Projection::Perspective { fov_y_deg: 35.0 },
-    )?;
+    let view = Projection::Perspective { fov_y_deg: 35.0 };
+    let camera = Camera::look_at(DVec3::new(1.5, 1.0, 2.5), DVec3::ZERO, DVec3::Y, view)?;
     let iso = Iso {
         value: 0.5,
         colour: SurfaceColour::FromField,
