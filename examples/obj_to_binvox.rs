@@ -12,7 +12,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mesh_path = args.next().unwrap_or_else(|| "tests/data/spot.obj".into());
     let resolution: u32 = args.next().map_or(Ok(128), |n| n.parse())?;
     let out = PathBuf::from(args.next().unwrap_or_else(|| "spot.binvox".into()));
-
     let mesh = load_mesh(&mesh_path)?;
     // `resolution` voxels along the mesh's longest side; 26-separating surface, inside filled.
     let mode = MeshJobMode::Binary {
@@ -29,7 +28,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         grid.dims(),
         needed >> 20
     );
-
     let run = job.run(&mesh, &grid, &NoProgress);
     save_voxel_model(&out, &run.volume)?;
     println!(

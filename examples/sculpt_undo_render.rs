@@ -19,14 +19,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         OrientedBoxFilter::for_spacing(DVec3::splat(h)),
     );
     let mut sculpt = Sculpt::from_field(grid, &ball, [0.8, 0.7, 0.6]);
-
     for center in [DVec3::new(0.0, 0.0, 0.7), DVec3::new(0.7, 0.0, 0.0)] {
         sculpt.apply(&Stroke::new(Tool::sphere(center, 0.3)?, Operation::Carve)?);
     }
     sculpt.undo(); // the second hole is gone; `redo` would bring it back
     sculpt.save(&file)?; // temporary file, then rename: never a partial file
     let sculpt = Sculpt::open(&file)?;
-
     let view = Projection::Perspective { fov_y_deg: 35.0 };
     let camera = Camera::look_at(DVec3::new(1.5, 1.0, 2.5), DVec3::ZERO, DVec3::Y, view)?;
     let iso = Iso {
