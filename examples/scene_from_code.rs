@@ -1,6 +1,5 @@
-//! Build a scene made by a program: a row of spheres growing along x, written as the
-//! same data a scene file holds (here through `serde_json::json!`), checked with the same
-//! field paths on errors, and built into a PNG, a NRRD volume and `report.json`.
+//! Build a scene made by a program (a row of growing spheres, as `serde_json::json!` data
+//! checked like a scene file) into a PNG, a NRRD volume and `report.json`.
 //!
 //! `cargo run --release --example scene_from_code -- out/`
 
