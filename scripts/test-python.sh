@@ -1,19 +1,20 @@
 #!/usr/bin/env bash
 # The Python package's suite: the wheel built by maturin and installed into a fresh virtual
 # environment, then pytest (python/tests). The `volga` binary the suite compares against
-# bit for bit is built with the same profile, so the kernel crates are compiled once.
+# bit for bit is built with the same profile (`ci`, as the Rust tests of scripts/test.sh),
+# so the kernel crates are compiled once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-cargo build --profile pytest --bin volga
-export VOLGA_BIN="$PWD/target/pytest/volga"
+cargo build --profile ci --bin volga
+export VOLGA_BIN="$PWD/target/ci/volga"
 
 venv="$(mktemp -d)/venv"
 trap 'rm -rf "$(dirname "$venv")"' EXIT
 python3 -m venv "$venv"
 "$venv/bin/pip" install --quiet --disable-pip-version-check "maturin>=1.9,<2" "pytest>=7" numpy
 rm -rf target/wheels-test
-"$venv/bin/maturin" build --profile pytest --interpreter "$venv/bin/python" -o target/wheels-test
+"$venv/bin/maturin" build --profile ci --interpreter "$venv/bin/python" -o target/wheels-test
 "$venv/bin/pip" install --quiet --disable-pip-version-check target/wheels-test/volga-*.whl
 cd python/tests
 "$venv/bin/python" -m pytest -q -p no:cacheprovider
