@@ -23,8 +23,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         sculpt.apply(&Stroke::new(Tool::sphere(center, 0.3)?, Operation::Carve)?);
     }
     sculpt.undo(); // the second hole is gone; `redo` would bring it back
-    sculpt.save(&file)?; // temporary file, then rename: never a partial file
-    let sculpt = Sculpt::open(&file)?;
+    sculpt.save(file)?; // temporary file, then rename: never a partial file
+    let sculpt = Sculpt::open(file)?;
     let view = Projection::Perspective { fov_y_deg: 35.0 };
     let camera = Camera::look_at(DVec3::new(1.5, 1.0, 2.5), DVec3::ZERO, DVec3::Y, view)?;
     let iso = Iso {
