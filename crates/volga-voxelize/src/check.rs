@@ -1,5 +1,6 @@
 //! Holds voxelized signs against a brute-force generalized winding number: the check
-//! behind the `sign_check` example and the sign tests (not used by the voxelizer).
+//! behind the `sign_check` example and the sign tests (not used by the voxelizer). Test
+//! scaffolding, compiled only with the cargo feature `testing`.
 
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
