@@ -9,7 +9,9 @@ use common::{stderr, volga};
 
 /// A mesh vendored in tests/data (see its README for provenance and licences).
 fn shared(name: &str) -> PathBuf {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(name);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/data")
+        .join(name);
     assert!(p.is_file(), "{} is missing", p.display());
     p
 }

@@ -19,7 +19,9 @@ fn shared(name: &'static str) -> &'static TriMesh {
         return mesh;
     }
     let path = PathBuf::from(DATA_DIR).join(name);
-    let mesh: &'static TriMesh = Box::leak(Box::new(load_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))));
+    let mesh: &'static TriMesh = Box::leak(Box::new(
+        load_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display())),
+    ));
     cache.push((name, mesh));
     mesh
 }

@@ -16,7 +16,9 @@ use volga_voxelize::{MeshVoxelizer, SurfaceMode};
 
 /// A mesh vendored in tests/data (see its README for provenance and licences).
 fn shared(name: &str) -> TriMesh {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(name);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/data")
+        .join(name);
     volga_mesh::load_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
