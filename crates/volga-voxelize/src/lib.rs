@@ -32,6 +32,9 @@
 //! assert_eq!(volume.density.get(glam::IVec3::splat(16)), 1.0);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod binary;
 #[cfg(feature = "testing")]
 pub mod check;

@@ -109,6 +109,8 @@ fn morton_order(mesh: &TriMesh) -> Vec<u32> {
 }
 
 impl MeshVoxelizer {
+    /// Prepares `mesh` (world space): triangles in Morton order, normals and
+    /// pseudo-normals of the welded mesh, feature regions, the BVH and the sign oracle.
     pub fn new(mesh: &TriMesh) -> Self {
         // The BVH (for winding numbers) is built from the mesh as given, alongside
         // everything else, which needs it only for meshes without simple boundary loops.
@@ -255,6 +257,8 @@ impl MeshVoxelizer {
         self.boundary_edges
     }
 
+    /// The BVH over the mesh's triangles in their original order (winding numbers,
+    /// closest points).
     pub fn bvh(&self) -> &Bvh {
         &self.bvh
     }

@@ -55,6 +55,7 @@ pub struct SignStats {
     /// Voxels that asked the whole mesh's certified winding number: in the band, and
     /// beyond it (where a flood fill or an octree box could not prove its sign).
     pub exact_voxels: u64,
+    /// Of those, the band voxels (the rest lie beyond the band).
     pub exact_band_voxels: u64,
     /// Of those, solid angles summed one by one (the cost of the fallback).
     pub exact_triangles: u64,
@@ -70,6 +71,8 @@ pub struct SignStats {
 }
 
 impl SignStats {
+    /// Adds the per-voxel counts of `other` (the per-mesh ones, unclean triangles and
+    /// boundary cycle edges, are not summed).
     pub fn add(&mut self, other: &SignStats) {
         self.fast_voxels += other.fast_voxels;
         self.cap_voxels += other.cap_voxels;
