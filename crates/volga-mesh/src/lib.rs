@@ -52,6 +52,8 @@
 //! assert_eq!(signed_distance(&bvh, DVec3::new(0.0, 0.5, 0.0)), -0.5);
 //! ```
 
+#![forbid(unsafe_code)]
+
 mod bvh;
 mod capped;
 mod closest;

@@ -18,6 +18,7 @@ pub struct Component {
     /// The component's first voxel in (z, y, x) order: a voxel to point a user at.
     #[serde(serialize_with = "ivec3")]
     pub first_voxel: IVec3,
+    /// Number of voxels in the component.
     pub voxel_count: u64,
     /// Smallest voxel coordinate on each axis (inclusive).
     #[serde(serialize_with = "ivec3")]
@@ -81,6 +82,7 @@ impl Components {
         }
     }
 
+    /// The adjacency the components were labelled with.
     pub fn connectivity(&self) -> Connectivity {
         self.connectivity
     }
@@ -90,6 +92,7 @@ impl Components {
         self.components.len()
     }
 
+    /// No components (no voxel of this colour in the grid).
     pub fn is_empty(&self) -> bool {
         self.components.is_empty()
     }

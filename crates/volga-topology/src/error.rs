@@ -12,8 +12,18 @@ pub enum TopologyError {
     /// The grid's row index (8 bytes per `(y, z)` row) or its voxel count does not fit
     /// in memory or in the address space; nothing was allocated.
     #[error("voxel grid of {dims:?} voxels needs {bytes} bytes for its row index, more than is available")]
-    TooLarge { dims: [u32; 3], bytes: u128 },
+    TooLarge {
+        /// Voxels per axis of the grid asked for.
+        dims: [u32; 3],
+        /// Bytes the row index would take.
+        bytes: u128,
+    },
     /// A voxel given to a constructor lies outside the grid `0 ≤ ijk < dims`.
     #[error("voxel {ijk:?} lies outside the grid 0..{dims:?}")]
-    OutsideGrid { ijk: [i32; 3], dims: [u32; 3] },
+    OutsideGrid {
+        /// The voxel (index space).
+        ijk: [i32; 3],
+        /// Voxels per axis of the grid.
+        dims: [u32; 3],
+    },
 }

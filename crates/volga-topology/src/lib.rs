@@ -104,6 +104,9 @@
 //! assert_eq!(report.euler_characteristic, 1);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 #[cfg(feature = "testing")]
 #[doc(hidden)]
 pub mod brute;

@@ -22,7 +22,9 @@ pub enum Region {
 /// A white component and its region.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct WhiteComponent {
+    /// Outside (touches the border) or inside (enclosed).
     pub region: Region,
+    /// The component itself (flattened into this object in JSON).
     #[serde(flatten)]
     pub component: Component,
 }
@@ -32,9 +34,13 @@ pub struct WhiteComponent {
 /// habit).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct Check {
+    /// The check's name in snake case (`non_empty`, `separating`, `minimal`, …).
     pub name: &'static str,
+    /// Whether the property holds.
     pub passed: bool,
+    /// What was found, in words.
     pub message: String,
+    /// The first offending voxel (index space), when the check points at one.
     #[serde(serialize_with = "optional_ivec3")]
     pub voxel: Option<IVec3>,
 }
@@ -55,17 +61,22 @@ fn optional_ivec3<S: serde::Serializer>(v: &Option<IVec3>, serializer: S) -> Res
 /// `None` (`null` in JSON) without one.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TopologyReport {
+    /// Voxels per axis of the grid analysed.
     #[serde(serialize_with = "uvec3")]
     pub dims: UVec3,
     /// Black voxels.
     pub voxels: u64,
+    /// N: the adjacency of white paths (separability, simplicity, white components).
     #[serde(serialize_with = "crate::connectivity::serialize_number")]
     pub connectivity: Connectivity,
+    /// The adjacency of black components, the opposite type of N.
     #[serde(serialize_with = "crate::connectivity::serialize_number")]
     pub black_connectivity: Connectivity,
+    /// Black components (under `black_connectivity`).
     pub black_component_count: u64,
     /// The first [`AnalyzeOptions::listed`] black components in label order.
     pub black_components: Vec<Component>,
+    /// White N-components.
     pub white_component_count: u64,
     /// The first [`AnalyzeOptions::listed`] white components in label order.
     pub white_components: Vec<WhiteComponent>,
@@ -85,6 +96,7 @@ pub struct TopologyReport {
     pub cavities: u64,
     /// `b1 = b0 + b2 − χ` with `b0` the black 26-components.
     pub handles: u64,
+    /// The numbered checks, in the order they ran.
     pub checks: Vec<Check>,
     /// Tunnels, cover and minimal cover against a reference mesh.
     pub mesh: Option<MeshReport>,

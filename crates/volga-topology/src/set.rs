@@ -179,6 +179,7 @@ impl VoxelSet {
         self.xs.len() as u64
     }
 
+    /// No black voxel.
     pub fn is_empty(&self) -> bool {
         self.xs.is_empty()
     }

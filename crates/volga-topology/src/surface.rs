@@ -50,6 +50,7 @@ impl SurfaceMesh {
         &self.triangles
     }
 
+    /// Index space to world space, for reporting world positions.
     pub fn transform(&self) -> &Transform {
         &self.transform
     }
@@ -85,12 +86,14 @@ pub struct MeshTunnel {
 /// that happens.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct UncoveredTriangle {
+    /// The triangle's index in the mesh.
     pub triangle: u32,
     /// A white voxel whose cell holds uncovered points of the triangle (the first in
     /// (z, y, x) order); for a triangle leaving the grid, the cell of a vertex outside
     /// it (`in_grid` false).
     #[serde(serialize_with = "ivec3")]
     pub voxel: IVec3,
+    /// Whether `voxel` lies in the grid.
     pub in_grid: bool,
 }
 
@@ -105,6 +108,7 @@ pub struct MeshReport {
     pub skipped_triangles: u64,
     /// Distinct N-adjacent white voxel pairs whose segment meets the mesh.
     pub tunnel_count: u64,
+    /// The first tunnels, in (z, y, x) order.
     pub tunnels: Vec<MeshTunnel>,
     /// No N-tunnels: the black set is N-separating with respect to this mesh.
     pub separating: bool,
@@ -112,15 +116,18 @@ pub struct MeshReport {
     pub covers: bool,
     /// Triangles with a point in no black closed cell.
     pub uncovered_triangle_count: u64,
+    /// The first uncovered triangles, in triangle order.
     pub uncovered: Vec<UncoveredTriangle>,
     /// Black voxels whose closed cell no triangle touches.
     pub untouched_voxel_count: u64,
+    /// The first untouched black voxels, in (z, y, x) order.
     #[serde(serialize_with = "ivec3_list")]
     pub untouched_voxels: Vec<IVec3>,
     /// Black voxels that can be removed one at a time with the surface still covered
     /// (the untouched ones included): those whose open cell no triangle meets (see
     /// [`cover`]). Meaningful when `covers`.
     pub redundant_voxel_count: u64,
+    /// The first redundant black voxels, in (z, y, x) order.
     #[serde(serialize_with = "ivec3_list")]
     pub redundant_voxels: Vec<IVec3>,
     /// Covers, and removing any single black voxel uncovers a surface point; `None`

@@ -12,8 +12,10 @@ use crate::{Connectivity, VoxelSet};
 /// a black voxel. `a` precedes `b` in (z, y, x) order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct Tunnel {
+    /// The first voxel of the pair (index space).
     #[serde(serialize_with = "ivec3")]
     pub a: IVec3,
+    /// The second voxel, N-adjacent to `a`.
     #[serde(serialize_with = "ivec3")]
     pub b: IVec3,
 }

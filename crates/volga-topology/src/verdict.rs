@@ -26,6 +26,7 @@ pub enum Requirement {
 }
 
 impl Requirement {
+    /// The name used on the command line and in JSON.
     pub fn name(self) -> &'static str {
         match self {
             Requirement::Separating => "separating",
@@ -58,15 +59,20 @@ impl fmt::Display for Requirement {
 pub struct MeshInfo {
     /// Its file, when it came from one.
     pub path: Option<PathBuf>,
+    /// Number of triangles.
     pub triangles: usize,
+    /// Edges used by exactly one triangle (after welding).
     pub boundary_edges: usize,
+    /// No boundary and no non-manifold edge.
     pub closed: bool,
 }
 
 /// One required property and whether it holds.
 #[derive(Debug, Clone, Serialize)]
 pub struct RequirementResult {
+    /// The property.
     pub name: Requirement,
+    /// Whether it holds.
     pub holds: bool,
     /// What was tested.
     pub criterion: String,
@@ -81,28 +87,40 @@ pub struct Verdict {
     pub format: &'static str,
     /// What the model's values are: `occupancy` (0 and 1) or `density` (thresholded at 0.5).
     pub values: &'static str,
+    /// A white layer was added around the grid before the analysis.
     pub padded: bool,
     /// World position of voxel (0, 0, 0)'s centre and the voxel spacing of the grid
     /// analysed (the padded grid when padded).
     pub origin: [f64; 3],
+    /// The voxel spacing (world units per axis) of the grid analysed.
     pub spacing: [f64; 3],
+    /// The reference mesh, when one was given.
     pub mesh: Option<MeshInfo>,
+    /// Everything computed about the set (and against the mesh).
     pub report: TopologyReport,
+    /// The required properties, each once, in the order first given.
     pub requirements: Vec<RequirementResult>,
+    /// Every required property holds.
     pub passed: bool,
 }
 
 /// What to validate and how.
 pub struct VerdictInput<'a> {
+    /// The model's file, reported as given (`None` for an in-memory model).
     pub model: Option<PathBuf>,
+    /// The model's format, reported as given ([`Verdict::format`]).
     pub format: &'static str,
+    /// What the model's values were, reported as given ([`Verdict::values`]).
     pub values: &'static str,
+    /// The black voxels.
     pub set: VoxelSet,
     /// Index space (voxel centres) to world space of the set.
     pub transform: Transform,
+    /// N: the adjacency of white paths.
     pub connectivity: Connectivity,
     /// The reference surface in the model's world space, and its file.
     pub mesh: Option<(&'a TriMesh, Option<PathBuf>)>,
+    /// The properties `passed` follows (repeats are ignored).
     pub requirements: &'a [Requirement],
     /// Add one white layer around the grid (voxel coordinates shift by +1).
     pub pad: bool,
@@ -113,8 +131,10 @@ pub struct VerdictInput<'a> {
 /// Why a verdict cannot be given.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum VerdictError {
+    /// Cover was required without a reference mesh.
     #[error("requiring cover needs a reference surface (a mesh)")]
     CoverNeedsMesh,
+    /// The padded grid could not be made (too large, or its transform is invalid).
     #[error("padding: {0}")]
     Pad(String),
 }

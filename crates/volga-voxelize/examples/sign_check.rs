@@ -3,8 +3,8 @@
 //! use the sign (signed distance, anti-aliased solid, binary inside):
 //!
 //! ```sh
-//! cargo run --release -p volga-voxelize --example sign_check -- corpus 64 128
-//! cargo run --release -p volga-voxelize --example sign_check -- tests/data/teapot.obj 64 128
+//! cargo run --release -p volga-voxelize --features testing --example sign_check -- corpus 64 128
+//! cargo run --release -p volga-voxelize --features testing --example sign_check -- tests/data/teapot.obj 64 128
 //! ```
 //!
 //! Every voxel of the 3-voxel distance band is checked, plus 20,000 random voxels of the

@@ -16,6 +16,8 @@ pub struct AnalyticField {
 }
 
 impl AnalyticField {
+    /// The union of `solids` filtered with `filter`; its bounds are the solids' grown
+    /// by the filter's half-width.
     pub fn new(solids: Vec<Solid>, filter: OrientedBoxFilter) -> Self {
         let bounds = solids
             .iter()

@@ -28,19 +28,37 @@ use crate::{merge_max, voxelize_mesh_surface, MeshVoxelizer, Separability, SignS
 pub enum MeshJobMode {
     /// Binary surface with `separability`; with `solid`, the inside (winding number ≥ ½)
     /// filled as well.
-    Binary { separability: Separability, solid: bool },
+    Binary {
+        /// Which white paths the surface blocks.
+        separability: Separability,
+        /// Fill the inside too.
+        solid: bool,
+    },
     /// Anti-aliased (oriented box filter) surface of `thickness_voxels`, or solid.
-    AntiAliased { thickness_voxels: f64, solid: bool },
+    AntiAliased {
+        /// Shell thickness in voxels (finite and > 0); with `solid` it only sets the
+        /// grid's padding.
+        thickness_voxels: f64,
+        /// The anti-aliased solid instead of a shell.
+        solid: bool,
+    },
     /// Narrow-band distance field of `half_width_voxels`; `signed` (inside negative) or
     /// unsigned.
-    Distance { half_width_voxels: f64, signed: bool },
+    Distance {
+        /// Half-width of the band in voxels.
+        half_width_voxels: f64,
+        /// Negative inside (winding number ≥ ½).
+        signed: bool,
+    },
 }
 
 /// A mesh-voxelize job: the voxels along the longest side of the mesh's bounding box,
 /// and the mode.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeshJob {
+    /// Voxels along the longest side of the mesh's bounding box.
     pub resolution: u32,
+    /// What the mesh is voxelized into.
     pub mode: MeshJobMode,
 }
 
@@ -48,7 +66,9 @@ pub struct MeshJob {
 /// `thickness`, `distance`, `mesh`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct JobError {
+    /// The parameter at fault.
     pub field: &'static str,
+    /// What is wrong with it, in words.
     pub message: String,
 }
 
@@ -69,6 +89,7 @@ pub struct JobEstimate {
     /// Upper bound on the bricks of a filled inside, band bricks included (0 for the
     /// modes that fill none): the bricks between two band bricks along some axis.
     pub inside_bricks: u64,
+    /// Bricks of the whole grid.
     pub grid_bricks: u64,
     /// The mesh in memory (positions and triangles).
     pub mesh_bytes: u64,
@@ -341,6 +362,7 @@ impl MeshJob {
 
 /// What [`MeshJob::run`] returns.
 pub struct MeshRun {
+    /// The voxelized mesh.
     pub volume: SparseVolume,
     /// Edges used by one triangle, when the job built the mesh's topology.
     pub boundary_edges: Option<usize>,

@@ -11,7 +11,8 @@
 //!   only in the regions where it can be nearest), anti-aliased shells and solids, and
 //!   inside = generalized winding number ≥ ½, **proven** for every voxel on any mesh
 //!   (open, self-intersecting, overlapping, flat), with how each sign was proven in
-//!   [`SignStats`]; [`check`] holds signs against a brute-force winding number.
+//!   [`SignStats`]; the `check` module (cargo feature `testing`, off by default) holds
+//!   signs against a brute-force winding number for tests and benchmarks.
 //!
 //! Coordinates and geometry are **`f64`** (world space, index space for the discrete
 //! tests); the output is a [`volga_core::SparseVolume`] whose payload is **`f32`**
@@ -31,7 +32,11 @@
 //! assert_eq!(volume.density.get(glam::IVec3::splat(16)), 1.0);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod binary;
+#[cfg(feature = "testing")]
 pub mod check;
 mod field;
 mod job;

@@ -56,6 +56,7 @@ impl LineConnectivity {
         }
     }
 
+    /// The adjacency of consecutive voxels: 6 or 26.
     pub fn adjacency(self) -> Adjacency {
         self.0
     }

@@ -32,8 +32,8 @@
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
-use volga_core::{Aabb, Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
-use volga_mesh::{closest_point_on_triangle, Bvh, Feature, TriMesh};
+use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
+use volga_mesh::{Bvh, TriMesh};
 
 use crate::mask::BrickMask;
 use crate::regions::{EdgeUse, FeatureRegions};
@@ -45,24 +45,24 @@ use crate::{OrientedBoxFilter, SurfaceMode};
 /// per-triangle winding numbers.
 #[derive(Debug, Clone)]
 pub struct MeshVoxelizer {
-    triangles: Vec<[DVec3; 3]>,
-    bvh: Bvh,
+    pub(crate) triangles: Vec<[DVec3; 3]>,
+    pub(crate) bvh: Bvh,
     /// Unit face normal (zero for degenerate triangles).
-    face_normal: Vec<DVec3>,
+    pub(crate) face_normal: Vec<DVec3>,
     /// Per triangle and edge k (corner k → k+1): pseudo-normal, and whether the edge is
     /// a boundary or non-manifold edge.
-    edge_normal: Vec<[DVec3; 3]>,
-    edge_ambiguous: Vec<[bool; 3]>,
+    pub(crate) edge_normal: Vec<[DVec3; 3]>,
+    pub(crate) edge_ambiguous: Vec<[bool; 3]>,
     /// Per triangle and corner: the welded vertex's angle-weighted pseudo-normal and
     /// whether the vertex touches a boundary or non-manifold edge.
-    vertex_normal: Vec<[DVec3; 3]>,
-    vertex_ambiguous: Vec<[bool; 3]>,
+    pub(crate) vertex_normal: Vec<[DVec3; 3]>,
+    pub(crate) vertex_ambiguous: Vec<[bool; 3]>,
     boundary_edges: usize,
     distance: Vec<TriDistance>,
     /// Face, edge and vertex regions that bound where each triangle can be nearest.
     regions: FeatureRegions,
     /// Certified signs: per-triangle principal values, caps, gradient bounds.
-    sign: SignOracle,
+    pub(crate) sign: SignOracle,
 }
 
 /// [`MeshVoxelizer`]'s parts that do not need the BVH.
@@ -109,6 +109,8 @@ fn morton_order(mesh: &TriMesh) -> Vec<u32> {
 }
 
 impl MeshVoxelizer {
+    /// Prepares `mesh` (world space): triangles in Morton order, normals and
+    /// pseudo-normals of the welded mesh, feature regions, the BVH and the sign oracle.
     pub fn new(mesh: &TriMesh) -> Self {
         // The BVH (for winding numbers) is built from the mesh as given, alongside
         // everything else, which needs it only for meshes without simple boundary loops.
@@ -255,6 +257,8 @@ impl MeshVoxelizer {
         self.boundary_edges
     }
 
+    /// The BVH over the mesh's triangles in their original order (winding numbers,
+    /// closest points).
     pub fn bvh(&self) -> &Bvh {
         &self.bvh
     }
@@ -264,527 +268,6 @@ impl MeshVoxelizer {
     /// unclean triangles and the boundary cycle.
     pub fn sign_stats(&self) -> SignStats {
         self.sign.stats
-    }
-
-    /// The sign of a band voxel at `p` whose nearest triangle is `t`, `d2` away (squared),
-    /// with its proven margin `|w − ½|` (a lower bound) and how it was proven. `slack` is
-    /// the half-width of `t`'s certified interval of `w` near `t` (see `sign`).
-    fn decide(&self, p: DVec3, t: usize, d2: f64, slack: f64, stats: &mut SignStats) -> (bool, f64) {
-        let sign = &self.sign;
-        let (c, feature) = closest_point_on_triangle(p, self.triangles[t]);
-        let (normal, ok) = match feature {
-            Feature::Face => (self.face_normal[t], true),
-            Feature::Edge(k) => (self.edge_normal[t][k], !self.edge_ambiguous[t][k]),
-            Feature::Vertex(k) => (self.vertex_normal[t][k], !self.vertex_ambiguous[t][k]),
-        };
-        let along = (p - c).dot(normal);
-        // The side is trusted well above the rounding of `p − c` and of the normal.
-        let tolerance = 1e-12 * (p.abs().max_element() + (p - c).length()) * normal.length();
-        if ok && sign.trusted[t] && along.abs() > tolerance && normal.length() > 1e-6 {
-            let behind = along < 0.0;
-            let mid = sign.w_bar[t] + if behind { 0.5 } else { -0.5 };
-            if mid - slack >= 0.5 {
-                stats.fast_voxels += 1;
-                return (true, mid - slack - 0.5);
-            }
-            if mid + slack < 0.5 {
-                stats.fast_voxels += 1;
-                return (false, 0.5 - mid - slack);
-            }
-            if !sign.closed && !sign.cap_within(p, d2.sqrt()) {
-                // No cap between `p` and its nearest point: `w(p) = I − w_C(p)` with the
-                // region's integer `I` on this side.
-                let threshold = (sign.front[t] + behind as i64) as f64 - 0.5;
-                let b = sign.cap_winding(p, threshold);
-                stats.query_terms += b.terms as u64;
-                if b.value + b.error <= threshold {
-                    stats.cap_voxels += 1;
-                    return (true, threshold - b.value - b.error);
-                }
-                if b.value - b.error > threshold {
-                    stats.cap_voxels += 1;
-                    return (false, b.value - b.error - threshold);
-                }
-            }
-        }
-        stats.exact_band_voxels += 1;
-        if d2.sqrt() <= 1e-12 * p.abs().max_element() + f64::MIN_POSITIVE {
-            // On the surface up to rounding, where a solid angle can take its principal
-            // value: so can a cap's at the mesh's boundary, and `w_M + w_C` is no longer
-            // an integer plus the caps. Ask the mesh's own tree.
-            let b = self.bvh.winding_number_bounded(p, None, |w, e| (w - 0.5).abs() > e);
-            stats.exact_voxels += 1;
-            stats.exact_triangles += b.exact_triangles as u64;
-            stats.query_terms += b.terms as u64;
-            return (b.value >= 0.5, b.margin(0.5));
-        }
-        self.exact_side(p, None, stats)
-    }
-
-    /// `I = w_M + w_C` at `p` (an integer off the mesh and its caps), when a bound
-    /// below ½ proves it; `None` without caps or on a sheet.
-    fn integer_at(&self, p: DVec3) -> (Option<f64>, u32) {
-        let Some(cap) = self.sign.cap.as_ref() else {
-            return (None, 0);
-        };
-        let c0 = cap.winding_number_bounded(p, None, |_, e| e < 0.05);
-        let m = self.bvh.winding_number_bounded(p, None, |w, e| {
-            let x = w + c0.value;
-            let off = (x - x.round()).abs();
-            off + e + c0.error < 0.45 || off - e - c0.error > 0.05
-        });
-        let x = m.value + c0.value;
-        (
-            ((x - x.round()).abs() + m.error + c0.error < 0.45).then(|| x.round()),
-            m.terms + c0.terms,
-        )
-    }
-
-    /// The whole mesh's certified winding number at `p`, refined until `stop` accepts.
-    ///
-    /// With a boundary, `w = I − w_C` where `I = w_M + w_C` is an integer off the
-    /// surface and the caps: `I` needs only an error below ½ (a few refinements of the
-    /// mesh's tree; or it is `known`, constant over a region free of both), and the
-    /// precision near ½ is bought on the caps' small tree. Where `I` cannot be proven an
-    /// integer (a point on a cap), the mesh's tree is refined directly.
-    fn certified(
-        &self,
-        p: DVec3,
-        known: Option<f64>,
-        mut stop: impl FnMut(f64, f64) -> bool,
-    ) -> volga_mesh::WindingBound {
-        let mut terms = 0;
-        if let Some(cap) = &self.sign.cap {
-            let i = known.or_else(|| {
-                let (i, t) = self.integer_at(p);
-                terms = t;
-                i
-            });
-            if let Some(i) = i {
-                let c = cap.winding_number_bounded(p, None, |w, e| stop(i - w, e));
-                return volga_mesh::WindingBound {
-                    value: i - c.value,
-                    error: c.error,
-                    exact_triangles: c.exact_triangles,
-                    refinements: c.refinements,
-                    terms: c.terms + terms,
-                };
-            }
-        }
-        let mut b = self.bvh.winding_number_bounded(p, None, stop);
-        b.terms += terms;
-        b
-    }
-
-    /// The certified winding number at `p`, refined until it proves its side of ½ (a
-    /// tie within rounding counts as inside, `w ≥ ½`).
-    fn exact_side(&self, p: DVec3, known: Option<f64>, stats: &mut SignStats) -> (bool, f64) {
-        let b = self.certified(p, known, |w, e| (w - 0.5).abs() > e);
-        stats.exact_voxels += 1;
-        stats.exact_triangles += b.exact_triangles as u64;
-        stats.query_terms += b.terms as u64;
-        (b.value >= 0.5, b.margin(0.5))
-    }
-
-    /// The certified winding number at `p`, refined until its margin from ½ is proven
-    /// to exceed `needed`, or proven not to.
-    fn margin_query(&self, p: DVec3, known: Option<f64>, needed: f64) -> volga_mesh::WindingBound {
-        self.certified(p, known, |w, e| {
-            let gap = (w - 0.5).abs();
-            gap - e > needed || gap + e <= needed
-        })
-    }
-
-    /// `I` for a region free of the mesh whose box (centre, radius) no cap reaches.
-    fn region_integer(&self, centre: DVec3, radius: f64) -> Option<f64> {
-        (self.sign.cap.is_some() && !self.sign.cap_within(centre, radius))
-            .then(|| self.integer_at(centre).0)
-            .flatten()
-    }
-
-    /// The inside voxels of one brick beyond the band (`unknown`). Each 6-connected
-    /// component takes the sign of the band voxels next to it: a 6-step from a voxel
-    /// beyond the band is shorter than the band, so it crosses no sheet. Without a
-    /// boundary (`w` constant between sheets) that is exact; otherwise `w` drifts by at
-    /// most the gradient bound times the path, and the component keeps the sign only
-    /// while the seeds' proven margin covers the drift. Components touching no band
-    /// voxel take a certified query at their first voxel on the same terms; the rest
-    /// ask every voxel.
-    #[allow(clippy::too_many_arguments)]
-    fn flood_signs(
-        &self,
-        brick: IVec3,
-        inside_band: BrickMask,
-        outside_band: BrickMask,
-        margin: &[f64; BRICK_VOXELS],
-        unknown: BrickMask,
-        grid: &Grid,
-        stats: &mut SignStats,
-    ) -> BrickMask {
-        let (touches_inside, touches_outside) = (inside_band.dilate6(), outside_band.dilate6());
-        let centre = |o: usize| {
-            let ijk = brick * BRICK_DIM + IVec3::new(o as i32 % 8, o as i32 / 8 % 8, o as i32 / 64);
-            grid.transform.voxel_center(ijk)
-        };
-        // `w` drifts by at most this much per 6-step inside the brick.
-        let step_drift = if self.sign.closed {
-            0.0
-        } else {
-            let lo = grid.transform.index_to_world((brick * BRICK_DIM).as_dvec3() - 0.5);
-            let hi = grid
-                .transform
-                .index_to_world(((brick + 1) * BRICK_DIM).as_dvec3() - 0.5);
-            self.sign.boundary.gradient_bound(&Aabb::new(lo.min(hi), lo.max(hi))) * grid.max_spacing()
-        };
-        // Steps from `start` to cover `component` (6-connected, so it ends).
-        let depth = |start: BrickMask, component: BrickMask| {
-            let (mut covered, mut steps) = (start, 1u32);
-            while covered != component {
-                covered = covered.dilate6().and(&component);
-                steps += 1;
-            }
-            steps as f64
-        };
-        let seed_margin = |seeds: BrickMask| {
-            let mut min = f64::INFINITY;
-            let mut left = seeds;
-            while let Some(o) = left.first() {
-                left.remove(o);
-                min = min.min(margin[o]);
-            }
-            min
-        };
-        let mut inside = inside_band;
-        let mut rest = unknown;
-        while let Some(first) = rest.first() {
-            let mut component = BrickMask::EMPTY;
-            component.insert(first);
-            component = component.flood(&rest);
-            rest = rest.and_not(&component);
-            let (by_inside, by_outside) = (component.and(&touches_inside), component.and(&touches_outside));
-            let decided = match (!by_inside.is_empty(), !by_outside.is_empty()) {
-                (true, false) => {
-                    let m = seed_margin(inside_band.and(&component.dilate6()));
-                    (step_drift == 0.0 || m > step_drift * depth(by_inside, component)).then_some(true)
-                }
-                (false, true) => {
-                    let m = seed_margin(outside_band.and(&component.dilate6()));
-                    (step_drift == 0.0 || m > step_drift * depth(by_outside, component)).then_some(false)
-                }
-                (false, false) => {
-                    let mut start = BrickMask::EMPTY;
-                    start.insert(first);
-                    let needed = if step_drift == 0.0 {
-                        0.0
-                    } else {
-                        step_drift * (depth(start, component) - 1.0)
-                    };
-                    let w = self.margin_query(centre(first), None, needed);
-                    stats.query_terms += w.terms as u64;
-                    stats.region_queries += 1;
-                    (w.margin(0.5) > needed || (needed == 0.0 && w.side(0.5).is_some())).then_some(w.value >= 0.5)
-                }
-                (true, true) => None,
-            };
-            match decided {
-                Some(true) => inside = inside.or(&component),
-                Some(false) => {}
-                None if self.sign.cap.is_some() => {
-                    // `I = w_M + w_C` is one integer on each connected set of these
-                    // voxels farther than a step from every cap (a step between two of
-                    // them crosses neither the mesh nor a cap): one integer query per
-                    // set, then boxes and voxels ask only the caps' small tree. Voxels
-                    // within a step of a cap ask the whole mesh.
-                    let step = grid.max_spacing();
-                    let mut far = BrickMask::EMPTY;
-                    let mut left = component;
-                    while let Some(o) = left.first() {
-                        left.remove(o);
-                        if !self.sign.cap_within(centre(o), step) {
-                            far.insert(o);
-                        }
-                    }
-                    let mut near = component.and_not(&far);
-                    while let Some(first) = far.first() {
-                        let mut set = BrickMask::EMPTY;
-                        set.insert(first);
-                        set = set.flood(&far);
-                        far = far.and_not(&set);
-                        let (known, terms) = self.integer_at(centre(first));
-                        stats.query_terms += terms as u64;
-                        stats.region_queries += 1;
-                        inside = inside.or(&self.prove_in_brick(brick, set, 0, 8, known, grid, stats));
-                    }
-                    while let Some(o) = near.first() {
-                        near.remove(o);
-                        if self.exact_side(centre(o), None, stats).0 {
-                            inside.insert(o);
-                        }
-                    }
-                }
-                None => {
-                    // Octants of the brick wholly in the component are free of sheets:
-                    // prove them box by box, down to single voxels.
-                    inside = inside.or(&self.prove_in_brick(brick, component, 0, 8, None, grid, stats));
-                }
-            }
-        }
-        inside
-    }
-
-    /// The inside voxels of `allowed` (voxels beyond the band of one brick) within the
-    /// cube of side `size` at brick-local corner `lo` (packed `x + 8y + 64z`). A cube
-    /// wholly in `allowed` holds no sheet, so it takes the sign of its centre when the
-    /// certified margin there exceeds the gradient bound times its radius; otherwise it
-    /// splits, and single voxels ask the certified winding number.
-    #[allow(clippy::too_many_arguments)]
-    fn prove_in_brick(
-        &self,
-        brick: IVec3,
-        allowed: BrickMask,
-        lo: usize,
-        size: usize,
-        known: Option<f64>,
-        grid: &Grid,
-        stats: &mut SignStats,
-    ) -> BrickMask {
-        let corner = IVec3::new((lo % 8) as i32, (lo / 8 % 8) as i32, (lo / 64) as i32);
-        let cube = IndexBox::new(corner, corner + size as i32);
-        let region = BrickMask::of_region(IVec3::ZERO, &cube);
-        let here = region.and(&allowed);
-        if here.is_empty() {
-            return BrickMask::EMPTY;
-        }
-        let t = &grid.transform;
-        let base = brick * BRICK_DIM;
-        if size == 1 {
-            let (inside, _) = self.exact_side(t.voxel_center(base + corner), known, stats);
-            return if inside { here } else { BrickMask::EMPTY };
-        }
-        if here == region {
-            let (a, b) = (
-                t.voxel_center(base + corner),
-                t.voxel_center(base + corner + size as i32 - 1),
-            );
-            let (p_lo, p_hi) = (a.min(b), a.max(b));
-            let radius = 0.5 * (p_hi - p_lo).length();
-            let drift = self.sign.boundary.gradient_bound(&Aabb::new(p_lo, p_hi)) * radius;
-            let w = self.margin_query(0.5 * (p_lo + p_hi), known, drift);
-            stats.query_terms += w.terms as u64;
-            stats.region_queries += 1;
-            if w.margin(0.5) > drift {
-                return if w.value >= 0.5 { here } else { BrickMask::EMPTY };
-            }
-        }
-        let half = size / 2;
-        let mut inside = BrickMask::EMPTY;
-        for k in 0..8 {
-            let o = (k & 1) * half + ((k >> 1) & 1) * half * 8 + (k >> 2) * half * 64;
-            inside = inside.or(&self.prove_in_brick(brick, allowed, lo + o, half, known, grid, stats));
-        }
-        inside
-    }
-
-    /// Boundary-free meshes: `w` is constant between sheets and 0 outside the mesh's
-    /// bounds, so face-connected bricks that no band reaches share their sign. Label
-    /// them by flood fill and prove the sign once per component.
-    fn inside_bricks_by_components(
-        &self,
-        candidates: &[IVec3],
-        band: &rustc_hash::FxHashSet<IVec3>,
-        grid: &Grid,
-        stats: &mut SignStats,
-    ) -> Vec<IVec3> {
-        let set: rustc_hash::FxHashSet<IVec3> = candidates.iter().copied().collect();
-        let mut label: FxHashMap<IVec3, bool> = FxHashMap::default();
-        let mut inside = Vec::new();
-        for &start in candidates {
-            if label.contains_key(&start) {
-                continue;
-            }
-            let centre = grid.transform.index_to_world((start * BRICK_DIM).as_dvec3() + 3.5);
-            let is_inside = self.exact_side(centre, None, stats).0;
-            stats.region_queries += 1;
-            let mut stack = vec![start];
-            label.insert(start, is_inside);
-            while let Some(b) = stack.pop() {
-                if is_inside {
-                    inside.push(b);
-                }
-                for o in [IVec3::X, IVec3::NEG_X, IVec3::Y, IVec3::NEG_Y, IVec3::Z, IVec3::NEG_Z] {
-                    let nb = b + o;
-                    if set.contains(&nb) && !band.contains(&nb) && !label.contains_key(&nb) {
-                        label.insert(nb, is_inside);
-                        stack.push(nb);
-                    }
-                }
-            }
-        }
-        inside.sort_unstable_by_key(|b| (b.z, b.y, b.x));
-        inside
-    }
-
-    /// Meshes with a boundary: `w` varies smoothly away from the surface (through the
-    /// holes, and outside the mesh's bounds where stacked sheets can reach ½), so the
-    /// whole grid beyond the band is classified by an octree of voxel boxes: a box no band
-    /// reaches takes the sign of its centre when the certified margin there exceeds the
-    /// gradient bound times the box's radius; otherwise it splits, down to single voxels.
-    /// Returns the wholly inside bricks and the partly inside ones as masks.
-    fn inside_by_octree(
-        &self,
-        touched: &rustc_hash::FxHashSet<IVec3>,
-        grid: &Grid,
-        stats: &mut SignStats,
-    ) -> (Vec<IVec3>, Vec<(IVec3, BrickMask)>) {
-        let extent = volga_core::brick_extent(grid.dims());
-        // Prefix sums of touched bricks: "does this box hold band" in O(1).
-        let (ex, ey, ez) = (extent.x as usize + 1, extent.y as usize + 1, extent.z as usize + 1);
-        let mut prefix = vec![0u32; ex * ey * ez];
-        let at = |x: usize, y: usize, z: usize| (z * ey + y) * ex + x;
-        for z in 1..ez {
-            for y in 1..ey {
-                for x in 1..ex {
-                    let own = touched.contains(&IVec3::new(x as i32 - 1, y as i32 - 1, z as i32 - 1)) as u32;
-                    prefix[at(x, y, z)] =
-                        own + prefix[at(x - 1, y, z)] + prefix[at(x, y - 1, z)] + prefix[at(x, y, z - 1)]
-                            - prefix[at(x - 1, y - 1, z)]
-                            - prefix[at(x - 1, y, z - 1)]
-                            - prefix[at(x, y - 1, z - 1)]
-                            + prefix[at(x - 1, y - 1, z - 1)];
-                }
-            }
-        }
-        let band_in = |lo: IVec3, hi: IVec3| {
-            let (l, h) = (lo.as_uvec3(), hi.as_uvec3());
-            let (l, h) = (
-                (l.x as usize, l.y as usize, l.z as usize),
-                (h.x as usize, h.y as usize, h.z as usize),
-            );
-            prefix[at(h.0, h.1, h.2)]
-                + prefix[at(l.0, l.1, h.2)]
-                + prefix[at(l.0, h.1, l.2)]
-                + prefix[at(h.0, l.1, l.2)]
-                - prefix[at(l.0, h.1, h.2)]
-                - prefix[at(h.0, l.1, h.2)]
-                - prefix[at(h.0, h.1, l.2)]
-                - prefix[at(l.0, l.1, l.2)]
-                > 0
-        };
-        let grid_box = grid.index_box();
-        let mut size = BRICK_DIM;
-        while size < grid.dims().max_element() as i32 {
-            size *= 2;
-        }
-        let results = [self.classify_box(
-            None,
-            IndexBox::new(IVec3::ZERO, IVec3::splat(size)),
-            &grid_box,
-            &band_in,
-            grid,
-        )];
-        let mut full = Vec::new();
-        let mut partial: FxHashMap<IVec3, BrickMask> = FxHashMap::default();
-        for (boxes, local) in results {
-            stats.add(&local);
-            for b in boxes {
-                let bricks = IndexBox::new(
-                    b.min.div_euclid(IVec3::splat(BRICK_DIM)),
-                    (b.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM)),
-                );
-                for brick in bricks.iter() {
-                    let own = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
-                    if own.intersection(&b) == own {
-                        full.push(brick);
-                    } else {
-                        let mask = partial.entry(brick).or_default();
-                        *mask = mask.or(&BrickMask::of_region(brick, &b));
-                    }
-                }
-            }
-        }
-        full.sort_unstable_by_key(|b| (b.z, b.y, b.x));
-        let mut partial: Vec<(IVec3, BrickMask)> = partial.into_iter().collect();
-        partial.sort_unstable_by_key(|(b, _)| (b.z, b.y, b.x));
-        (full, partial)
-    }
-
-    /// One octree box (voxel index space, a power-of-two cube, clipped to the grid):
-    /// its inside voxels as boxes, and the queries it took.
-    fn classify_box(
-        &self,
-        known: Option<f64>,
-        cube: IndexBox,
-        grid_box: &IndexBox,
-        band_in: &(dyn Fn(IVec3, IVec3) -> bool + Sync),
-        grid: &Grid,
-    ) -> (Vec<IndexBox>, SignStats) {
-        let mut stats = SignStats::default();
-        let region = cube.intersection(grid_box);
-        if region.is_empty() {
-            return (Vec::new(), stats);
-        }
-        let size = (cube.max - cube.min).x;
-        if size >= BRICK_DIM {
-            let lo = region.min.div_euclid(IVec3::splat(BRICK_DIM));
-            let hi = (region.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM));
-            if band_in(lo, hi) {
-                if size > BRICK_DIM {
-                    return self.split(None, cube, grid_box, band_in, grid);
-                }
-                return (Vec::new(), stats); // a band brick: its voxels are the band's
-            }
-        }
-        // No band in the box: no sheet either, so straight paths inside it cross none.
-        let t = &grid.transform;
-        let (a, b) = (t.voxel_center(region.min), t.voxel_center(region.max - IVec3::ONE));
-        let (lo, hi) = (a.min(b), a.max(b));
-        let centre = 0.5 * (lo + hi);
-        let radius = 0.5 * (hi - lo).length();
-        let drift = self.sign.boundary.gradient_bound(&Aabb::new(lo, hi)) * radius;
-        if size == 1 {
-            let (inside, _) = self.exact_side(centre, known, &mut stats);
-            return (if inside { vec![region] } else { Vec::new() }, stats);
-        }
-        let w = self.margin_query(centre, known, drift);
-        stats.query_terms += w.terms as u64;
-        stats.region_queries += 1;
-        if w.margin(0.5) > drift {
-            (if w.value >= 0.5 { vec![region] } else { Vec::new() }, stats)
-        } else {
-            // Free of the mesh; if no cap reaches it, `I` is one integer over it.
-            let known = known.or_else(|| self.region_integer(centre, radius));
-            let (boxes, more) = self.split(known, cube, grid_box, band_in, grid);
-            stats.add(&more);
-            (boxes, stats)
-        }
-    }
-
-    /// The eight octants of `cube`, in parallel while they are large.
-    fn split(
-        &self,
-        known: Option<f64>,
-        cube: IndexBox,
-        grid_box: &IndexBox,
-        band_in: &(dyn Fn(IVec3, IVec3) -> bool + Sync),
-        grid: &Grid,
-    ) -> (Vec<IndexBox>, SignStats) {
-        let half = (cube.max - cube.min).x / 2;
-        let octant = |k: i32| {
-            let lo = cube.min + IVec3::new(k & 1, (k >> 1) & 1, k >> 2) * half;
-            self.classify_box(known, IndexBox::new(lo, lo + half), grid_box, band_in, grid)
-        };
-        let parts: Vec<(Vec<IndexBox>, SignStats)> = if half >= 4 * BRICK_DIM {
-            (0..8).into_par_iter().map(octant).collect()
-        } else {
-            (0..8).map(octant).collect()
-        };
-        let mut stats = SignStats::default();
-        let mut boxes = Vec::new();
-        for (b, s) in parts {
-            boxes.extend(b);
-            stats.add(&s);
-        }
-        (boxes, stats)
     }
 
     /// Voxelizes the mesh in `mode`. Every mode is served: `Binary(sep)` is the binary

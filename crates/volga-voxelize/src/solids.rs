@@ -7,11 +7,14 @@ use crate::{OrientedBoxFilter, Shape, SignedDistance};
 /// A shape with the colour it carries into the volume's colour channel.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Solid {
+    /// The shape (world space).
     pub shape: Shape,
+    /// Its RGB colour.
     pub colour: Rgb,
 }
 
 impl Solid {
+    /// `shape` with `colour`.
     pub fn new(shape: Shape, colour: Rgb) -> Self {
         Solid { shape, colour }
     }

@@ -23,11 +23,19 @@ pub enum SurfaceMode {
     Solid,
     /// Anti-aliased thin surface of `thickness` (world units): the filter applied to
     /// `|d| − thickness/2`.
-    Shell { thickness: f64 },
+    Shell {
+        /// Thickness of the shell (world units).
+        thickness: f64,
+    },
     /// Narrow-band distance field in world units, clamped to ±`half_width_voxels` voxels
     /// (voxel = the largest spacing, [`volga_core::Transform::max_spacing`]); background
     /// `+half_width`, interior `−half_width` when signed.
-    Distance { half_width_voxels: f64, signed: bool },
+    Distance {
+        /// Half-width of the band in voxels of the largest spacing.
+        half_width_voxels: f64,
+        /// Negative inside.
+        signed: bool,
+    },
     /// Binary surface with the given separability: the plane thresholds of
     /// [`crate::binary`] applied to the surface's local tangent plane (distance and
     /// normal at the voxel, in index space), with the same half-open tie rule — a slab

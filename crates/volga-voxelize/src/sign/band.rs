@@ -1,0 +1,148 @@
+//! Winding-number proofs for single points: the sign of a band voxel from its nearest
+//! triangle's certified interval, the caps' winding number or, last, the mesh's
+//! certified winding number; and the certified queries (`w = I − w_C`) that the flood
+//! and region proofs share.
+
+use glam::DVec3;
+use volga_mesh::{closest_point_on_triangle, Feature};
+
+use super::SignStats;
+use crate::mesh::MeshVoxelizer;
+
+impl MeshVoxelizer {
+    /// The sign of a band voxel at `p` whose nearest triangle is `t`, `d2` away (squared),
+    /// with its proven margin `|w − ½|` (a lower bound) and how it was proven. `slack` is
+    /// the half-width of `t`'s certified interval of `w` near `t` (see `sign`).
+    pub(crate) fn decide(&self, p: DVec3, t: usize, d2: f64, slack: f64, stats: &mut SignStats) -> (bool, f64) {
+        let sign = &self.sign;
+        let (c, feature) = closest_point_on_triangle(p, self.triangles[t]);
+        let (normal, ok) = match feature {
+            Feature::Face => (self.face_normal[t], true),
+            Feature::Edge(k) => (self.edge_normal[t][k], !self.edge_ambiguous[t][k]),
+            Feature::Vertex(k) => (self.vertex_normal[t][k], !self.vertex_ambiguous[t][k]),
+        };
+        let along = (p - c).dot(normal);
+        // The side is trusted well above the rounding of `p − c` and of the normal.
+        let tolerance = 1e-12 * (p.abs().max_element() + (p - c).length()) * normal.length();
+        if ok && sign.trusted[t] && along.abs() > tolerance && normal.length() > 1e-6 {
+            let behind = along < 0.0;
+            let mid = sign.w_bar[t] + if behind { 0.5 } else { -0.5 };
+            if mid - slack >= 0.5 {
+                stats.fast_voxels += 1;
+                return (true, mid - slack - 0.5);
+            }
+            if mid + slack < 0.5 {
+                stats.fast_voxels += 1;
+                return (false, 0.5 - mid - slack);
+            }
+            if !sign.closed && !sign.cap_within(p, d2.sqrt()) {
+                // No cap between `p` and its nearest point: `w(p) = I − w_C(p)` with the
+                // region's integer `I` on this side.
+                let threshold = (sign.front[t] + behind as i64) as f64 - 0.5;
+                let b = sign.cap_winding(p, threshold);
+                stats.query_terms += b.terms as u64;
+                if b.value + b.error <= threshold {
+                    stats.cap_voxels += 1;
+                    return (true, threshold - b.value - b.error);
+                }
+                if b.value - b.error > threshold {
+                    stats.cap_voxels += 1;
+                    return (false, b.value - b.error - threshold);
+                }
+            }
+        }
+        stats.exact_band_voxels += 1;
+        if d2.sqrt() <= 1e-12 * p.abs().max_element() + f64::MIN_POSITIVE {
+            // On the surface up to rounding, where a solid angle can take its principal
+            // value: so can a cap's at the mesh's boundary, and `w_M + w_C` is no longer
+            // an integer plus the caps. Ask the mesh's own tree.
+            let b = self.bvh.winding_number_bounded(p, None, |w, e| (w - 0.5).abs() > e);
+            stats.exact_voxels += 1;
+            stats.exact_triangles += b.exact_triangles as u64;
+            stats.query_terms += b.terms as u64;
+            return (b.value >= 0.5, b.margin(0.5));
+        }
+        self.exact_side(p, None, stats)
+    }
+
+    /// `I = w_M + w_C` at `p` (an integer off the mesh and its caps), when a bound
+    /// below ½ proves it; `None` without caps or on a sheet.
+    pub(super) fn integer_at(&self, p: DVec3) -> (Option<f64>, u32) {
+        let Some(cap) = self.sign.cap.as_ref() else {
+            return (None, 0);
+        };
+        let c0 = cap.winding_number_bounded(p, None, |_, e| e < 0.05);
+        let m = self.bvh.winding_number_bounded(p, None, |w, e| {
+            let x = w + c0.value;
+            let off = (x - x.round()).abs();
+            off + e + c0.error < 0.45 || off - e - c0.error > 0.05
+        });
+        let x = m.value + c0.value;
+        (
+            ((x - x.round()).abs() + m.error + c0.error < 0.45).then(|| x.round()),
+            m.terms + c0.terms,
+        )
+    }
+
+    /// The whole mesh's certified winding number at `p`, refined until `stop` accepts.
+    ///
+    /// With a boundary, `w = I − w_C` where `I = w_M + w_C` is an integer off the
+    /// surface and the caps: `I` needs only an error below ½ (a few refinements of the
+    /// mesh's tree; or it is `known`, constant over a region free of both), and the
+    /// precision near ½ is bought on the caps' small tree. Where `I` cannot be proven an
+    /// integer (a point on a cap), the mesh's tree is refined directly.
+    fn certified(
+        &self,
+        p: DVec3,
+        known: Option<f64>,
+        mut stop: impl FnMut(f64, f64) -> bool,
+    ) -> volga_mesh::WindingBound {
+        let mut terms = 0;
+        if let Some(cap) = &self.sign.cap {
+            let i = known.or_else(|| {
+                let (i, t) = self.integer_at(p);
+                terms = t;
+                i
+            });
+            if let Some(i) = i {
+                let c = cap.winding_number_bounded(p, None, |w, e| stop(i - w, e));
+                return volga_mesh::WindingBound {
+                    value: i - c.value,
+                    error: c.error,
+                    exact_triangles: c.exact_triangles,
+                    refinements: c.refinements,
+                    terms: c.terms + terms,
+                };
+            }
+        }
+        let mut b = self.bvh.winding_number_bounded(p, None, stop);
+        b.terms += terms;
+        b
+    }
+
+    /// The certified winding number at `p`, refined until it proves its side of ½ (a
+    /// tie within rounding counts as inside, `w ≥ ½`).
+    pub(super) fn exact_side(&self, p: DVec3, known: Option<f64>, stats: &mut SignStats) -> (bool, f64) {
+        let b = self.certified(p, known, |w, e| (w - 0.5).abs() > e);
+        stats.exact_voxels += 1;
+        stats.exact_triangles += b.exact_triangles as u64;
+        stats.query_terms += b.terms as u64;
+        (b.value >= 0.5, b.margin(0.5))
+    }
+
+    /// The certified winding number at `p`, refined until its margin from ½ is proven
+    /// to exceed `needed`, or proven not to.
+    pub(super) fn margin_query(&self, p: DVec3, known: Option<f64>, needed: f64) -> volga_mesh::WindingBound {
+        self.certified(p, known, |w, e| {
+            let gap = (w - 0.5).abs();
+            gap - e > needed || gap + e <= needed
+        })
+    }
+
+    /// `I` for a region free of the mesh whose box (centre, radius) no cap reaches.
+    pub(super) fn region_integer(&self, centre: DVec3, radius: f64) -> Option<f64> {
+        (self.sign.cap.is_some() && !self.sign.cap_within(centre, radius))
+            .then(|| self.integer_at(centre).0)
+            .flatten()
+    }
+}

@@ -1,0 +1,195 @@
+//! Flood proofs inside one band brick: voxels beyond the band take the sign of the band
+//! voxels their 6-connected component touches, as far as the gradient bound allows;
+//! the rest are proven box by box within the brick, down to single voxels.
+
+use glam::IVec3;
+use volga_core::{Aabb, Grid, IndexBox, BRICK_DIM, BRICK_VOXELS};
+
+use super::SignStats;
+use crate::mask::BrickMask;
+use crate::mesh::MeshVoxelizer;
+
+impl MeshVoxelizer {
+    /// The inside voxels of one brick beyond the band (`unknown`). Each 6-connected
+    /// component takes the sign of the band voxels next to it: a 6-step from a voxel
+    /// beyond the band is shorter than the band, so it crosses no sheet. Without a
+    /// boundary (`w` constant between sheets) that is exact; otherwise `w` drifts by at
+    /// most the gradient bound times the path, and the component keeps the sign only
+    /// while the seeds' proven margin covers the drift. Components touching no band
+    /// voxel take a certified query at their first voxel on the same terms; the rest
+    /// ask every voxel.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn flood_signs(
+        &self,
+        brick: IVec3,
+        inside_band: BrickMask,
+        outside_band: BrickMask,
+        margin: &[f64; BRICK_VOXELS],
+        unknown: BrickMask,
+        grid: &Grid,
+        stats: &mut SignStats,
+    ) -> BrickMask {
+        let (touches_inside, touches_outside) = (inside_band.dilate6(), outside_band.dilate6());
+        let centre = |o: usize| {
+            let ijk = brick * BRICK_DIM + IVec3::new(o as i32 % 8, o as i32 / 8 % 8, o as i32 / 64);
+            grid.transform.voxel_center(ijk)
+        };
+        // `w` drifts by at most this much per 6-step inside the brick.
+        let step_drift = if self.sign.closed {
+            0.0
+        } else {
+            let lo = grid.transform.index_to_world((brick * BRICK_DIM).as_dvec3() - 0.5);
+            let hi = grid
+                .transform
+                .index_to_world(((brick + 1) * BRICK_DIM).as_dvec3() - 0.5);
+            self.sign.boundary.gradient_bound(&Aabb::new(lo.min(hi), lo.max(hi))) * grid.max_spacing()
+        };
+        // Steps from `start` to cover `component` (6-connected, so it ends).
+        let depth = |start: BrickMask, component: BrickMask| {
+            let (mut covered, mut steps) = (start, 1u32);
+            while covered != component {
+                covered = covered.dilate6().and(&component);
+                steps += 1;
+            }
+            steps as f64
+        };
+        let seed_margin = |seeds: BrickMask| {
+            let mut min = f64::INFINITY;
+            let mut left = seeds;
+            while let Some(o) = left.first() {
+                left.remove(o);
+                min = min.min(margin[o]);
+            }
+            min
+        };
+        let mut inside = inside_band;
+        let mut rest = unknown;
+        while let Some(first) = rest.first() {
+            let mut component = BrickMask::EMPTY;
+            component.insert(first);
+            component = component.flood(&rest);
+            rest = rest.and_not(&component);
+            let (by_inside, by_outside) = (component.and(&touches_inside), component.and(&touches_outside));
+            let decided = match (!by_inside.is_empty(), !by_outside.is_empty()) {
+                (true, false) => {
+                    let m = seed_margin(inside_band.and(&component.dilate6()));
+                    (step_drift == 0.0 || m > step_drift * depth(by_inside, component)).then_some(true)
+                }
+                (false, true) => {
+                    let m = seed_margin(outside_band.and(&component.dilate6()));
+                    (step_drift == 0.0 || m > step_drift * depth(by_outside, component)).then_some(false)
+                }
+                (false, false) => {
+                    let mut start = BrickMask::EMPTY;
+                    start.insert(first);
+                    let needed = if step_drift == 0.0 {
+                        0.0
+                    } else {
+                        step_drift * (depth(start, component) - 1.0)
+                    };
+                    let w = self.margin_query(centre(first), None, needed);
+                    stats.query_terms += w.terms as u64;
+                    stats.region_queries += 1;
+                    (w.margin(0.5) > needed || (needed == 0.0 && w.side(0.5).is_some())).then_some(w.value >= 0.5)
+                }
+                (true, true) => None,
+            };
+            match decided {
+                Some(true) => inside = inside.or(&component),
+                Some(false) => {}
+                None if self.sign.cap.is_some() => {
+                    // `I = w_M + w_C` is one integer on each connected set of these
+                    // voxels farther than a step from every cap (a step between two of
+                    // them crosses neither the mesh nor a cap): one integer query per
+                    // set, then boxes and voxels ask only the caps' small tree. Voxels
+                    // within a step of a cap ask the whole mesh.
+                    let step = grid.max_spacing();
+                    let mut far = BrickMask::EMPTY;
+                    let mut left = component;
+                    while let Some(o) = left.first() {
+                        left.remove(o);
+                        if !self.sign.cap_within(centre(o), step) {
+                            far.insert(o);
+                        }
+                    }
+                    let mut near = component.and_not(&far);
+                    while let Some(first) = far.first() {
+                        let mut set = BrickMask::EMPTY;
+                        set.insert(first);
+                        set = set.flood(&far);
+                        far = far.and_not(&set);
+                        let (known, terms) = self.integer_at(centre(first));
+                        stats.query_terms += terms as u64;
+                        stats.region_queries += 1;
+                        inside = inside.or(&self.prove_in_brick(brick, set, 0, 8, known, grid, stats));
+                    }
+                    while let Some(o) = near.first() {
+                        near.remove(o);
+                        if self.exact_side(centre(o), None, stats).0 {
+                            inside.insert(o);
+                        }
+                    }
+                }
+                None => {
+                    // Octants of the brick wholly in the component are free of sheets:
+                    // prove them box by box, down to single voxels.
+                    inside = inside.or(&self.prove_in_brick(brick, component, 0, 8, None, grid, stats));
+                }
+            }
+        }
+        inside
+    }
+
+    /// The inside voxels of `allowed` (voxels beyond the band of one brick) within the
+    /// cube of side `size` at brick-local corner `lo` (packed `x + 8y + 64z`). A cube
+    /// wholly in `allowed` holds no sheet, so it takes the sign of its centre when the
+    /// certified margin there exceeds the gradient bound times its radius; otherwise it
+    /// splits, and single voxels ask the certified winding number.
+    #[allow(clippy::too_many_arguments)]
+    fn prove_in_brick(
+        &self,
+        brick: IVec3,
+        allowed: BrickMask,
+        lo: usize,
+        size: usize,
+        known: Option<f64>,
+        grid: &Grid,
+        stats: &mut SignStats,
+    ) -> BrickMask {
+        let corner = IVec3::new((lo % 8) as i32, (lo / 8 % 8) as i32, (lo / 64) as i32);
+        let cube = IndexBox::new(corner, corner + size as i32);
+        let region = BrickMask::of_region(IVec3::ZERO, &cube);
+        let here = region.and(&allowed);
+        if here.is_empty() {
+            return BrickMask::EMPTY;
+        }
+        let t = &grid.transform;
+        let base = brick * BRICK_DIM;
+        if size == 1 {
+            let (inside, _) = self.exact_side(t.voxel_center(base + corner), known, stats);
+            return if inside { here } else { BrickMask::EMPTY };
+        }
+        if here == region {
+            let (a, b) = (
+                t.voxel_center(base + corner),
+                t.voxel_center(base + corner + size as i32 - 1),
+            );
+            let (p_lo, p_hi) = (a.min(b), a.max(b));
+            let radius = 0.5 * (p_hi - p_lo).length();
+            let drift = self.sign.boundary.gradient_bound(&Aabb::new(p_lo, p_hi)) * radius;
+            let w = self.margin_query(0.5 * (p_lo + p_hi), known, drift);
+            stats.query_terms += w.terms as u64;
+            stats.region_queries += 1;
+            if w.margin(0.5) > drift {
+                return if w.value >= 0.5 { here } else { BrickMask::EMPTY };
+            }
+        }
+        let half = size / 2;
+        let mut inside = BrickMask::EMPTY;
+        for k in 0..8 {
+            let o = (k & 1) * half + ((k >> 1) & 1) * half * 8 + (k >> 2) * half * 64;
+            inside = inside.or(&self.prove_in_brick(brick, allowed, lo + o, half, known, grid, stats));
+        }
+        inside
+    }
+}
