@@ -31,6 +31,7 @@
 //! assert!((field.value(DVec3::new(26.0, 16.0, 16.0)) - 0.5).abs() < 1e-6);
 //! ```
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub use glam;
 pub use volga_adf as adf;
