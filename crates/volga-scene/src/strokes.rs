@@ -27,7 +27,7 @@ use glam::{DQuat, DVec3, EulerRot, UVec3};
 use serde::{Deserialize, Serialize};
 use volga_core::{Grid, Transform};
 use volga_sculpt::{MeshTool, Operation, Pose, Sculpt, SculptGrid, Stroke, Tool, ToolShape};
-use volga_shapes::{AxisBox, Capsule, Cone, Cylinder, Ellipsoid, OrientedBox, Shape, Sphere, Torus};
+use volga_shapes::Torus;
 
 use crate::ctx::Ctx;
 use crate::model::{BoundsSpec, ObjectSpec, ShapeSpec, V3};
@@ -239,82 +239,26 @@ fn validate_stroke(cx: &Ctx, dir: &Path, f: &str, s: &StrokeSpec, spacing: f64) 
 }
 
 fn tool_shape(cx: &Ctx, dir: &Path, f: &str, s: &ShapeSpec) -> Result<ToolShape, SceneError> {
-    let bad = |e: volga_shapes::InvalidShape| cx.err(f, e.to_string());
     let v = |name: &str, x: V3| cx.finite3(&format!("{f}.{name}"), x);
-    let euler = |d: DVec3| DQuat::from_euler(EulerRot::XYZ, d.x.to_radians(), d.y.to_radians(), d.z.to_radians());
-    let shape = match s {
-        ShapeSpec::Sphere { center, radius } => {
-            Shape::Sphere(Sphere::new(v("center", *center)?, *radius).map_err(bad)?)
-        }
-        ShapeSpec::Box { min, max } => Shape::AxisBox(AxisBox::new(v("min", *min)?, v("max", *max)?).map_err(bad)?),
-        ShapeSpec::OrientedBox {
-            center,
-            half_extents,
-            rotation_deg,
-        } => Shape::OrientedBox(
-            OrientedBox::new(
-                v("center", *center)?,
-                v("half_extents", *half_extents)?,
-                euler(v("rotation_deg", *rotation_deg)?),
-            )
-            .map_err(bad)?,
-        ),
-        ShapeSpec::Ellipsoid {
-            center,
-            radii,
-            rotation_deg,
-        } => Shape::Ellipsoid(
-            Ellipsoid::new(
-                v("center", *center)?,
-                v("radii", *radii)?,
-                euler(v("rotation_deg", *rotation_deg)?),
-            )
-            .map_err(bad)?,
-        ),
-        ShapeSpec::Cylinder {
-            center,
-            axis,
-            radius,
-            half_length: Some(half),
-        } => {
-            Shape::Cylinder(Cylinder::new(v("center", *center)?, v("axis", *axis)?, *radius, Some(*half)).map_err(bad)?)
-        }
-        ShapeSpec::Cone {
-            apex,
-            axis,
-            half_angle_deg,
-            height: Some(height),
-        } => Shape::Cone(
-            Cone::new(
-                v("apex", *apex)?,
-                v("axis", *axis)?,
-                half_angle_deg.to_radians(),
-                Some(*height),
-            )
-            .map_err(bad)?,
-        ),
-        ShapeSpec::Capsule { a, b, radius } => {
-            Shape::Capsule(Capsule::new(v("a", *a)?, v("b", *b)?, *radius).map_err(bad)?)
-        }
+    match s {
         ShapeSpec::Torus {
             center,
             axis,
             major_radius,
             minor_radius,
-        } => {
-            return Ok(ToolShape::Torus(
-                Torus::new(v("center", *center)?, v("axis", *axis)?, *major_radius, *minor_radius).map_err(bad)?,
-            ))
-        }
+        } => Ok(ToolShape::Torus(
+            Torus::new(v("center", *center)?, v("axis", *axis)?, *major_radius, *minor_radius)
+                .map_err(|e| cx.err(f, e.to_string()))?,
+        )),
         ShapeSpec::Triangles { vertices, triangles } => {
             let mesh = volga_mesh::TriMesh::new(
                 vertices.iter().map(|p| DVec3::from_array(*p)).collect(),
                 triangles.clone(),
             )
             .map_err(|e| cx.err(f, e.to_string()))?;
-            return Ok(ToolShape::Mesh(Arc::new(
+            Ok(ToolShape::Mesh(Arc::new(
                 MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?,
-            )));
+            )))
         }
         ShapeSpec::Mesh { path, translate, scale } => {
             let mesh = volga_mesh::load_mesh(dir.join(path)).map_err(|e| cx.err(format!("{f}.path"), e.to_string()))?;
@@ -324,21 +268,19 @@ fn tool_shape(cx: &Ctx, dir: &Path, f: &str, s: &ShapeSpec) -> Result<ToolShape,
                 positions: mesh.positions.iter().map(|p| *p * scale + offset).collect(),
                 triangles: mesh.triangles,
             };
-            return Ok(ToolShape::Mesh(Arc::new(
+            Ok(ToolShape::Mesh(Arc::new(
                 MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?,
-            )));
+            )))
         }
-        ShapeSpec::Cylinder { .. } | ShapeSpec::Cone { .. } => {
-            return Err(cx.err(
-                f,
-                "a tool must be bounded: give the cylinder a half_length or the cone a height",
-            ))
-        }
-        ShapeSpec::Quadric { .. } => {
-            return Err(cx.err(f, "a quadric is not a sculpting tool (its distance is not exact)"))
-        }
-    };
-    Ok(ToolShape::Shape(shape))
+        ShapeSpec::Cylinder { half_length: None, .. } | ShapeSpec::Cone { height: None, .. } => Err(cx.err(
+            f,
+            "a tool must be bounded: give the cylinder a half_length or the cone a height",
+        )),
+        ShapeSpec::Quadric { .. } => Err(cx.err(f, "a quadric is not a sculpting tool (its distance is not exact)")),
+        // The analytic shapes: validated and built as scene objects are (field paths
+        // name the parameter at fault).
+        _ => Ok(ToolShape::Shape(nodes::shape::validate_shape(cx, f, s)?)),
+    }
 }
 
 #[cfg(test)]
