@@ -136,7 +136,7 @@ def test_sculpt_bad_input():
     with pytest.raises(ValueError, match=r"start\.object\.shape\.radius|radius"):
         volga.Sculpt(((-1, -1, -1), (1, 1, 1)), 0.1, {"Sphere": {"center": [0, 0, 0], "radius": -1}})
     s = volga.Sculpt(((-1, -1, -1), (1, 1, 1)), 0.1)
-    with pytest.raises(ValueError, match=r"stroke\[0\]\.tool`: radius must be finite and > 0"):
+    with pytest.raises(ValueError, match=r"stroke\[0\]\.tool\.radius`: must be finite and > 0, got 0"):
         s.carve({"Sphere": {"center": [0, 0, 0], "radius": 0}})
     with pytest.raises(ValueError, match=r"stroke\.tool: unknown variant `Blob`"):
         s.carve({"Blob": {}})
