@@ -27,6 +27,7 @@ pub struct Closest {
     pub distance: f64,
     /// Index of the triangle in the mesh the BVH was built from.
     pub triangle: u32,
+    /// The nearest point itself, on that triangle (world coordinates).
     pub point: DVec3,
     /// Where on that triangle `point` lies (its corner numbering).
     pub feature: Feature,
@@ -401,7 +402,11 @@ impl Bvh {
 /// over the triangles' `f64` corners lies in `value ± error`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WindingBound {
+    /// The winding number estimate: the solid-angle sum over `4π` (1 inside and 0 outside
+    /// a closed, outward-oriented mesh; fractional near the holes of an open one).
     pub value: f64,
+    /// Certified half-width of the interval `value ± error` holding the exact sum. Never
+    /// 0: it includes a rounding allowance of `1e-13 / 4π` per term summed or removed.
     pub error: f64,
     /// Triangles whose solid angle was summed one by one.
     pub exact_triangles: u32,

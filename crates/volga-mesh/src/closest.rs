@@ -9,8 +9,16 @@ use glam::DVec3;
 /// near the surface and which cylinder or sphere a voxelizer uses (Huang et al. 1998).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Feature {
+    /// Corner `k` (0, 1 or 2) itself. Where corners coincide, the first edge (in the order
+    /// 0, 1, 2) that reaches the point names it: a triangle collapsed to a point gives
+    /// `Vertex(0)`.
     Vertex(usize),
+    /// The interior of edge `k` (0 = ab, 1 = bc, 2 = ca), strictly between its corners.
+    /// Degenerate triangles, which have no face, answer with edges and vertices only.
     Edge(usize),
+    /// Strictly inside the triangle: the point is the orthogonal projection onto its
+    /// plane. Never reported for a degenerate triangle (sine of its largest angle
+    /// `≤ 3e-8`).
     Face,
 }
 

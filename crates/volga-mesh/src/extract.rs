@@ -48,14 +48,30 @@ pub const MAX_LATTICE_POINTS_PER_AXIS: u64 = 1 << 20;
 /// Why an extraction was refused (before any sampling).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ExtractError {
+    /// `region` has a NaN or infinite corner, or `min > max` on some axis. A flat box
+    /// (`min == max` on an axis) is accepted: it gets one cell across.
     #[error("extraction region must be finite and non-empty, got {min:?} .. {max:?}")]
-    Region { min: [f64; 3], max: [f64; 3] },
+    Region {
+        /// `region.min` as given.
+        min: [f64; 3],
+        /// `region.max` as given.
+        max: [f64; 3],
+    },
+    /// `cell` is zero, negative, NaN or infinite; holds the value given.
     #[error("extraction cell size must be finite and positive, got {0}")]
     Cell(f64),
+    /// `iso` is NaN or infinite; holds the value given.
     #[error("iso value must be finite, got {0}")]
     Iso(f64),
+    /// The lattice would have more than [`MAX_LATTICE_POINTS_PER_AXIS`] points along some
+    /// axis: use a larger `cell` or a smaller `region`.
     #[error("extraction lattice of {points:?} points is too large (at most {max} per axis)")]
-    TooLarge { points: [u64; 3], max: u64 },
+    TooLarge {
+        /// Lattice points asked for along x, y and z: `⌈size / cell⌉ + 1` per axis.
+        points: [u64; 3],
+        /// The limit, [`MAX_LATTICE_POINTS_PER_AXIS`].
+        max: u64,
+    },
 }
 
 /// Where a vertex is placed on its lattice edge.
@@ -65,7 +81,13 @@ pub enum VertexPlacement {
     Linear,
     /// Linear, then regula falsi on the field until `|value − iso| ≤ tolerance` (in the
     /// field's units) or the bracket is below `1e-9·cell`, at most `max_iterations` steps.
-    Refined { tolerance: f64, max_iterations: u32 },
+    Refined {
+        /// Stop once `|value − iso| ≤ tolerance` (field units); a negative or NaN tolerance
+        /// leaves only the bracket width and `max_iterations` to stop it.
+        tolerance: f64,
+        /// Most field evaluations per vertex; 0 keeps the linear placement.
+        max_iterations: u32,
+    },
 }
 
 /// What to extract: the lattice and the level.
@@ -77,16 +99,25 @@ pub struct Extraction {
     pub cell: f64,
     /// The iso value (0.5 for volga's filtered densities, 0 for signed distances).
     pub iso: f64,
+    /// How a vertex is placed on a lattice edge that crosses `iso`.
     pub placement: VertexPlacement,
 }
 
 /// An extracted surface: the mesh and one unit outward normal per vertex.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Surface {
+    /// The triangles, in world coordinates, counter-clockwise seen from outside; empty if
+    /// the surface does not cross the lattice. Vertices are shared by lattice edge, not by
+    /// position: where the field equals `iso` exactly at a lattice point, the vertices of
+    /// several edges coincide there and zero-area triangles can occur.
     pub mesh: TriMesh,
+    /// One per entry of `mesh.positions`: the field's gradient there, turned outward and
+    /// normalized; zero where the gradient vanishes.
     pub normals: Vec<DVec3>,
-    /// Blocks of 16³ cubes sampled, and skipped by `value_range`.
+    /// Blocks of up to 16³ lattice cubes that were sampled and meshed.
     pub blocks_sampled: u64,
+    /// Blocks skipped without sampling because [`Field::value_range`] put them wholly on
+    /// one side of `iso`.
     pub blocks_skipped: u64,
 }
 

@@ -12,7 +12,13 @@ use crate::InvalidMesh;
 /// split vertices at texture seams and a seam is not a hole.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TriMesh {
+    /// Vertex positions in world coordinates, which `triangles` index. Must be finite
+    /// ([`TriMesh::validate`]); positions no triangle uses are allowed and ignored by the
+    /// queries.
     pub positions: Vec<DVec3>,
+    /// Each triangle as three 0-based indices into `positions`, counter-clockwise seen
+    /// from outside; every index must be `< positions.len()`. Degenerate triangles
+    /// (repeated indices, collinear corners) are allowed.
     pub triangles: Vec<[u32; 3]>,
 }
 
@@ -94,6 +100,7 @@ impl TriMesh {
         TriMesh { positions, triangles }
     }
 
+    /// Number of triangles (`triangles.len()`), degenerate ones included.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
     }
@@ -171,6 +178,7 @@ impl TriMesh {
         TriMesh { positions, triangles }
     }
 
+    /// The mesh with every position moved by `offset` (world units); triangles unchanged.
     pub fn translated(&self, offset: DVec3) -> TriMesh {
         TriMesh {
             positions: self.positions.iter().map(|&p| p + offset).collect(),

@@ -19,6 +19,12 @@ pub struct MeshQueries {
 }
 
 impl MeshQueries {
+    /// Prepares `mesh` for queries: the cones capping its boundary ([`cap_triangles`]) and
+    /// the BVHs of the mesh, the caps and both together ([`CappedWinding::new`]). Copies
+    /// what it needs, so `mesh` is not borrowed. Panics if a triangle index is out of range
+    /// (a mesh from the loaders or [`TriMesh::new`] never has one).
+    ///
+    /// [`cap_triangles`]: crate::cap_triangles
     pub fn new(mesh: &TriMesh) -> MeshQueries {
         MeshQueries {
             capped: CappedWinding::new(mesh),
