@@ -21,7 +21,7 @@ fn docs_cli_md_is_the_binarys_help() {
             .lines()
             .zip(committed.lines())
             .position(|(a, b)| a != b)
-            .map_or_else(|| generated.lines().count().min(committed.lines().count()), |i| i);
+            .unwrap_or_else(|| generated.lines().count().min(committed.lines().count()));
         panic!(
             "docs/CLI.md differs from the binary's help from line {} on:\n  generated: {:?}\n  committed: {:?}\n\
              regenerate: scripts/cli-reference.sh target/release/volga > docs/CLI.md",
