@@ -475,7 +475,7 @@ impl DistanceSource for MeshSource {
     /// first gap above the best squared distance so far (every later triangle is farther
     /// from any point of the cell); a candidate is skipped when its box or, for a
     /// well-shaped triangle, its plane is farther from `p` than the best
-    /// ([`MeshSource::lower_bound_squared`]). Only triangles that cannot lower the minimum
+    /// (`MeshSource::lower_bound_squared`, private). Only triangles that cannot lower the minimum
     /// are skipped, so the value is the plain scan's, bit for bit.
     fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
         if candidates.ids.len() > SCAN_LIMIT {
