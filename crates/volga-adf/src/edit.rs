@@ -23,7 +23,8 @@ use glam::DVec3;
 use volga_core::Aabb;
 
 use crate::source::{CsgOp, DistanceSource, Sample};
-use crate::tree::{corner_position, join, octant, Builder, Cell, Subtree, JUMP_FLAG, LEAF};
+use crate::tree::build::{join, Builder, LocalStats, Subtree};
+use crate::tree::{corner_position, octant, Cell, JUMP_FLAG, LEAF};
 use crate::{Adf, AdfError};
 
 /// What a CSG operation or an edit did.
@@ -155,7 +156,7 @@ impl Adf {
             kept: AtomicUsize::new(0),
             regenerated: AtomicUsize::new(0),
         };
-        let mut local = crate::tree::LocalStats::default();
+        let mut local = LocalStats::default();
         let tree = self.edit_cell(&editor, 0, self.root_min, self.root_size, 0, &mut local)?;
         let stats = EditStats {
             cells_regenerated: editor.regenerated.load(Ordering::Relaxed),
@@ -183,7 +184,7 @@ impl Adf {
         min: DVec3,
         size: f64,
         depth: u8,
-        local: &mut crate::tree::LocalStats,
+        local: &mut LocalStats,
     ) -> Result<Subtree, AdfError> {
         let cell_box = Aabb::new(min, min + DVec3::splat(size));
         let range_a = self.range(&cell_box);

@@ -28,13 +28,15 @@
 //!   which the ADF answers with its own leaf walk ([`Adf::first_crossing_between`]), and
 //!   a tile's rays ask [`volga_core::Field::first_crossings`], answered by the batched
 //!   walk ([`Adf::first_crossings_between`]: the same answers, with [`WALK_WINDOW`] rays'
-//!   memory reads overlapped; [`OneRayWalk`] renders one ray at a time),
+//!   memory reads overlapped; `OneRayWalk` renders one ray at a time),
 //!   other modes sample it and skip empty space with per-cell ranges. The walk runs on an
 //!   index built on the first ray (module `walk`: a 128³ grid of tree nodes with
 //!   conservative minima, each cell's chessboard reach to the nearest cell that can hold
 //!   the surface, 4³-cell blocks, the box of cells that can hold the surface, a compact
 //!   copy of the child links; [`Adf::walk_index_bytes`]); the reference walk
-//!   without it is [`Adf::first_crossing_by_descent`] ([`DescentWalk`] renders with it).
+//!   without it is [`Adf::first_crossing_by_descent`] (`DescentWalk` renders with it).
+//!   `DescentWalk` and `OneRayWalk` are for benchmarks and tests, behind the cargo
+//!   feature `reference-walks`.
 //! * **CSG and edits** ([`Adf::combine`], [`Adf::edit`]): union, intersection and
 //!   difference with another ADF or any source, regenerating only the cells the operation
 //!   can change (the Kizamu approach of Perry & Frisken 2001); counted in [`EditStats`].
@@ -66,6 +68,8 @@ mod field;
 mod measure;
 mod ray;
 mod reach;
+#[cfg(feature = "reference-walks")]
+mod reference_walks;
 mod source;
 #[cfg(test)]
 mod test_rng;
@@ -75,9 +79,11 @@ mod walk;
 pub use edit::EditStats;
 pub use measure::{measure_errors, measure_errors_with_probes, ErrorStats, Probe};
 pub use ray::RayHit;
+#[cfg(feature = "reference-walks")]
+pub use reference_walks::{DescentWalk, OneRayWalk};
 pub use source::{CellCandidates, Csg, CsgOp, DistanceSource, FieldSource, MeshSource, Sample, ShapeSource};
 pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};
-pub use walk::{DescentWalk, OneRayWalk, WALK_WINDOW};
+pub use walk::WALK_WINDOW;
 
 use volga_core::FieldKind;
 
