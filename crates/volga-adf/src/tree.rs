@@ -143,6 +143,7 @@ fn default_max_cells() -> usize {
 pub struct BuildStats {
     /// Cells in the tree (internal and leaves).
     pub cells: usize,
+    /// Leaves among them (plain, pruned and jump leaves).
     pub leaves: usize,
     /// Leaves pruned as far from the surface (all corners of one sign, farther than the
     /// cell's diagonal): no test points were evaluated for them.
@@ -161,8 +162,11 @@ pub struct BuildStats {
 /// Where a point falls in the tree ([`Adf::leaf_at`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeafInfo {
+    /// The leaf's minimum corner (world space).
     pub world_min: DVec3,
+    /// Its edge length (world units): the root's size / 2^depth.
     pub size: f64,
+    /// Its level (the root is level 0).
     pub depth: u8,
     /// A jump leaf (it stores the source's sign field).
     pub jump: bool,
@@ -184,7 +188,7 @@ pub struct Adf {
     pub(crate) root_min: DVec3,
     pub(crate) root_size: f64,
     pub(crate) cells: Vec<Cell>,
-    /// Sign-field corners of the jump leaves (see [`DistanceSource::sign_field`]).
+    /// Sign-field corners of the jump leaves (see [`crate::AdfSource::sign_field`]).
     pub(crate) jumps: Vec<[f32; 8]>,
     pub(crate) options: AdfOptions,
     pub(crate) stats: BuildStats,

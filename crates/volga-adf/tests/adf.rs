@@ -1,7 +1,7 @@
 //! ADF accuracy, signs, CSG, edits, determinism and hard cases, against exact distances.
 
 use glam::DVec3;
-use volga_adf::{Adf, AdfError, AdfOptions, CsgOp, DistanceSource, MeshSource, ShapeSource};
+use volga_adf::{Adf, AdfError, AdfOptions, AdfSource, CsgOp, DistanceSource, MeshSource, ShapeSource};
 use volga_core::Aabb;
 use volga_mesh::{unclean, TriMesh};
 use volga_shapes::{AxisBox, SignedDistance, Sphere, Torus};
@@ -498,7 +498,7 @@ fn mesh_export_is_closed_and_on_the_surface() {
     }
 }
 
-/// A mesh source without its build shortcuts: every `DistanceSource` method the build's
+/// A mesh source without its build shortcuts: every `AdfSource` method the build's
 /// fast paths add (`candidates`, `sample_among`, `sign_field_at`, `inside_in_empty_cell`,
 /// `side_of_empty_cell`) falls back to its default, so each test point asks the BVH and
 /// the certified winding number directly.
@@ -508,6 +508,12 @@ impl DistanceSource for Plain<'_> {
     fn distance(&self, p: DVec3) -> f64 {
         self.0.distance(p)
     }
+    fn bounds(&self) -> Aabb {
+        self.0.bounds()
+    }
+}
+
+impl AdfSource for Plain<'_> {
     fn sample(&self, p: DVec3, near: Option<(DVec3, &volga_adf::Sample)>) -> volga_adf::Sample {
         self.0.sample(p, near)
     }
@@ -516,9 +522,6 @@ impl DistanceSource for Plain<'_> {
     }
     fn may_jump(&self) -> bool {
         self.0.may_jump()
-    }
-    fn bounds(&self) -> Aabb {
-        self.0.bounds()
     }
 }
 

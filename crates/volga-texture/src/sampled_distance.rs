@@ -3,8 +3,7 @@
 
 use glam::{DVec3, IVec3};
 use volga_core::{Aabb, Grid};
-
-use crate::hyper::DistanceSource;
+use volga_shapes::DistanceSource;
 
 /// Signed distances at the voxel centres of `grid` (x fastest). Outside the grid's
 /// sampled box the distance is `+∞` (nothing there).
@@ -92,5 +91,10 @@ impl DistanceSource for SampledDistance {
 
     fn bounds(&self) -> Aabb {
         self.object
+    }
+
+    /// Interpolated samples of a distance transform, not the exact distance.
+    fn is_exact(&self) -> bool {
+        false
     }
 }

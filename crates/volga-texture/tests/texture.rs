@@ -244,7 +244,7 @@ fn hypertexture_regions_and_noise_only_in_soft_band() {
         amplitude: 0.1,
         stretch: DVec3::ONE,
     }];
-    let h = HyperTexture::new(Box::new(ShapeDistance(sphere)), 0.1, chain, 0.02);
+    let h = HyperTexture::new(Box::new(ShapeSource(sphere)), 0.1, chain, 0.02);
     assert_eq!(h.value(DVec3::ZERO), 1.0);
     assert_eq!(h.value(DVec3::new(3.0, 0.0, 0.0)), 0.0);
     assert_eq!(h.noise_evaluations(), 0, "inside and outside cost no noise");

@@ -11,7 +11,7 @@ use super::lattice::{child_of, lattice_index, SampleCache};
 use super::{
     corner_position, trilinear, AdfOptions, BuildStats, Cell, JUMP_FLAG, LEAF, MAX_SUPPORTED_DEPTH, TEST_MARGIN,
 };
-use crate::source::{CellCandidates, DistanceSource, Sample};
+use crate::source::{AdfSource, CellCandidates, Sample};
 use crate::{Adf, AdfError};
 
 /// Levels below the root built as parallel tasks (8³ = 512 tasks at most); deeper
@@ -31,7 +31,7 @@ pub(crate) struct Builder<'a, S: ?Sized> {
     pub max_depth: u8,
     pub max_cells: usize,
     pub band: f64,
-    /// The source's sign may jump away from any surface ([`DistanceSource::may_jump`]).
+    /// The source's sign may jump away from any surface ([`AdfSource::may_jump`]).
     pub may_jump: bool,
     pub cells: AtomicUsize,
     pub evaluations: AtomicU64,
@@ -41,11 +41,11 @@ pub(crate) struct Builder<'a, S: ?Sized> {
     pub lattice_unit: f64,
 }
 
-/// A cell's candidate list ([`DistanceSource::candidates`]), `None` if the source does
+/// A cell's candidate list ([`AdfSource::candidates`]), `None` if the source does
 /// not narrow.
 type Candidates = Option<CellCandidates>;
 
-impl<S: DistanceSource + ?Sized> Builder<'_, S> {
+impl<S: AdfSource + ?Sized> Builder<'_, S> {
     fn count(&self, n: usize) -> Result<(), AdfError> {
         let total = self.cells.fetch_add(n, Ordering::Relaxed) + n;
         if total > self.max_cells {
@@ -59,7 +59,7 @@ impl<S: DistanceSource + ?Sized> Builder<'_, S> {
 
     /// Whether the source proves cheaply that all 19 test points of a cell no surface
     /// meets have the corners' sign (`outside`: all positive): the same answer as sampling
-    /// them ([`DistanceSource::inside_in_empty_cell`]); `false` when it cannot tell.
+    /// them ([`AdfSource::inside_in_empty_cell`]); `false` when it cannot tell.
     fn signs_confirmed(
         &self,
         min: DVec3,
@@ -436,14 +436,14 @@ impl Adf {
     /// cells whose corners are all of one sign and farther than the cell's diagonal are
     /// leaves without tests (no surface can pass through them). The top levels are built
     /// in parallel (rayon); the tree is identical for any thread count.
-    pub fn build<S: DistanceSource + ?Sized>(source: &S, options: AdfOptions) -> Result<Adf, AdfError> {
+    pub fn build<S: AdfSource + ?Sized>(source: &S, options: AdfOptions) -> Result<Adf, AdfError> {
         options.check()?;
         let (root_min, root_size) = root_cube(&source.bounds(), options.margin)?;
         Adf::build_in(source, options, root_min, root_size)
     }
 
     /// [`Adf::build`] on a given root cube.
-    pub(crate) fn build_in<S: DistanceSource + ?Sized>(
+    pub(crate) fn build_in<S: AdfSource + ?Sized>(
         source: &S,
         options: AdfOptions,
         root_min: DVec3,

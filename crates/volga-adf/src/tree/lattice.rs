@@ -8,7 +8,7 @@ use glam::DVec3;
 
 use super::build::Builder;
 use super::corner_position;
-use crate::source::{CellCandidates, DistanceSource, Sample};
+use crate::source::{AdfSource, CellCandidates, Sample};
 use crate::AdfError;
 
 /// Samples already taken in one sequentially built subtree, by lattice point (integer
@@ -25,7 +25,7 @@ pub(crate) struct SampleCache {
     /// centre, three around an edge midpoint. Each entry counts the lookups left and is
     /// dropped at the last, so the map holds the build's frontier, not every sample.
     pub(super) samples: rustc_hash::FxHashMap<[u32; 3], (Sample, u8)>,
-    /// Sign-field values at jump leaves' corners ([`DistanceSource::sign_field_at`]).
+    /// Sign-field values at jump leaves' corners ([`AdfSource::sign_field_at`]).
     pub(super) sign_fields: rustc_hash::FxHashMap<[u32; 3], Option<f64>>,
 }
 
@@ -40,7 +40,7 @@ fn corner_lattice(b: usize) -> usize {
     lattice_index((b & 1) * 2, ((b >> 1) & 1) * 2, ((b >> 2) & 1) * 2)
 }
 
-impl<S: DistanceSource + ?Sized> Builder<'_, S> {
+impl<S: AdfSource + ?Sized> Builder<'_, S> {
     pub fn eval(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Result<Sample, AdfError> {
         self.evaluations.fetch_add(1, Ordering::Relaxed);
         let s = self.source.sample(p, near);

@@ -8,7 +8,7 @@ use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 use volga_core::{Aabb, Field, Grid, Progress, SparseVolume};
 use volga_shapes::Sphere;
-use volga_texture::{edt, HyperTexture, Modulation, SampledDistance, ShapeDistance};
+use volga_texture::{edt, DistanceSource, HyperTexture, Modulation, SampledDistance, ShapeSource};
 
 use super::procedural::{bake_field, NodeCounters, NoiseSpec};
 use super::{bricks_within, Clipped, Estimate, Node, Resolve};
@@ -155,13 +155,13 @@ impl HypertextureNode {
             hyper: None,
         };
         if let Object::Sphere(s) = &node.object {
-            let distance = Box::new(ShapeDistance(*s));
+            let distance = Box::new(ShapeSource(*s));
             node.build(distance, soft_width / 8.0);
         }
         Ok(node)
     }
 
-    fn build(&mut self, distance: Box<dyn volga_texture::DistanceSource>, spacing: f64) {
+    fn build(&mut self, distance: Box<dyn DistanceSource + Send>, spacing: f64) {
         let chain = self.chain.take().unwrap_or_default();
         let mut h = HyperTexture::new(distance, self.soft_width, chain, spacing);
         if let Some(c) = self.colour {
