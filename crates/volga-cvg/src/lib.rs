@@ -32,12 +32,14 @@
 //! ```
 
 mod bake;
+mod error;
 mod op;
 mod radial;
 mod tree;
 mod voxblt;
 
 pub use bake::{bake, BakeStats};
+pub use error::CvgError;
 pub use op::{complement, Attributes, Op};
 pub use radial::{Core, Radial};
 pub use tree::{Cvg, CvgField, Leaf, LeafColour};

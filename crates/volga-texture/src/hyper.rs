@@ -8,7 +8,7 @@ use glam::{DVec3, Vec3};
 use volga_core::{Aabb, Field};
 use volga_shapes::DistanceSource;
 
-use crate::{Counter, SolidNoise};
+use crate::{Counter, SolidNoise, TextureError};
 
 /// Perlin's bias: `t^(ln b / ln ½)`, so `bias(b, ½) = b` and the end points stay put.
 /// Inputs are clamped to \[0, 1\]. Documented values where the power law is undefined or
@@ -151,15 +151,24 @@ impl std::fmt::Debug for HyperTexture {
 }
 
 impl HyperTexture {
-    /// `soft_width > 0` and finite; `sample_spacing`: the length scale rays step by.
+    /// The hypertexture of `distance` with a soft band of half-width `soft_width` shaped
+    /// by `chain`; `sample_spacing` is the length scale rays and gradients step by. Both
+    /// are world units and must be finite and > 0: an argument that is not is refused,
+    /// named with its value ([`TextureError::SoftWidth`], [`TextureError::SampleSpacing`]).
     pub fn new(
         distance: Box<dyn DistanceSource + Send>,
         soft_width: f64,
         chain: Vec<Modulation>,
         sample_spacing: f64,
-    ) -> Self {
+    ) -> Result<Self, TextureError> {
+        if !(soft_width.is_finite() && soft_width > 0.0) {
+            return Err(TextureError::SoftWidth(soft_width));
+        }
+        if !(sample_spacing.is_finite() && sample_spacing > 0.0) {
+            return Err(TextureError::SampleSpacing(sample_spacing));
+        }
         let displacement: f64 = chain.iter().map(Modulation::displacement_bound).sum();
-        HyperTexture {
+        Ok(HyperTexture {
             distance,
             soft_width,
             reach: soft_width + displacement,
@@ -168,7 +177,7 @@ impl HyperTexture {
             step: sample_spacing,
             noise_evaluations: Counter::new(),
             samples: Counter::new(),
-        }
+        })
     }
 
     /// The same hypertexture with one colour everywhere (linear RGB).

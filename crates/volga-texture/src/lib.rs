@@ -20,6 +20,7 @@
 
 mod counter;
 pub mod edt;
+mod error;
 mod fractal;
 mod hyper;
 mod noise_field;
@@ -29,6 +30,7 @@ mod solid;
 mod worley;
 
 pub use counter::Counter;
+pub use error::TextureError;
 pub use fractal::{fill, Fbm, Scaled, SolidNoise, Turbulence};
 pub use hyper::{bias, gain, HyperTexture, Modulation, Region};
 pub use noise_field::NoiseField;
