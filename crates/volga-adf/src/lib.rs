@@ -62,6 +62,9 @@
 //! carry the right sign everywhere (1-Lipschitz argument) but not the tolerance. The
 //! accuracy figures in `docs/ADF.md` are measured at random points against exact distance.
 
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
 mod convert;
 mod cubic;
 mod edit;

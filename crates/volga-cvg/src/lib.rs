@@ -31,6 +31,9 @@
 //! assert!(stats.bricks_visited < 125 && volume.active_voxel_count() > 0);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 mod bake;
 mod error;
 mod op;

@@ -35,6 +35,9 @@
 //! assert_eq!(density.value(DVec3::new(2.0, 0.0, 0.0)), 0.5); // ½ on the surface
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 mod adapters;
 mod filter;
 pub mod shapes;

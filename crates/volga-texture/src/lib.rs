@@ -18,6 +18,9 @@
 //! frequency given. Far from the origin (1e6) values stay finite: lattice coordinates
 //! are wrapped to 8 bits as in the `noise` crate, and the fraction is computed in `f64`.
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 mod counter;
 pub mod edt;
 mod error;

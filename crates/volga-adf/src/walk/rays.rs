@@ -177,8 +177,10 @@ struct RayWalk {
     stage: Stage,
 }
 
-/// Asks for the cache line holding `x` (a hint: no effect on any result).
+/// Asks for the cache line holding `x` (a hint: no effect on any result). The crate's
+/// only `unsafe` code (the crate denies it elsewhere).
 #[inline(always)]
+#[allow(unsafe_code)]
 fn prefetch<T>(x: &T) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: a prefetch never faults and reads nothing architecturally; `x` is a live
