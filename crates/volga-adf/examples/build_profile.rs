@@ -16,7 +16,7 @@ use std::hash::{Hash, Hasher};
 use std::time::Instant;
 
 use glam::DVec3;
-use volga_adf::{Adf, AdfOptions, DistanceSource, MeshSource};
+use volga_adf::{Adf, AdfOptions, AdfSource, MeshSource};
 
 /// CPU seconds of this process so far (user + system, `/proc/self/stat`), 0 where not
 /// readable.

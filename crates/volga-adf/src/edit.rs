@@ -22,8 +22,10 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use glam::DVec3;
 use volga_core::Aabb;
 
-use crate::source::{CsgOp, DistanceSource, Sample};
-use crate::tree::{corner_position, join, octant, Builder, Cell, Subtree, JUMP_FLAG, LEAF};
+use crate::source::{AdfSource, CsgOp, Sample};
+use crate::tree::build::{join, Builder, LocalStats, Subtree};
+use crate::tree::{corner_position, octant, Cell, JUMP_FLAG, LEAF};
+use crate::DistanceSource;
 use crate::{Adf, AdfError};
 
 /// What a CSG operation or an edit did.
@@ -56,6 +58,8 @@ impl<B: DistanceSource + ?Sized> DistanceSource for Combined<'_, B> {
         false
     }
 }
+
+impl<B: DistanceSource + ?Sized> AdfSource for Combined<'_, B> {}
 
 /// Conservative ranges of an operand over a box.
 trait Ranged {
@@ -121,18 +125,18 @@ impl Adf {
     /// Applies a tool (any source: a shape, a mesh, a CSG tree) with `op` in place: carve
     /// with [`CsgOp::Difference`], add with [`CsgOp::Union`]. Only cells the tool can
     /// change are regenerated ([`EditStats`]); the rest are kept bit for bit.
-    pub fn edit<S: DistanceSource + ?Sized>(&mut self, tool: &S, op: CsgOp) -> Result<EditStats, AdfError> {
+    pub fn edit<S: AdfSource + ?Sized>(&mut self, tool: &S, op: CsgOp) -> Result<EditStats, AdfError> {
         let (result, stats) = self.apply(tool, SourceRange(tool), op)?;
         *self = result;
         Ok(stats)
     }
 
     /// An ADF of `source` on this ADF's root cube and options (so the two can be combined).
-    pub fn build_like<S: DistanceSource + ?Sized>(&self, source: &S) -> Result<Adf, AdfError> {
+    pub fn build_like<S: AdfSource + ?Sized>(&self, source: &S) -> Result<Adf, AdfError> {
         Adf::build_in(source, self.options, self.root_min, self.root_size)
     }
 
-    fn apply<B: DistanceSource + ?Sized, R: Ranged + Sync>(
+    fn apply<B: AdfSource + ?Sized, R: Ranged + Sync>(
         &self,
         b: &B,
         ranges: R,
@@ -155,7 +159,7 @@ impl Adf {
             kept: AtomicUsize::new(0),
             regenerated: AtomicUsize::new(0),
         };
-        let mut local = crate::tree::LocalStats::default();
+        let mut local = LocalStats::default();
         let tree = self.edit_cell(&editor, 0, self.root_min, self.root_size, 0, &mut local)?;
         let stats = EditStats {
             cells_regenerated: editor.regenerated.load(Ordering::Relaxed),
@@ -176,14 +180,14 @@ impl Adf {
     }
 
     #[allow(clippy::only_used_in_recursion)]
-    fn edit_cell<B: DistanceSource + ?Sized, R: Ranged + Sync>(
+    fn edit_cell<B: AdfSource + ?Sized, R: Ranged + Sync>(
         &self,
         editor: &Editor<'_, B, R>,
         index: usize,
         min: DVec3,
         size: f64,
         depth: u8,
-        local: &mut crate::tree::LocalStats,
+        local: &mut LocalStats,
     ) -> Result<Subtree, AdfError> {
         let cell_box = Aabb::new(min, min + DVec3::splat(size));
         let range_a = self.range(&cell_box);

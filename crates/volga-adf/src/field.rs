@@ -122,6 +122,10 @@ impl crate::DistanceSource for Adf {
     fn distance(&self, world_pos: DVec3) -> f64 {
         Adf::distance(self, world_pos)
     }
+    /// [`Adf::range`]: the leaves' corner ranges.
+    fn range(&self, world_box: &Aabb) -> (f64, f64) {
+        Adf::range(self, world_box)
+    }
     fn bounds(&self) -> Aabb {
         self.root_box()
     }
@@ -129,3 +133,6 @@ impl crate::DistanceSource for Adf {
         false
     }
 }
+
+/// The build's defaults (its reconstruction has no shortcuts).
+impl crate::AdfSource for Adf {}

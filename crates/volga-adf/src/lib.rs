@@ -9,16 +9,17 @@
 //! whose corners are all of one sign and farther from the surface than the cell's
 //! diagonal are leaves without tests (Frisken's pruning: no surface passes through them).
 //!
-//! * **Build** ([`Adf::build`]) from any [`DistanceSource`]: a triangle mesh
+//! * **Build** ([`Adf::build`]) from any [`AdfSource`] (a [`DistanceSource`] with the
+//!   build's optional shortcuts): a triangle mesh
 //!   ([`MeshSource`]: exact distance, sign by the generalized winding number, proven per
 //!   point, so the open Stanford bunny gets the same inside as the voxelizer's), a shape
 //!   of the geometry layer ([`ShapeSource`]), CSG trees of sources ([`Csg`]), a sampled
 //!   signed-distance volume ([`FieldSource`]), or another ADF. The top levels are built in
 //!   parallel; the tree is identical for any thread count. The build evaluates each
 //!   lattice point once per subtree, lets a source narrow its work per cell
-//!   ([`DistanceSource::candidates`]: a mesh scans the few triangles that can be nearest
+//!   ([`AdfSource::candidates`]: a mesh scans the few triangles that can be nearest
 //!   instead of walking its BVH) and prove a whole far cell's sign at once
-//!   ([`DistanceSource::side_of_empty_cell`]); these change the work, never the tree.
+//!   ([`AdfSource::side_of_empty_cell`]); these change the work, never the tree.
 //! * **Queries**: [`Adf::distance`], [`Adf::gradient`] (the trilinear cell's analytic
 //!   derivative), [`Adf::closest_point`], [`Adf::inside`], [`Adf::range`] (conservative
 //!   bounds over a box), [`Adf::ray_hit`] (the cell structure walked with sphere-tracing
@@ -28,13 +29,15 @@
 //!   which the ADF answers with its own leaf walk ([`Adf::first_crossing_between`]), and
 //!   a tile's rays ask [`volga_core::Field::first_crossings`], answered by the batched
 //!   walk ([`Adf::first_crossings_between`]: the same answers, with [`WALK_WINDOW`] rays'
-//!   memory reads overlapped; [`OneRayWalk`] renders one ray at a time),
+//!   memory reads overlapped; `OneRayWalk` renders one ray at a time),
 //!   other modes sample it and skip empty space with per-cell ranges. The walk runs on an
 //!   index built on the first ray (module `walk`: a 128³ grid of tree nodes with
 //!   conservative minima, each cell's chessboard reach to the nearest cell that can hold
 //!   the surface, 4³-cell blocks, the box of cells that can hold the surface, a compact
 //!   copy of the child links; [`Adf::walk_index_bytes`]); the reference walk
-//!   without it is [`Adf::first_crossing_by_descent`] ([`DescentWalk`] renders with it).
+//!   without it is [`Adf::first_crossing_by_descent`] (`DescentWalk` renders with it).
+//!   `DescentWalk` and `OneRayWalk` are for benchmarks and tests, behind the cargo
+//!   feature `reference-walks`.
 //! * **CSG and edits** ([`Adf::combine`], [`Adf::edit`]): union, intersection and
 //!   difference with another ADF or any source, regenerating only the cells the operation
 //!   can change (the Kizamu approach of Perry & Frisken 2001); counted in [`EditStats`].
@@ -59,6 +62,9 @@
 //! carry the right sign everywhere (1-Lipschitz argument) but not the tolerance. The
 //! accuracy figures in `docs/ADF.md` are measured at random points against exact distance.
 
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
 mod convert;
 mod cubic;
 mod edit;
@@ -66,6 +72,8 @@ mod field;
 mod measure;
 mod ray;
 mod reach;
+#[cfg(feature = "reference-walks")]
+mod reference_walks;
 mod source;
 #[cfg(test)]
 mod test_rng;
@@ -75,33 +83,52 @@ mod walk;
 pub use edit::EditStats;
 pub use measure::{measure_errors, measure_errors_with_probes, ErrorStats, Probe};
 pub use ray::RayHit;
-pub use source::{CellCandidates, Csg, CsgOp, DistanceSource, FieldSource, MeshSource, Sample, ShapeSource};
+#[cfg(feature = "reference-walks")]
+pub use reference_walks::{DescentWalk, OneRayWalk};
+pub use source::{AdfSource, CellCandidates, Csg, CsgOp, FieldSource, MeshSource, Sample};
 pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};
-pub use walk::{DescentWalk, OneRayWalk, WALK_WINDOW};
+/// The signed distance a build samples, and a shape as one (from `volga-shapes`).
+pub use volga_shapes::{DistanceSource, ShapeSource};
+pub use walk::WALK_WINDOW;
 
 use volga_core::FieldKind;
 
 /// Why an ADF could not be built or edited.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum AdfError {
+    /// [`AdfOptions::tolerance`] is not finite and > 0.
     #[error("tolerance must be a finite number > 0, got {0} (a tolerance of 0 would split every curved cell down to the maximum depth)")]
     Tolerance(f64),
+    /// [`AdfOptions::max_depth`] exceeds [`MAX_SUPPORTED_DEPTH`].
     #[error("max_depth {0} exceeds the supported {MAX_SUPPORTED_DEPTH}")]
     Depth(u8),
+    /// [`AdfOptions::band`] is not finite and ≥ 0.
     #[error("band must be finite and ≥ 0, got {0}")]
     Band(f64),
+    /// [`AdfOptions::margin`] is not finite and ≥ 0.
     #[error("margin must be finite and ≥ 0, got {0}")]
     Margin(f64),
+    /// The source has nothing to build a root cube around (no triangles, empty or
+    /// infinite bounds, a single point without a margin).
     #[error("nothing to build from: {0}")]
     EmptySource(String),
+    /// The source's distance at this world point is NaN or infinite.
     #[error("the source's value is not finite at {0:?}")]
     NonFinite([f64; 3]),
+    /// [`FieldSource::new`] was given a field of this kind, not a signed distance.
     #[error("a {0:?} field is not a signed distance")]
     NotADistance(FieldKind),
+    /// The build would hold more than [`AdfOptions::max_cells`] cells.
     #[error(
         "the ADF would exceed {limit} cells ({bytes} bytes needed so far); raise the tolerance or lower max_depth"
     )]
-    TooManyCells { limit: usize, bytes: u64 },
+    TooManyCells {
+        /// [`AdfOptions::max_cells`].
+        limit: usize,
+        /// The cell storage needed when the limit was passed.
+        bytes: u64,
+    },
+    /// [`Adf::combine`] was given ADFs with different root cubes.
     #[error("CSG operands must share their root cube and depth limit (build the second with Adf::build_like)")]
     Mismatched,
 }

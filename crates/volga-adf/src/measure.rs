@@ -13,6 +13,7 @@ pub struct ErrorStats {
     pub points: usize,
     /// Largest `|reconstruction − exact|` over every point.
     pub max: f64,
+    /// Root mean square of `reconstruction − exact` over every point.
     pub rms: f64,
     /// Largest error over points whose leaf is below the maximum depth (where the
     /// tolerance applies; maximum-depth leaves hold the distance's creases and a hole's
@@ -30,6 +31,7 @@ pub struct ErrorStats {
 /// One measured point ([`measure_errors_with_probes`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
+    /// The point (world space).
     pub world_pos: DVec3,
     /// The source's signed distance (world units, negative inside).
     pub exact: f64,

@@ -10,6 +10,7 @@ use crate::Adf;
 pub struct RayHit {
     /// Ray parameter (world distance for a unit direction).
     pub t: f64,
+    /// The point `origin + t·dir` (world space).
     pub world_pos: DVec3,
     /// Unit outward normal (the reconstruction's gradient).
     pub normal: DVec3,

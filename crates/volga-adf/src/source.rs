@@ -7,19 +7,19 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 use volga_core::{Aabb, Field, FieldKind};
 use volga_mesh::{Bvh, CappedWinding, TriMesh};
-use volga_shapes::SignedDistance;
+use volga_shapes::{DistanceSource, ShapeSource, SignedDistance};
 
-/// A signed distance in world units, negative inside, queried at world points.
+/// What the ADF build asks of a source beyond its signed distance ([`DistanceSource`]):
+/// ways to do less work for the same values. Every method has a default that does the
+/// work plainly, so a source that is only a distance implements it empty
+/// (`impl AdfSource for MySource {}`).
 ///
-/// `distance` must be a function of the point alone (deterministic builds). Sources whose
-/// values are exact Euclidean distances (`is_exact`) let the builder prune cells by the
-/// 1-Lipschitz bound (a cell whose corners are all farther than its diagonal contains no
-/// surface); approximate sources (CSG trees, first-order distances) are pruned the same way,
-/// which is the usual ADF convention (Frisken et al. 2000), but the guarantee is then theirs.
-pub trait DistanceSource: Sync {
-    /// Signed distance at `world_pos` (world units, negative inside).
-    fn distance(&self, world_pos: DVec3) -> f64;
-
+/// The builder prunes a cell whose corners are all of one sign and farther from the
+/// surface than its diagonal (the 1-Lipschitz bound: no surface passes through it). For
+/// exact sources ([`DistanceSource::is_exact`]) that is proven; approximate sources (CSG
+/// trees, first-order distances) are pruned the same way, which is the usual ADF
+/// convention (Frisken et al. 2000), but the guarantee is then theirs.
+pub trait AdfSource: DistanceSource {
     /// The distance with what the source learnt on the way ([`Sample`]), given a nearby
     /// point it sampled before (`near`), which it may use to skip work (a mesh carries
     /// the integer part of its winding number over by counting the sheets in between).
@@ -34,14 +34,14 @@ pub trait DistanceSource: Sync {
     /// Narrowing for one cell of the build: the ids of the primitives (a mesh: its
     /// triangles) that can hold the nearest surface point of any point of `cell`, given
     /// `reach`, an upper bound of `|distance|` over the cell, and the parent cell's list
-    /// (`None` at the top). The builder passes the list to [`DistanceSource::sample_among`]
+    /// (`None` at the top). The builder passes the list to [`AdfSource::sample_among`]
     /// for the cell's test points and narrows it again for the children. `None`: the source
     /// does not narrow (the default).
     fn candidates(&self, _cell: &Aabb, _reach: f64, _parent: Option<&CellCandidates>) -> Option<CellCandidates> {
         None
     }
 
-    /// [`DistanceSource::sample`] at a point of a cell whose [`DistanceSource::candidates`]
+    /// [`AdfSource::sample`] at a point of a cell whose [`AdfSource::candidates`]
     /// are `candidates`, with `near` in the same cell. Must return exactly what `sample`
     /// returns (the default calls it).
     fn sample_among(&self, world_pos: DVec3, near: Option<(DVec3, &Sample)>, _candidates: &CellCandidates) -> Sample {
@@ -56,7 +56,7 @@ pub trait DistanceSource: Sync {
         None
     }
 
-    /// [`DistanceSource::sign_field`] at a point whose sample is known (the source may
+    /// [`AdfSource::sign_field`] at a point whose sample is known (the source may
     /// reuse what it learnt); must return the same value (the default calls `sign_field`).
     fn sign_field_at(&self, world_pos: DVec3, _sample: &Sample) -> Option<f64> {
         self.sign_field(world_pos)
@@ -64,7 +64,7 @@ pub trait DistanceSource: Sync {
 
     /// Whether `world_pos` is inside (distance < 0), for a point of a cell that no surface
     /// meets, given a sample `near` in the same cell: the sign alone, cheaper than
-    /// [`DistanceSource::sample`] for sources whose sign can jump ([`DistanceSource::may_jump`]).
+    /// [`AdfSource::sample`] for sources whose sign can jump ([`AdfSource::may_jump`]).
     /// Must agree with the sign of `sample`'s value; `None`: not known cheaply (the
     /// default), the builder samples the point.
     fn inside_in_empty_cell(&self, _world_pos: DVec3, _near: (DVec3, &Sample)) -> Option<bool> {
@@ -73,12 +73,12 @@ pub trait DistanceSource: Sync {
 
     /// Whether every point of `cell`, a cell no surface meets, is inside, proven at once
     /// from a corner's sample (`corner`); `None`: not proven (the default), the builder
-    /// asks [`DistanceSource::inside_in_empty_cell`] at each test point.
+    /// asks [`AdfSource::inside_in_empty_cell`] at each test point.
     fn side_of_empty_cell(&self, _cell: &Aabb, _corner: (DVec3, &Sample)) -> Option<bool> {
         None
     }
 
-    /// [`DistanceSource::side_of_empty_cell`] given the parent cell's candidates
+    /// [`AdfSource::side_of_empty_cell`] given the parent cell's candidates
     /// (`parent`, `None` at the top), whose certified bounds may prove the side without a
     /// query. Must return `None` or the same side (the default calls
     /// `side_of_empty_cell`).
@@ -97,15 +97,9 @@ pub trait DistanceSource: Sync {
     fn may_jump(&self) -> bool {
         false
     }
-    /// World box containing the surface (the zero set); the ADF's root cube encloses it.
-    fn bounds(&self) -> Aabb;
-    /// Whether `distance` is the exact Euclidean signed distance.
-    fn is_exact(&self) -> bool {
-        true
-    }
 }
 
-/// What a source narrowed for one cell of the build ([`DistanceSource::candidates`]).
+/// What a source narrowed for one cell of the build ([`AdfSource::candidates`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CellCandidates {
     /// Ids of the primitives (a mesh: triangle indices) that can hold the nearest surface
@@ -145,14 +139,12 @@ pub struct Sample {
     pub region: Option<i64>,
 }
 
-/// Forwards every [`DistanceSource`] method through a pointer, so `&S` and `Box<S>` can
-/// never silently fall back to a default a new method adds (one list, both impls).
-macro_rules! forward_distance_source {
+/// Forwards every [`AdfSource`] method through a pointer, so `&S` and `Box<S>` can
+/// never silently fall back to a default a new method adds (one list, both impls; their
+/// [`DistanceSource`] methods are forwarded by `volga-shapes` the same way).
+macro_rules! forward_adf_source {
     ($($ptr:ty),*) => {$(
-        impl<S: DistanceSource + ?Sized> DistanceSource for $ptr {
-            fn distance(&self, p: DVec3) -> f64 {
-                (**self).distance(p)
-            }
+        impl<S: AdfSource + ?Sized> AdfSource for $ptr {
             fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
                 (**self).sample(p, near)
             }
@@ -185,33 +177,14 @@ macro_rules! forward_distance_source {
             fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
                 (**self).inside_in_empty_cell(p, near)
             }
-            fn bounds(&self) -> Aabb {
-                (**self).bounds()
-            }
-            fn is_exact(&self) -> bool {
-                (**self).is_exact()
-            }
         }
     )*};
 }
 
-forward_distance_source!(&S, Box<S>);
+forward_adf_source!(&S, Box<S>);
 
-/// A shape of the geometry layer (`volga-shapes`) as a distance source.
-#[derive(Debug, Clone)]
-pub struct ShapeSource<S>(pub S);
-
-impl<S: SignedDistance + Sync> DistanceSource for ShapeSource<S> {
-    fn distance(&self, p: DVec3) -> f64 {
-        self.0.signed_distance(p)
-    }
-    fn bounds(&self) -> Aabb {
-        self.0.bounds()
-    }
-    fn is_exact(&self) -> bool {
-        self.0.is_exact()
-    }
-}
+/// A shape of the geometry layer: the build's defaults (an exact distance, no narrowing).
+impl<S: SignedDistance + Sync> AdfSource for ShapeSource<S> {}
 
 /// A triangle mesh: exact unsigned distance to the nearest triangle (`Bvh::closest`) with
 /// the sign of the generalized winding number, **proven** per point: inside means
@@ -406,6 +379,25 @@ impl DistanceSource for MeshSource {
         self.sample(p, None).value
     }
 
+    /// The 1-Lipschitz bound around the box's centre; for a mesh with holes, whose sign
+    /// may jump away from the surface, only the unsigned distance is 1-Lipschitz, so the
+    /// range is `±(|d| + r)`.
+    fn range(&self, world_box: &Aabb) -> (f64, f64) {
+        let d = self.distance(world_box.center());
+        let r = world_box.size().length() * 0.5;
+        if self.may_jump() {
+            (-(d.abs() + r), d.abs() + r)
+        } else {
+            (d - r, d + r)
+        }
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+}
+
+impl AdfSource for MeshSource {
     /// The unsigned distance to the nearest triangle, and the sign from the winding number
     /// `w = I − w_C` (`volga_mesh::CappedWinding`): the integer `I` is carried over from
     /// `near` by counting the sheets of the mesh and its caps the segment between them
@@ -522,10 +514,6 @@ impl DistanceSource for MeshSource {
         Some(0.5 - self.winding.winding_value(p, 1e-6))
     }
 
-    fn bounds(&self) -> Aabb {
-        self.bounds
-    }
-
     /// `I − w_C` with the sample's certified `I`.
     fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
         Some(match sample.region {
@@ -549,7 +537,7 @@ impl DistanceSource for MeshSource {
     /// The parent's certified bounds of `w_C` (over a ball holding the cell and meeting
     /// no cap) decide the side when they clear the corner's `I − ½`: no mesh sheet meets
     /// the cell (the corner is farther than its diagonal) and no cap does, so `I` is the
-    /// corner's everywhere in it. Otherwise [`DistanceSource::side_of_empty_cell`].
+    /// corner's everywhere in it. Otherwise [`AdfSource::side_of_empty_cell`].
     fn side_of_empty_cell_in(
         &self,
         cell: &Aabb,
@@ -587,6 +575,8 @@ impl DistanceSource for MeshSource {
 pub struct FieldSource<F>(F);
 
 impl<F: Field> FieldSource<F> {
+    /// `field` as a source; refused ([`crate::AdfError::NotADistance`]) unless its kind
+    /// is [`FieldKind::SignedDistance`].
     pub fn new(field: F) -> Result<Self, crate::AdfError> {
         if field.kind() != FieldKind::SignedDistance {
             return Err(crate::AdfError::NotADistance(field.kind()));
@@ -607,18 +597,25 @@ impl<F: Field> DistanceSource for FieldSource<F> {
     }
 }
 
+/// The build's defaults (a sampled field has no shortcuts).
+impl<F: Field> AdfSource for FieldSource<F> {}
+
 /// A CSG operator on signed distances: union `min`, intersection `max`, difference
 /// `max(a, −b)`. The result is exact outside a union and inside an intersection and a
 /// conservative (never larger in magnitude) bound elsewhere, the standard CSG of distance
 /// fields; the zero set is exactly the CSG surface.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum CsgOp {
+    /// `min(a, b)`: inside either.
     Union,
+    /// `max(a, b)`: inside both.
     Intersection,
+    /// `max(a, −b)`: inside `a` and outside `b`.
     Difference,
 }
 
 impl CsgOp {
+    /// The combined signed distance of `a` and `b`.
     #[inline]
     pub fn apply(self, a: f64, b: f64) -> f64 {
         match self {
@@ -643,8 +640,11 @@ impl CsgOp {
 /// Two sources combined by a [`CsgOp`]: a CSG tree node (nest them for trees).
 #[derive(Debug, Clone)]
 pub struct Csg<A, B> {
+    /// The operator.
     pub op: CsgOp,
+    /// The first operand (the one a difference keeps).
     pub a: A,
+    /// The second operand (the one a difference removes).
     pub b: B,
 }
 
@@ -652,10 +652,10 @@ impl<A: DistanceSource, B: DistanceSource> DistanceSource for Csg<A, B> {
     fn distance(&self, p: DVec3) -> f64 {
         self.op.apply(self.a.distance(p), self.b.distance(p))
     }
-    /// The operands' sign fields are not combined (a jump of either operand survives only
-    /// where it decides the result); `None`.
-    fn sign_field(&self, _p: DVec3) -> Option<f64> {
-        None
+    /// The operator applied to the operands' ranges ([`CsgOp::apply_range`]: the
+    /// operators are monotone in each operand, so this contains every value).
+    fn range(&self, world_box: &Aabb) -> (f64, f64) {
+        self.op.apply_range(self.a.range(world_box), self.b.range(world_box))
     }
     fn bounds(&self) -> Aabb {
         let (a, b) = (self.a.bounds(), self.b.bounds());
@@ -674,5 +674,13 @@ impl<A: DistanceSource, B: DistanceSource> DistanceSource for Csg<A, B> {
     }
     fn is_exact(&self) -> bool {
         false
+    }
+}
+
+impl<A: DistanceSource, B: DistanceSource> AdfSource for Csg<A, B> {
+    /// The operands' sign fields are not combined (a jump of either operand survives only
+    /// where it decides the result); `None`.
+    fn sign_field(&self, _p: DVec3) -> Option<f64> {
+        None
     }
 }

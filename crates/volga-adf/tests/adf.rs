@@ -1,7 +1,7 @@
 //! ADF accuracy, signs, CSG, edits, determinism and hard cases, against exact distances.
 
 use glam::DVec3;
-use volga_adf::{Adf, AdfError, AdfOptions, CsgOp, DistanceSource, MeshSource, ShapeSource};
+use volga_adf::{Adf, AdfError, AdfOptions, AdfSource, CsgOp, DistanceSource, MeshSource, ShapeSource};
 use volga_core::Aabb;
 use volga_mesh::{unclean, TriMesh};
 use volga_shapes::{AxisBox, SignedDistance, Sphere, Torus};
@@ -95,8 +95,64 @@ fn sphere_reconstruction_matches_at_test_points_and_gradients_are_unit() {
         // Closest point lands on the sphere within the tolerance (plus the gradient error).
         let c = adf.closest_point(p);
         assert!((c.length() - 1.0).abs() < 2e-3, "closest point {c} of {p}");
-        assert_eq!(adf.inside(p), p.length() <= 1.0 || adf.distance(p) <= 0.0);
     }
+}
+
+/// `inside` against the exact sign, both ways: at random points near a sphere, inside
+/// ⇒ the exact distance is ≤ 0 and exact distance ≤ 0 ⇒ inside, for every point farther
+/// from the surface than the tolerance (the reconstruction is within it there, so the
+/// signs must agree); on an axis-aligned box's face, where the reconstruction of the
+/// linear distance is exact (dyadic corners and points), the same at ties (exact
+/// distance 0: inside) and one 2⁻²⁰ step off the face on either side.
+#[test]
+fn inside_agrees_with_the_exact_sign_both_ways() {
+    let tolerance = 1e-4;
+    let sphere = Sphere::new(DVec3::ZERO, 1.0).unwrap();
+    let adf = Adf::build(&ShapeSource(sphere), options(tolerance, 12)).unwrap();
+    let mut rng = Rng(5);
+    let (mut inside, mut outside) = (0, 0);
+    for _ in 0..20_000 {
+        let dir = rng.unit();
+        let p = dir * (1.0 + 4.0 * tolerance * (2.0 * rng.next() - 1.0));
+        let exact = sphere.signed_distance(p);
+        if exact.abs() <= tolerance {
+            continue;
+        }
+        let reference = exact <= 0.0;
+        assert_eq!(
+            adf.inside(p),
+            reference,
+            "{p}: exact {exact:e}, reconstructed {:e}",
+            adf.distance(p)
+        );
+        inside += reference as usize;
+        outside += !reference as usize;
+    }
+    assert!(inside > 5000 && outside > 5000, "{inside} inside, {outside} outside");
+
+    // The face x = 0.5 of a box: the distance is x − 0.5 near the face's centre.
+    let cube = AxisBox::new(DVec3::new(-0.5, -0.5, -0.5), DVec3::new(0.5, 0.5, 0.5)).unwrap();
+    let adf = Adf::build(&ShapeSource(cube), options(1e-3, 8)).unwrap();
+    let step = 2f64.powi(-20);
+    let mut ties = 0;
+    for j in -4..=4 {
+        for k in -4..=4 {
+            let on_face = DVec3::new(0.5, j as f64 / 32.0, k as f64 / 32.0);
+            for (p, reference) in [
+                (on_face, true),
+                (on_face - DVec3::X * step, true),
+                (on_face + DVec3::X * step, false),
+            ] {
+                let exact = cube.signed_distance(p);
+                assert_eq!(exact <= 0.0, reference, "{p}: exact {exact:e}");
+                // The reconstruction is exact here, ties included.
+                assert_eq!(adf.distance(p), exact, "{p}");
+                assert_eq!(adf.inside(p), reference, "{p}: exact and reconstructed {exact:e}");
+                ties += (exact == 0.0) as usize;
+            }
+        }
+    }
+    assert_eq!(ties, 81);
 }
 
 #[test]
@@ -498,7 +554,7 @@ fn mesh_export_is_closed_and_on_the_surface() {
     }
 }
 
-/// A mesh source without its build shortcuts: every `DistanceSource` method the build's
+/// A mesh source without its build shortcuts: every `AdfSource` method the build's
 /// fast paths add (`candidates`, `sample_among`, `sign_field_at`, `inside_in_empty_cell`,
 /// `side_of_empty_cell`) falls back to its default, so each test point asks the BVH and
 /// the certified winding number directly.
@@ -508,6 +564,12 @@ impl DistanceSource for Plain<'_> {
     fn distance(&self, p: DVec3) -> f64 {
         self.0.distance(p)
     }
+    fn bounds(&self) -> Aabb {
+        self.0.bounds()
+    }
+}
+
+impl AdfSource for Plain<'_> {
     fn sample(&self, p: DVec3, near: Option<(DVec3, &volga_adf::Sample)>) -> volga_adf::Sample {
         self.0.sample(p, near)
     }
@@ -516,9 +578,6 @@ impl DistanceSource for Plain<'_> {
     }
     fn may_jump(&self) -> bool {
         self.0.may_jump()
-    }
-    fn bounds(&self) -> Aabb {
-        self.0.bounds()
     }
 }
 

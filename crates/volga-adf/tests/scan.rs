@@ -6,7 +6,7 @@
 //! self-intersecting, overlapping, degenerate), a mesh of slivers and a mesh at 1e6.
 
 use glam::DVec3;
-use volga_adf::{DistanceSource, MeshSource};
+use volga_adf::{AdfSource, MeshSource};
 use volga_core::Aabb;
 use volga_mesh::{unclean, TriMesh};
 

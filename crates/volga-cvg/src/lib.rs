@@ -31,13 +31,18 @@
 //! assert!(stats.bricks_visited < 125 && volume.active_voxel_count() > 0);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 mod bake;
+mod error;
 mod op;
 mod radial;
 mod tree;
 mod voxblt;
 
 pub use bake::{bake, BakeStats};
+pub use error::CvgError;
 pub use op::{complement, Attributes, Op};
 pub use radial::{Core, Radial};
 pub use tree::{Cvg, CvgField, Leaf, LeafColour};

@@ -7,6 +7,8 @@
 use glam::DVec3;
 use volga_core::{Aabb, Field};
 
+use crate::CvgError;
+
 /// Where the density is measured from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Core {
@@ -15,8 +17,11 @@ pub enum Core {
     /// An axis through `center` along the unit `axis`: a fuzzy cylinder reaching
     /// `half_length` along the axis (density 0 beyond the caps).
     Axis {
+        /// The cylinder's centre (world space).
         center: DVec3,
+        /// Its direction (normalized by [`Radial::new`]).
         axis: DVec3,
+        /// Half its length along the axis (world units).
         half_length: f64,
     },
 }
@@ -30,24 +35,45 @@ pub struct Radial {
 }
 
 impl Radial {
-    /// `None` unless `radius > 0`, the axis non-zero and everything finite.
-    pub fn new(core: Core, radius: f64, sample_spacing: f64) -> Option<Self> {
+    /// The primitive of `core` whose density reaches 0 at `radius` (world units) from
+    /// it; `sample_spacing` (world units) is the central-difference step of its gradient.
+    /// Everything must be finite, `radius`, `sample_spacing` and a cylinder's
+    /// `half_length` > 0 and its `axis` non-zero (it is normalized); the first argument
+    /// that is not is refused, named with its value ([`CvgError`]).
+    pub fn new(core: Core, radius: f64, sample_spacing: f64) -> Result<Self, CvgError> {
         let core = match core {
-            Core::Point(c) => c.is_finite().then_some(Core::Point(c))?,
+            Core::Point(c) => {
+                if !c.is_finite() {
+                    return Err(CvgError::Center(c));
+                }
+                Core::Point(c)
+            }
             Core::Axis {
                 center,
                 axis,
                 half_length,
             } => {
-                let axis = axis.try_normalize()?;
-                (center.is_finite() && half_length > 0.0 && half_length.is_finite()).then_some(Core::Axis {
+                let unit = axis.try_normalize().ok_or(CvgError::Axis(axis))?;
+                if !center.is_finite() {
+                    return Err(CvgError::Center(center));
+                }
+                if !(half_length > 0.0 && half_length.is_finite()) {
+                    return Err(CvgError::HalfLength(half_length));
+                }
+                Core::Axis {
                     center,
-                    axis,
+                    axis: unit,
                     half_length,
-                })?
+                }
             }
         };
-        (radius > 0.0 && radius.is_finite() && sample_spacing > 0.0).then_some(Radial {
+        if !(radius > 0.0 && radius.is_finite()) {
+            return Err(CvgError::Radius(radius));
+        }
+        if !(sample_spacing > 0.0 && sample_spacing.is_finite()) {
+            return Err(CvgError::SampleSpacing(sample_spacing));
+        }
+        Ok(Radial {
             core,
             radius,
             step: sample_spacing,

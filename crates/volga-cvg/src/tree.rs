@@ -16,7 +16,12 @@ pub enum LeafColour {
     Constant(Vec3),
     /// A scalar field of colour: `outer` at density 0 to `inner` at density 1, linear in
     /// the leaf's density (figure 41's "colour from a simple scalar field").
-    Ramp { outer: Vec3, inner: Vec3 },
+    Ramp {
+        /// The colour at density 0.
+        outer: Vec3,
+        /// The colour at density 1.
+        inner: Vec3,
+    },
 }
 
 /// A spatial object: a density field (clamped to \[0, 1\]) with attributes.
@@ -27,6 +32,8 @@ pub struct Leaf<'a> {
 }
 
 impl<'a> Leaf<'a> {
+    /// A leaf of `field`'s density, its colour from the field ([`LeafColour::FromField`]),
+    /// material 0.
     pub fn new(field: Box<dyn Field + 'a>) -> Self {
         Leaf {
             field,
@@ -35,11 +42,13 @@ impl<'a> Leaf<'a> {
         }
     }
 
+    /// The same leaf coloured by `colour`.
     pub fn with_colour(mut self, colour: LeafColour) -> Self {
         self.colour = colour;
         self
     }
 
+    /// The same leaf with material id `material`.
     pub fn with_material(mut self, material: u16) -> Self {
         self.material = material;
         self
@@ -75,9 +84,19 @@ fn clamp01(x: f64) -> f64 {
 
 /// A node of a CVG tree.
 pub enum Cvg<'a> {
+    /// A spatial object.
     Leaf(Leaf<'a>),
+    /// The complement `1 − d` of a subtree.
     Complement(Box<Cvg<'a>>),
-    Binary { op: Op, a: Box<Cvg<'a>>, b: Box<Cvg<'a>> },
+    /// A binary operator over two subtrees.
+    Binary {
+        /// The operator.
+        op: Op,
+        /// Its operand `A`.
+        a: Box<Cvg<'a>>,
+        /// Its operand `B`.
+        b: Box<Cvg<'a>>,
+    },
 }
 
 impl std::fmt::Debug for Cvg<'_> {
@@ -91,10 +110,12 @@ impl std::fmt::Debug for Cvg<'_> {
 }
 
 impl<'a> Cvg<'a> {
+    /// A leaf of `field` ([`Leaf::new`]).
     pub fn leaf(field: impl Field + 'a) -> Self {
         Cvg::Leaf(Leaf::new(Box::new(field)))
     }
 
+    /// `op(a, b)`.
     pub fn op(op: Op, a: Cvg<'a>, b: Cvg<'a>) -> Self {
         Cvg::Binary {
             op,
@@ -103,6 +124,7 @@ impl<'a> Cvg<'a> {
         }
     }
 
+    /// The complement of `a`.
     #[allow(clippy::should_implement_trait)]
     pub fn not(a: Cvg<'a>) -> Self {
         Cvg::Complement(Box::new(a))
@@ -249,6 +271,7 @@ impl<'a> CvgField<'a> {
         }
     }
 
+    /// The tree it samples.
     pub fn tree(&self) -> &Cvg<'a> {
         &self.tree
     }

@@ -333,3 +333,61 @@ fn bake_identical_for_one_and_two_threads() {
     };
     assert_eq!(run(1), run(2));
 }
+
+/// Each requirement of `Radial::new` is checked: the argument that breaks it is refused
+/// with its name and value, and arguments that meet it are accepted.
+#[test]
+fn radial_refuses_what_its_docs_rule_out() {
+    let point = Core::Point(DVec3::ZERO);
+    let axis = |center: DVec3, axis: DVec3, half_length: f64| Core::Axis {
+        center,
+        axis,
+        half_length,
+    };
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let err = Radial::new(point, bad, 0.1).unwrap_err();
+        assert!(
+            err.to_string().starts_with("radius must be finite and > 0, got "),
+            "{err}"
+        );
+        let err = Radial::new(point, 1.0, bad).unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with("sample_spacing must be finite and > 0, got "),
+            "{err}"
+        );
+        let err = Radial::new(axis(DVec3::ZERO, DVec3::Y, bad), 1.0, 0.1).unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with("core half_length must be finite and > 0, got "),
+            "{err}"
+        );
+        assert!(err.to_string().ends_with(&bad.to_string()), "{err}");
+    }
+    assert_eq!(Radial::new(point, -2.0, 0.1).unwrap_err(), CvgError::Radius(-2.0));
+    assert_eq!(Radial::new(point, 1.0, 0.0).unwrap_err(), CvgError::SampleSpacing(0.0));
+    let far = DVec3::new(f64::INFINITY, 0.0, 0.0);
+    assert_eq!(
+        Radial::new(Core::Point(far), 1.0, 0.1).unwrap_err(),
+        CvgError::Center(far)
+    );
+    assert_eq!(
+        Radial::new(axis(far, DVec3::Y, 1.0), 1.0, 0.1).unwrap_err(),
+        CvgError::Center(far)
+    );
+    for bad in [DVec3::ZERO, DVec3::new(f64::NAN, 1.0, 0.0), DVec3::splat(1e-320)] {
+        let err = Radial::new(axis(DVec3::ZERO, bad, 1.0), 1.0, 0.1).unwrap_err();
+        assert!(matches!(err, CvgError::Axis(a) if a.to_array().map(f64::to_bits) == bad.to_array().map(f64::to_bits)));
+        assert!(
+            err.to_string()
+                .starts_with("core axis must be a finite non-zero vector, got "),
+            "{err}"
+        );
+    }
+    assert_eq!(
+        Radial::new(axis(DVec3::ZERO, DVec3::new(0.0, 2.0, 0.0), 0.0), 1.0, 0.1).unwrap_err(),
+        CvgError::HalfLength(0.0)
+    );
+    assert!(Radial::new(point, 1e-9, 1e-9).is_ok());
+    assert!(Radial::new(axis(DVec3::ONE, DVec3::new(0.0, 2.0, 0.0), 0.5), 1.0, 0.1).is_ok());
+}

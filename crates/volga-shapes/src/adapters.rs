@@ -10,7 +10,7 @@ use crate::{OrientedBoxFilter, SignedDistance};
 
 /// Conservative `(min, max)` of a signed distance over a world box: the value at the
 /// centre ± the half-diagonal for exact (1-Lipschitz) distances, unbounded otherwise.
-fn distance_range<S: SignedDistance>(shape: &S, world_box: &Aabb) -> (f64, f64) {
+pub(crate) fn distance_range<S: SignedDistance>(shape: &S, world_box: &Aabb) -> (f64, f64) {
     if !shape.is_exact() {
         return (f64::NEG_INFINITY, f64::INFINITY);
     }
@@ -45,6 +45,7 @@ impl<S: SignedDistance> FilteredDensity<S> {
         self
     }
 
+    /// The shape whose density this is.
     pub fn shape(&self) -> &S {
         &self.shape
     }
@@ -96,6 +97,7 @@ impl<S: SignedDistance> DistanceField<S> {
         }
     }
 
+    /// The shape whose distance this is.
     pub fn shape(&self) -> &S {
         &self.shape
     }

@@ -28,6 +28,7 @@ impl OrientedBoxFilter {
         (half_width_world.is_finite() && half_width_world > 0.0).then_some(OrientedBoxFilter { half_width_world })
     }
 
+    /// The half-width `W/2` (world units): density is 1 at `d ≤ −W/2`, 0 at `d ≥ W/2`.
     pub fn half_width(&self) -> f64 {
         self.half_width_world
     }

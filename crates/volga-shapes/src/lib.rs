@@ -11,6 +11,9 @@
 //!   shapes added in their own file ([`Torus`]).
 //! * [`OrientedBoxFilter`]: the oriented box filter of Sramek & Kaufman (survey §17.4):
 //!   density `clamp(½ − d/W, 0, 1)` of a signed distance `d`.
+//! * [`DistanceSource`]: what the tools that consume a signed distance (ADFs,
+//!   hypertextures) ask of it — the distance, conservative ranges over boxes, bounds,
+//!   exactness — and [`ShapeSource`], any [`SignedDistance`] as one.
 //! * Adapters that make any signed distance a [`volga_core::Field`] the raycaster can
 //!   render: [`FilteredDensity`] (distance → filtered density, the value voxelizers
 //!   store) and [`DistanceField`] (the distance itself), and [`Negated`] (flip a
@@ -32,9 +35,13 @@
 //! assert_eq!(density.value(DVec3::new(2.0, 0.0, 0.0)), 0.5); // ½ on the surface
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 mod adapters;
 mod filter;
 pub mod shapes;
+mod source;
 mod torus;
 
 pub use adapters::{DistanceField, FilteredDensity, Negated};
@@ -42,4 +49,5 @@ pub use filter::OrientedBoxFilter;
 pub use shapes::{
     AxisBox, Capsule, Cone, Cylinder, Ellipsoid, InvalidShape, OrientedBox, Quadric, Shape, SignedDistance, Sphere,
 };
+pub use source::{DistanceSource, ShapeSource};
 pub use torus::Torus;

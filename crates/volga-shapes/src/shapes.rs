@@ -9,6 +9,7 @@ use volga_core::Aabb;
 /// An exact Euclidean signed distance: `|d(p) − d(q)| ≤ |p − q|` (1-Lipschitz), which
 /// the brick classifier relies on.
 pub trait SignedDistance {
+    /// Signed distance from `world_pos` to the surface (world units, negative inside).
     fn signed_distance(&self, world_pos: DVec3) -> f64;
     /// Tight world bounds of the solid (may be infinite for unbounded quadrics).
     fn bounds(&self) -> Aabb;
@@ -29,7 +30,10 @@ pub trait SignedDistance {
 
 /// Why a shape's parameters were refused.
 #[derive(Debug, Clone, PartialEq)]
-pub struct InvalidShape(pub &'static str);
+pub struct InvalidShape(
+    /// Which parameter and what it must be (`"radius must be finite and > 0"`).
+    pub &'static str,
+);
 
 impl std::fmt::Display for InvalidShape {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -47,6 +51,7 @@ fn finite(v: DVec3, what: &'static str) -> Result<DVec3, InvalidShape> {
     }
 }
 
+/// A ball of `radius` around `center`. Exact distance.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sphere {
     center: DVec3,
@@ -54,6 +59,7 @@ pub struct Sphere {
 }
 
 impl Sphere {
+    /// A sphere; `center` finite, `radius` finite and > 0.
     pub fn new(center: DVec3, radius: f64) -> Result<Self, InvalidShape> {
         if !(radius.is_finite() && radius > 0.0) {
             return Err(InvalidShape("radius must be finite and > 0"));
@@ -63,9 +69,11 @@ impl Sphere {
             radius,
         })
     }
+    /// The centre (world space).
     pub fn center(&self) -> DVec3 {
         self.center
     }
+    /// The radius (world units).
     pub fn radius(&self) -> f64 {
         self.radius
     }
@@ -104,6 +112,7 @@ pub struct AxisBox {
 }
 
 impl AxisBox {
+    /// The box between `min` and `max` (finite, `min < max` on every axis).
     pub fn new(min: DVec3, max: DVec3) -> Result<Self, InvalidShape> {
         finite(min, "min must be finite")?;
         finite(max, "max must be finite")?;
@@ -137,6 +146,8 @@ pub struct OrientedBox {
 }
 
 impl OrientedBox {
+    /// A box; `center` finite, `half_extents` finite and > 0, `rotation` a finite
+    /// non-zero quaternion (normalized here).
     pub fn new(center: DVec3, half_extents: DVec3, rotation: DQuat) -> Result<Self, InvalidShape> {
         finite(center, "center must be finite")?;
         if !half_extents.is_finite() || half_extents.cmple(DVec3::ZERO).any() {
@@ -172,13 +183,21 @@ impl SignedDistance for OrientedBox {
 /// The closed set of analytic shapes, dispatched once per brick (not per sample).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Shape {
+    /// A [`Sphere`].
     Sphere(Sphere),
+    /// An [`AxisBox`].
     AxisBox(AxisBox),
+    /// An [`OrientedBox`].
     OrientedBox(OrientedBox),
+    /// An [`Ellipsoid`].
     Ellipsoid(Ellipsoid),
+    /// A [`Cylinder`].
     Cylinder(Cylinder),
+    /// A [`Cone`].
     Cone(Cone),
+    /// A [`Quadric`] (first-order distance: not exact).
     Quadric(Quadric),
+    /// A [`Capsule`].
     Capsule(Capsule),
 }
 
@@ -237,6 +256,8 @@ pub struct Ellipsoid {
 }
 
 impl Ellipsoid {
+    /// An ellipsoid; `center` finite, `radii` finite and > 0, `rotation` a finite non-zero
+    /// quaternion (normalized here).
     pub fn new(center: DVec3, radii: DVec3, rotation: DQuat) -> Result<Self, InvalidShape> {
         finite(center, "center must be finite")?;
         if !radii.is_finite() || radii.cmple(DVec3::ZERO).any() {
@@ -404,6 +425,8 @@ pub struct Cylinder {
 }
 
 impl Cylinder {
+    /// A cylinder; `center` and `axis` finite, `axis` non-zero (normalized here),
+    /// `radius` and a given `half_length` finite and > 0.
     pub fn new(center: DVec3, axis: DVec3, radius: f64, half_length: Option<f64>) -> Result<Self, InvalidShape> {
         finite(center, "center must be finite")?;
         let axis = finite(axis, "axis must be finite")?;
@@ -464,6 +487,8 @@ pub struct Cone {
 }
 
 impl Cone {
+    /// A cone; `apex` and `axis` finite, `axis` non-zero (normalized here),
+    /// `half_angle_rad` in (0, π/2), a given `height` finite and > 0.
     pub fn new(apex: DVec3, axis: DVec3, half_angle_rad: f64, height: Option<f64>) -> Result<Self, InvalidShape> {
         finite(apex, "apex must be finite")?;
         let axis = finite(axis, "axis must be finite")?;
@@ -553,6 +578,7 @@ pub struct Capsule {
 }
 
 impl Capsule {
+    /// A capsule; `a` and `b` finite, `radius` finite and > 0.
     pub fn new(a: DVec3, b: DVec3, radius: f64) -> Result<Self, InvalidShape> {
         finite(a, "a must be finite")?;
         finite(b, "b must be finite")?;
@@ -592,6 +618,8 @@ pub struct Quadric {
 }
 
 impl Quadric {
+    /// The quadric `xᵀAx + bᵀx + c ≤ 0` clipped by `clip`; `A`, `b`, `c` finite, not
+    /// both `A` and `b` zero (only `A`'s symmetric part is kept).
     pub fn new(a: DMat3, b: DVec3, c: f64, clip: AxisBox) -> Result<Self, InvalidShape> {
         if !(a.is_finite() && b.is_finite() && c.is_finite()) {
             return Err(InvalidShape("A, b and c must be finite"));

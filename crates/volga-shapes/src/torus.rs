@@ -44,18 +44,22 @@ impl Torus {
         })
     }
 
+    /// The centre (world space).
     pub fn center(&self) -> DVec3 {
         self.center
     }
 
+    /// The unit axis of revolution.
     pub fn axis(&self) -> DVec3 {
         self.axis
     }
 
+    /// Distance from the centre to the tube's centre circle (world units).
     pub fn major_radius(&self) -> f64 {
         self.major_radius
     }
 
+    /// The tube's radius (world units).
     pub fn minor_radius(&self) -> f64 {
         self.minor_radius
     }

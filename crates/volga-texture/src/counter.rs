@@ -17,10 +17,12 @@ pub struct Counter {
 }
 
 impl Counter {
+    /// A counter at 0.
     pub fn new() -> Self {
         Self::default()
     }
 
+    /// Adds `n` events (to the calling rayon worker's slot).
     #[inline]
     pub fn add(&self, n: u64) {
         let i = rayon::current_thread_index().unwrap_or(0) % SLOTS;
@@ -32,6 +34,7 @@ impl Counter {
         self.slots.iter().map(|s| s.0.load(Ordering::Relaxed)).sum()
     }
 
+    /// Sets every slot back to 0.
     pub fn reset(&self) {
         for s in &self.slots {
             s.0.store(0, Ordering::Relaxed);

@@ -54,6 +54,7 @@ impl Fbm {
         }
     }
 
+    /// The number of octaves (after clamping).
     pub fn octaves(&self) -> usize {
         self.octaves.len()
     }
@@ -113,6 +114,8 @@ impl Turbulence {
         self.octaves
     }
 
+    /// Turbulence of the Perlin noise of `seed`: `octaves` (clamped to 1..=32) octaves,
+    /// the first at `frequency` (per world unit).
     pub fn new(seed: u32, octaves: u32, frequency: f64) -> Self {
         Turbulence {
             noise: Perlin::new(seed),
@@ -168,6 +171,7 @@ pub struct Scaled {
 }
 
 impl Scaled {
+    /// The Perlin noise of `seed` at `frequency` (per world unit).
     pub fn new(seed: u32, frequency: f64) -> Self {
         Scaled {
             noise: Perlin::new(seed),

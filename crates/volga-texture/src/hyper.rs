@@ -6,9 +6,9 @@
 
 use glam::{DVec3, Vec3};
 use volga_core::{Aabb, Field};
-use volga_shapes::SignedDistance;
+use volga_shapes::DistanceSource;
 
-use crate::{Counter, SolidNoise};
+use crate::{Counter, SolidNoise, TextureError};
 
 /// Perlin's bias: `t^(ln b / ln ½)`, so `bias(b, ½) = b` and the end points stay put.
 /// Inputs are clamped to \[0, 1\]. Documented values where the power law is undefined or
@@ -52,53 +52,36 @@ fn clamp01(x: f64) -> f64 {
     }
 }
 
-/// A signed distance (world units, negative inside) with conservative ranges per box.
-pub trait DistanceSource: Send + Sync + std::fmt::Debug {
-    fn distance(&self, p: DVec3) -> f64;
-    /// `(lo, hi)` containing the distance over the box.
-    fn range(&self, world_box: &Aabb) -> (f64, f64);
-    /// Where the distance is negative (the object).
-    fn bounds(&self) -> Aabb;
-}
-
-/// An analytic shape's exact signed distance (1-Lipschitz ranges).
-#[derive(Debug, Clone)]
-pub struct ShapeDistance<S>(pub S);
-
-impl<S: SignedDistance + Send + Sync + std::fmt::Debug> DistanceSource for ShapeDistance<S> {
-    fn distance(&self, p: DVec3) -> f64 {
-        self.0.signed_distance(p)
-    }
-    fn range(&self, world_box: &Aabb) -> (f64, f64) {
-        if !self.0.is_exact() {
-            return (f64::NEG_INFINITY, f64::INFINITY);
-        }
-        let d = self.0.signed_distance(world_box.center());
-        let r = world_box.size().length() * 0.5;
-        (d - r, d + r)
-    }
-    fn bounds(&self) -> Aabb {
-        self.0.bounds()
-    }
-}
-
 /// One step of a modulation chain.
 #[derive(Debug)]
 pub enum Modulation {
     /// Moves the surface: `d ← d − amplitude · noise(p ⊙ stretch)` (noisy sphere;
     /// fire with turbulence stretched along the flame).
     Displace {
+        /// The noise.
         noise: Box<dyn SolidNoise>,
+        /// World units the surface moves per unit of noise.
         amplitude: f64,
+        /// Per-axis scale of the point the noise is evaluated at.
         stretch: DVec3,
     },
     /// Fur: strands along the surface normals: `t ← t · bias(b, ½ + ½·noise(q))` with
     /// `q = p − d(p)·∇d/‖∇d‖` the point's foot on the surface (central differences of
     /// the distance), so the noise is constant along each normal line; `b` the strand
     /// sharpness.
-    Fur { noise: Box<dyn SolidNoise>, sharpness: f64 },
+    Fur {
+        /// The noise, evaluated on the surface.
+        noise: Box<dyn SolidNoise>,
+        /// The bias `b` of the strands (in \[0, 1\]).
+        sharpness: f64,
+    },
     /// `t ← t · (1 + amplitude · noise(p))`, clamped to \[0, 1\].
-    Scale { noise: Box<dyn SolidNoise>, amplitude: f64 },
+    Scale {
+        /// The noise.
+        noise: Box<dyn SolidNoise>,
+        /// How much a unit of noise scales the density.
+        amplitude: f64,
+    },
     /// `t ← bias(b, t)`.
     Bias(f64),
     /// `t ← gain(g, t)`.
@@ -121,8 +104,11 @@ impl Modulation {
 /// Where a box lies relative to the soft region.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Region {
+    /// Density 1 throughout (`d ≤ −reach`).
     Inside,
+    /// Density 0 throughout (`d ≥ reach`).
     Outside,
+    /// The box may meet the soft band: densities anywhere in \[0, 1\].
     Soft,
 }
 
@@ -130,9 +116,8 @@ pub enum Region {
 /// `soft_width` (density `½ − d/(2·soft_width)` before modulation), then the chain.
 /// Inside `d ≤ −(soft_width + M)` the density is 1, outside `d ≥ soft_width + M` it is 0,
 /// where `M` bounds the chain's surface displacement.
-#[derive(Debug)]
 pub struct HyperTexture {
-    distance: Box<dyn DistanceSource>,
+    distance: Box<dyn DistanceSource + Send>,
     soft_width: f64,
     reach: f64,
     chain: Vec<Modulation>,
@@ -142,16 +127,48 @@ pub struct HyperTexture {
     samples: Counter,
 }
 
+impl std::fmt::Debug for HyperTexture {
+    /// The distance source as its bounds and exactness (a trait object has no `Debug`).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("HyperTexture")
+            .field(
+                "distance",
+                &format_args!(
+                    "DistanceSource {{ bounds: {:?}, exact: {} }}",
+                    self.distance.bounds(),
+                    self.distance.is_exact()
+                ),
+            )
+            .field("soft_width", &self.soft_width)
+            .field("reach", &self.reach)
+            .field("chain", &self.chain)
+            .field("colour", &self.colour)
+            .field("step", &self.step)
+            .field("noise_evaluations", &self.noise_evaluations)
+            .field("samples", &self.samples)
+            .finish()
+    }
+}
+
 impl HyperTexture {
-    /// `soft_width > 0` and finite; `sample_spacing`: the length scale rays step by.
+    /// The hypertexture of `distance` with a soft band of half-width `soft_width` shaped
+    /// by `chain`; `sample_spacing` is the length scale rays and gradients step by. Both
+    /// are world units and must be finite and > 0: an argument that is not is refused,
+    /// named with its value ([`TextureError::SoftWidth`], [`TextureError::SampleSpacing`]).
     pub fn new(
-        distance: Box<dyn DistanceSource>,
+        distance: Box<dyn DistanceSource + Send>,
         soft_width: f64,
         chain: Vec<Modulation>,
         sample_spacing: f64,
-    ) -> Self {
+    ) -> Result<Self, TextureError> {
+        if !(soft_width.is_finite() && soft_width > 0.0) {
+            return Err(TextureError::SoftWidth(soft_width));
+        }
+        if !(sample_spacing.is_finite() && sample_spacing > 0.0) {
+            return Err(TextureError::SampleSpacing(sample_spacing));
+        }
         let displacement: f64 = chain.iter().map(Modulation::displacement_bound).sum();
-        HyperTexture {
+        Ok(HyperTexture {
             distance,
             soft_width,
             reach: soft_width + displacement,
@@ -160,9 +177,10 @@ impl HyperTexture {
             step: sample_spacing,
             noise_evaluations: Counter::new(),
             samples: Counter::new(),
-        }
+        })
     }
 
+    /// The same hypertexture with one colour everywhere (linear RGB).
     pub fn with_colour(mut self, colour: Vec3) -> Self {
         self.colour = Some(colour);
         self

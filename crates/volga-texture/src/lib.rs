@@ -9,7 +9,7 @@
 //!   a [`ColourSpline`] (presets marble, wood, cells).
 //! * [`HyperTexture`]: Perlin–Hoffert object density with inside / soft / outside
 //!   regions, [`bias`], [`gain`] and [`Modulation`] chains, over any [`DistanceSource`]:
-//!   an analytic shape ([`ShapeDistance`]) or a sampled volume through the exact
+//!   an analytic shape ([`ShapeSource`]) or a sampled volume through the exact
 //!   Euclidean distance transform ([`edt`], [`SampledDistance`]). It is a
 //!   `volga_core::Field` whose `value_range` is exact about the regions, so noise is
 //!   evaluated only in the soft band; [`HyperTexture::noise_evaluations`] counts it.
@@ -18,8 +18,12 @@
 //! frequency given. Far from the origin (1e6) values stay finite: lattice coordinates
 //! are wrapped to 8 bits as in the `noise` crate, and the fraction is computed in `f64`.
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 mod counter;
 pub mod edt;
+mod error;
 mod fractal;
 mod hyper;
 mod noise_field;
@@ -29,10 +33,13 @@ mod solid;
 mod worley;
 
 pub use counter::Counter;
+pub use error::TextureError;
 pub use fractal::{fill, Fbm, Scaled, SolidNoise, Turbulence};
-pub use hyper::{bias, gain, DistanceSource, HyperTexture, Modulation, Region, ShapeDistance};
+pub use hyper::{bias, gain, HyperTexture, Modulation, Region};
 pub use noise_field::NoiseField;
 pub use perlin::{fade, Perlin, RowHashes};
 pub use sampled_distance::SampledDistance;
 pub use solid::{ColourSpline, Pattern, SolidTexture};
+/// The signed distance a hypertexture shapes, and a shape as one (from `volga-shapes`).
+pub use volga_shapes::{DistanceSource, ShapeSource};
 pub use worley::Worley;

@@ -18,6 +18,8 @@ pub struct NoiseField {
 }
 
 impl NoiseField {
+    /// `clamp(offset + gain · noise(p), 0, 1)` inside `bounds`; `sample_spacing` (world
+    /// units) is the central-difference step of its gradient.
     pub fn new(noise: Box<dyn SolidNoise>, offset: f64, gain: f64, bounds: Aabb, sample_spacing: f64) -> Self {
         NoiseField {
             noise,

@@ -75,6 +75,7 @@ pub(crate) fn corner_floor(x: f64) -> i32 {
     x.floor() as i32
 }
 
+/// Perlin's quintic fade `6t⁵ − 15t⁴ + 10t³` of `t` clamped to \[0, 1\].
 #[inline(always)]
 pub fn fade(t: f64) -> f64 {
     let t = t.clamp(0.0, 1.0);
@@ -111,6 +112,7 @@ impl Perlin {
         Perlin { seed, perm }
     }
 
+    /// The seed the permutation table was drawn with.
     pub fn seed(&self) -> u32 {
         self.seed
     }

@@ -3,8 +3,9 @@
 
 use glam::{DVec3, IVec3};
 use volga_core::{Aabb, Grid};
+use volga_shapes::DistanceSource;
 
-use crate::hyper::DistanceSource;
+use crate::TextureError;
 
 /// Signed distances at the voxel centres of `grid` (x fastest). Outside the grid's
 /// sampled box the distance is `+∞` (nothing there).
@@ -16,9 +17,15 @@ pub struct SampledDistance {
 }
 
 impl SampledDistance {
-    /// `values` holds one distance per voxel of `grid`.
-    pub fn new(grid: Grid, values: Vec<f64>) -> Self {
-        assert_eq!(values.len() as u64, grid.voxel_count(), "one distance per voxel");
+    /// The distances `values`, one per voxel of `grid` (x fastest); refused
+    /// ([`TextureError::ValueCount`]) when their number is not the grid's voxel count.
+    pub fn new(grid: Grid, values: Vec<f64>) -> Result<Self, TextureError> {
+        if values.len() as u64 != grid.voxel_count() {
+            return Err(TextureError::ValueCount {
+                expected: grid.voxel_count(),
+                got: values.len(),
+            });
+        }
         let mut object = Aabb::EMPTY;
         let d = grid.dims().as_ivec3();
         for z in 0..d.z {
@@ -33,7 +40,7 @@ impl SampledDistance {
             }
         }
         let object = object.expanded(grid.transform.spacing());
-        SampledDistance { grid, values, object }
+        Ok(SampledDistance { grid, values, object })
     }
 
     fn at(&self, ijk: IVec3) -> f64 {
@@ -92,5 +99,10 @@ impl DistanceSource for SampledDistance {
 
     fn bounds(&self) -> Aabb {
         self.object
+    }
+
+    /// Interpolated samples of a distance transform, not the exact distance.
+    fn is_exact(&self) -> bool {
+        false
     }
 }

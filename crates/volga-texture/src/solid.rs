@@ -5,7 +5,7 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::{Perlin, SolidNoise, Turbulence, Worley};
+use crate::{Perlin, SolidNoise, TextureError, Turbulence, Worley};
 
 /// A piecewise-linear colour spline over \[0, 1\]: knots sorted by position; values
 /// outside the first and last knot take their colours.
@@ -15,15 +15,36 @@ pub struct ColourSpline {
 }
 
 impl ColourSpline {
-    /// Knots as `(position, linear RGB)`; `None` if empty or positions not increasing
-    /// or not finite.
-    pub fn new(knots: Vec<(f64, Vec3)>) -> Option<Self> {
-        let ok = !knots.is_empty()
-            && knots.iter().all(|(t, c)| t.is_finite() && c.is_finite())
-            && knots.windows(2).all(|w| w[0].0 < w[1].0);
-        ok.then_some(ColourSpline { knots })
+    /// Knots as `(position, linear RGB)`: at least one, finite, positions increasing.
+    /// Refuses the first knot that is not ([`TextureError::NoKnots`],
+    /// [`TextureError::KnotNotFinite`], [`TextureError::KnotOrder`]).
+    pub fn new(knots: Vec<(f64, Vec3)>) -> Result<Self, TextureError> {
+        if knots.is_empty() {
+            return Err(TextureError::NoKnots);
+        }
+        for (index, &(position, colour)) in knots.iter().enumerate() {
+            if !(position.is_finite() && colour.is_finite()) {
+                return Err(TextureError::KnotNotFinite {
+                    index,
+                    position,
+                    colour,
+                });
+            }
+        }
+        for (index, w) in knots.windows(2).enumerate() {
+            if w[1].0 <= w[0].0 {
+                return Err(TextureError::KnotOrder {
+                    index: index + 1,
+                    position: w[1].0,
+                    previous: w[0].0,
+                });
+            }
+        }
+        Ok(ColourSpline { knots })
     }
 
+    /// The colour at `t`: linear between the knots around it, the end knots' colours
+    /// beyond them.
     pub fn at(&self, t: f64) -> Vec3 {
         let k = &self.knots;
         let i = k.partition_point(|(p, _)| *p <= t);
@@ -48,18 +69,27 @@ pub enum Pattern {
     Turbulence(Turbulence),
     /// `½ + ½·sin(2π·frequency·(p·direction) + strength·turbulence(p))`.
     Marble {
+        /// The turbulence that perturbs the stripes.
         turbulence: Turbulence,
+        /// Stripes per world unit along `direction`.
         frequency: f64,
+        /// The direction across the stripes.
         direction: DVec3,
+        /// How far the turbulence moves the stripes (radians per unit of turbulence).
         strength: f64,
     },
     /// `fract(rings·distance-to-axis + strength·turbulence(p))`, the axis through
     /// `center` along `axis` (unit).
     Wood {
+        /// The turbulence that perturbs the rings.
         turbulence: Turbulence,
+        /// A point of the axis (world space).
         center: DVec3,
+        /// The axis's unit direction.
         axis: DVec3,
+        /// Rings per world unit of distance to the axis.
         rings: f64,
+        /// How far the turbulence moves the rings (rings per unit of turbulence).
         strength: f64,
     },
     /// Worley `F2 − F1` (cell units) clamped to \[0, 1\]: dark on cell borders.
@@ -69,7 +99,9 @@ pub enum Pattern {
 /// A pattern and its colour spline.
 #[derive(Debug, Clone)]
 pub struct SolidTexture {
+    /// The scalar in \[0, 1\] of world position.
     pub pattern: Pattern,
+    /// The colour of each scalar value.
     pub spline: ColourSpline,
 }
 
@@ -119,6 +151,7 @@ impl Pattern {
 }
 
 impl SolidTexture {
+    /// The texture's colour at world position `p` (linear RGB).
     pub fn colour(&self, p: DVec3) -> Vec3 {
         self.spline.at(self.pattern.scalar(p))
     }

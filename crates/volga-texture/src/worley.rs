@@ -25,6 +25,7 @@ fn mix(mut z: u64) -> u64 {
 }
 
 impl Worley {
+    /// The feature points of `seed`, `frequency` cells per world unit.
     pub fn new(seed: u32, frequency: f64) -> Self {
         Worley { seed, frequency }
     }

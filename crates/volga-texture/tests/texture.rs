@@ -244,7 +244,7 @@ fn hypertexture_regions_and_noise_only_in_soft_band() {
         amplitude: 0.1,
         stretch: DVec3::ONE,
     }];
-    let h = HyperTexture::new(Box::new(ShapeDistance(sphere)), 0.1, chain, 0.02);
+    let h = HyperTexture::new(Box::new(ShapeSource(sphere)), 0.1, chain, 0.02).unwrap();
     assert_eq!(h.value(DVec3::ZERO), 1.0);
     assert_eq!(h.value(DVec3::new(3.0, 0.0, 0.0)), 0.0);
     assert_eq!(h.noise_evaluations(), 0, "inside and outside cost no noise");
@@ -282,7 +282,7 @@ fn sampled_distance_of_a_voxel_ball() {
         }
     }
     let sd = edt::signed_distance(&inside, [21; 3], [0.1; 3]);
-    let s = SampledDistance::new(grid, sd);
+    let s = SampledDistance::new(grid, sd).unwrap();
     // Within a voxel of the true distance.
     for p in [DVec3::ZERO, DVec3::new(0.8, 0.0, 0.0), DVec3::new(0.3, 0.3, 0.1)] {
         assert!(
@@ -318,4 +318,73 @@ fn fill_equals_noise_crate() {
             }
         }
     }
+}
+
+/// Each documented requirement of a constructor is checked: the argument that breaks it
+/// is refused with its name and value, and the arguments that meet it are accepted.
+#[test]
+fn constructors_refuse_what_their_docs_rule_out() {
+    let sphere = || Box::new(ShapeSource(Sphere::new(DVec3::ZERO, 1.0).unwrap()));
+    for bad in [0.0, -0.1, f64::NAN, f64::INFINITY] {
+        let err = HyperTexture::new(sphere(), bad, Vec::new(), 0.02).unwrap_err();
+        assert_eq!(err.to_string(), TextureError::SoftWidth(bad).to_string());
+        assert!(
+            err.to_string().starts_with("soft_width must be finite and > 0, got "),
+            "{err}"
+        );
+        let err = HyperTexture::new(sphere(), 0.1, Vec::new(), bad).unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with("sample_spacing must be finite and > 0, got "),
+            "{err}"
+        );
+        assert!(err.to_string().ends_with(&bad.to_string()), "{err}");
+    }
+    assert_eq!(
+        HyperTexture::new(sphere(), -0.5, Vec::new(), 0.02).unwrap_err(),
+        TextureError::SoftWidth(-0.5)
+    );
+    assert_eq!(
+        HyperTexture::new(sphere(), 0.1, Vec::new(), 0.0).unwrap_err(),
+        TextureError::SampleSpacing(0.0)
+    );
+    assert!(HyperTexture::new(sphere(), 1e-9, Vec::new(), 1e-9).is_ok());
+
+    let grid = Grid::new(
+        Transform::new(DVec3::ZERO, DVec3::ONE).unwrap(),
+        glam::UVec3::new(2, 3, 4),
+    )
+    .unwrap();
+    let err = SampledDistance::new(grid, vec![1.0; 23]).unwrap_err();
+    assert_eq!(err, TextureError::ValueCount { expected: 24, got: 23 });
+    assert_eq!(
+        err.to_string(),
+        "values must hold one distance per voxel of the grid (24), got 23"
+    );
+    assert!(SampledDistance::new(grid, vec![1.0; 24]).is_ok());
+
+    use glam::Vec3;
+    assert_eq!(ColourSpline::new(Vec::new()).unwrap_err(), TextureError::NoKnots);
+    let err = ColourSpline::new(vec![(0.0, Vec3::ONE), (f64::NAN, Vec3::ONE)]).unwrap_err();
+    assert!(
+        err.to_string().starts_with("knots[1] must be finite, got position NaN"),
+        "{err}"
+    );
+    let err = ColourSpline::new(vec![(0.0, Vec3::new(1.0, f32::INFINITY, 0.0))]).unwrap_err();
+    assert!(matches!(err, TextureError::KnotNotFinite { index: 0, .. }), "{err}");
+    assert!(err.to_string().contains("inf"), "{err}");
+    let err = ColourSpline::new(vec![(0.0, Vec3::ONE), (0.5, Vec3::ONE), (0.5, Vec3::ZERO)]).unwrap_err();
+    assert_eq!(
+        err,
+        TextureError::KnotOrder {
+            index: 2,
+            position: 0.5,
+            previous: 0.5
+        }
+    );
+    assert_eq!(
+        err.to_string(),
+        "knots[2] must lie after knots[1] at 0.5, got position 0.5"
+    );
+    assert!(ColourSpline::new(vec![(0.0, Vec3::ONE), (0.5, Vec3::ONE)]).is_ok());
 }

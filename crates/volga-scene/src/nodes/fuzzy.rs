@@ -92,7 +92,9 @@ impl FuzzyNode {
             Some(c) => Vec3::from(cx.colour(&format!("{f}.inner_colour"), Some(c))?),
             None => outer,
         };
-        let radial = Radial::new(core, radius, radius / 64.0).ok_or_else(|| cx.err(f, "invalid fuzzy primitive"))?;
+        // The fields were validated above; what the kernel still refuses (an axis too
+        // small to normalize, a radius whose 1/64 underflows) is named by its argument.
+        let radial = Radial::new(core, radius, radius / 64.0).map_err(|e| cx.err(f, e.to_string()))?;
         Ok(FuzzyNode {
             name: spec.name.clone().unwrap_or_else(|| format!("fuzzy{index}")),
             radial,

@@ -8,7 +8,7 @@ use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 use volga_core::{Aabb, Field, Grid, Progress, SparseVolume};
 use volga_shapes::Sphere;
-use volga_texture::{edt, HyperTexture, Modulation, SampledDistance, ShapeDistance};
+use volga_texture::{edt, DistanceSource, HyperTexture, Modulation, SampledDistance, ShapeSource, TextureError};
 
 use super::procedural::{bake_field, NodeCounters, NoiseSpec};
 use super::{bricks_within, Clipped, Estimate, Node, Resolve};
@@ -193,19 +193,23 @@ impl HypertextureNode {
             hyper: None,
         };
         if let Object::Sphere(s) = &node.object {
-            let distance = Box::new(ShapeDistance(*s));
-            node.build(distance, soft_width / 8.0);
+            let distance = Box::new(ShapeSource(*s));
+            node.build(distance, soft_width / 8.0)
+                .map_err(|e| cx.err(f, e.to_string()))?;
         }
         Ok(node)
     }
 
-    fn build(&mut self, distance: Box<dyn volga_texture::DistanceSource>, spacing: f64) {
+    /// The kernel hypertexture of `distance` (its arguments were validated with the
+    /// scene's fields; an error here names the kernel's argument).
+    fn build(&mut self, distance: Box<dyn DistanceSource + Send>, spacing: f64) -> Result<(), TextureError> {
         let chain = self.chain.take().unwrap_or_default();
-        let mut h = HyperTexture::new(distance, self.soft_width, chain, spacing);
+        let mut h = HyperTexture::new(distance, self.soft_width, chain, spacing)?;
         if let Some(c) = self.colour {
             h = h.with_colour(c);
         }
         self.hyper = Some(h);
+        Ok(())
     }
 
     /// The kernel hypertexture (after resolving, for volumes).
@@ -295,8 +299,15 @@ impl Node for HypertextureNode {
                 *v = volume.density.get(ijk - pad) > 0.5;
             }
             let sd = edt::signed_distance(&inside, n, spacing.to_array());
-            let distance = SampledDistance::new(grid, sd);
-            self.build(Box::new(distance), spacing.min_element());
+            let field = field.clone();
+            let invalid = |e: TextureError| SceneError::Invalid {
+                path: cx.scene.to_owned(),
+                field: field.clone(),
+                message: e.to_string(),
+            };
+            let distance = SampledDistance::new(grid, sd).map_err(&invalid)?;
+            self.build(Box::new(distance), spacing.min_element())
+                .map_err(&invalid)?;
         }
         Ok(())
     }

@@ -158,7 +158,7 @@ impl TexturedNode {
                 cx.colour(&format!("{f}.spline[{i}]"), Some(*c))?;
             }
             texture.spline = ColourSpline::new(knots.iter().map(|(t, c)| (*t, DVec3::from(*c).as_vec3())).collect())
-                .ok_or_else(|| {
+                .map_err(|_| {
                     cx.err(
                         format!("{f}.spline"),
                         "needs at least one knot, positions finite and increasing",
