@@ -1,5 +1,5 @@
-//! Voxelize a mesh into a 26-separating solid `.binvox` (open and self-intersecting
-//! meshes too: inside = winding number ≥ ½, proven per voxel).
+//! Voxelize a mesh into a 26-separating surface `.binvox` (`solid: true` also fills the
+//! inside: winding number ≥ ½, proven per voxel, open meshes too).
 //!
 //! `cargo run --release --example obj_to_binvox -- tests/data/spot.obj 128 spot.binvox`
 
@@ -13,10 +13,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let resolution: u32 = args.next().map_or(Ok(128), |n| n.parse())?;
     let out = PathBuf::from(args.next().unwrap_or_else(|| "spot.binvox".into()));
     let mesh = load_mesh(&mesh_path)?;
-    // `resolution` voxels along the mesh's longest side; 26-separating surface, inside filled.
+    // `resolution` voxels along the mesh's longest side; a 26-separating surface.
     let mode = MeshJobMode::Binary {
         separability: Separability::TwentySix,
-        solid: true,
+        solid: false,
     };
     let job = MeshJob { resolution, mode };
     job.check()?;

@@ -26,7 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                       "projection": { "Perspective": { "fov_deg": 45.0 } } }],
         "outputs": { "images": [{ "name": "row", "camera": "front", "width": 480, "height": 240,
                                   "mode": { "Iso": { "value": 0.5, "colour": "FromVolume" } } }],
-                     "volumes": [{ "name": "row" }] },
+                     "volumes": [{ "name": "row_volume" }] },
     }))?;
     let options = BuildOptions {
         out_dir,
