@@ -32,6 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         out_dir,
         memory_limit: None,
         stage_start: None,
+        allow_outside_paths: false,
     };
     // The path names the scene in messages and is where relative file paths start.
     let report = build_parsed(Path::new("row_of_spheres"), &scene, &options, &NoProgress)?;

@@ -33,6 +33,7 @@ fn build_seen(
             out_dir: out,
             memory_limit,
             stage_start: None,
+            allow_outside_paths: false,
         },
         progress,
     )

@@ -40,6 +40,7 @@ fn build_scene(dir: &Path, text: &str) -> Result<volga::scene::Report, volga::sc
             out_dir: dir.join("out"),
             memory_limit: None,
             stage_start: None,
+            allow_outside_paths: false,
         },
         &volga::NoProgress,
     )

@@ -65,6 +65,7 @@ fn stroke_errors_name_their_field_path_and_the_scene_builds() {
             out_dir: out.clone(),
             memory_limit: None,
             stage_start: None,
+            allow_outside_paths: false,
         },
         &NoProgress,
     )
@@ -86,6 +87,7 @@ fn a_mesh_output_of_any_object_is_a_closed_manifold_torus() {
             out_dir: out.clone(),
             memory_limit: None,
             stage_start: None,
+            allow_outside_paths: false,
         },
         &NoProgress,
     )

@@ -46,6 +46,7 @@ fn shapes_scene_builds_every_object_kind() {
             out_dir: dir.path().join("out"),
             memory_limit: None,
             stage_start: None,
+            allow_outside_paths: false,
         },
         &volga::NoProgress,
     )

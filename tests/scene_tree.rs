@@ -112,6 +112,7 @@ fn lazy_only_scene_voxelizes_nothing() {
             out_dir: dir.path().join("out"),
             memory_limit: None,
             stage_start: None,
+            allow_outside_paths: false,
         },
         &NoProgress,
     )
@@ -135,6 +136,7 @@ fn baked_and_lazy_images_agree() {
             out_dir: dir.path().join("out"),
             memory_limit: None,
             stage_start: None,
+            allow_outside_paths: false,
         },
         &NoProgress,
     )

@@ -280,19 +280,23 @@ def build(
     memory_limit: Optional[int] = None,
     base_dir: Optional[PathLike] = None,
     threads: Optional[int] = None,
+    allow_outside_paths: bool = False,
 ) -> Dict[str, Any]:
     """Build a scene like ``volga build``: images, volumes, meshes and ``report.json`` in
     ``out``, all or nothing. Returns the build report (dict).
 
     ``scene`` is a scene file (``.ron`` or ``.json``) or a dict with the same field names
     as a JSON scene file (docs/SCENE_FORMAT.md); a dict's relative paths are read from
-    ``base_dir`` (default: the current directory).
+    ``base_dir`` (default: the current directory). Files the scene names must lie in that
+    folder (no absolute paths, no ``..`` above it) unless ``allow_outside_paths``.
     """
     if isinstance(scene, dict):
         base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
         name = os.path.join(base, "<scene dict>")
-        return _volga.build(name, os.fspath(out), _json(scene, "scene"), memory_limit, threads)
-    return _volga.build(os.fspath(scene), os.fspath(out), None, memory_limit, threads)
+        return _volga.build(
+            name, os.fspath(out), _json(scene, "scene"), memory_limit, threads, allow_outside_paths
+        )
+    return _volga.build(os.fspath(scene), os.fspath(out), None, memory_limit, threads, allow_outside_paths)
 
 
 def extract_mesh(

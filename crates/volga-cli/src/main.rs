@@ -46,6 +46,10 @@ enum Command {
         /// default: the machine's available memory.
         #[arg(long, value_parser = parse_size)]
         memory_limit: Option<u64>,
+        /// Let the scene read files outside its own folder (absolute paths, `..` above it);
+        /// by default only files inside it are read.
+        #[arg(long)]
+        allow_outside_paths: bool,
     },
     /// Voxelize a mesh: binary surface or solid with 6/18/26 separability, anti-aliased
     /// surface or solid, or narrow-band signed distance.
@@ -68,8 +72,12 @@ enum Command {
     Plan {
         /// Scene file (.ron or .json).
         scene: PathBuf,
+        /// Refuse scenes estimated to need more memory than this (as for `build`).
         #[arg(long, value_parser = parse_size)]
         memory_limit: Option<u64>,
+        /// Let the scene read files outside its own folder (as for `build`).
+        #[arg(long)]
+        allow_outside_paths: bool,
     },
 }
 
@@ -128,12 +136,15 @@ fn main() -> ExitCode {
             scene,
             out,
             memory_limit,
+            allow_outside_paths,
         } => {
+            volga_core::memory::set_input_limit(memory_limit);
             let progress = progress::BarProgress::new();
             let options = BuildOptions {
                 out_dir: out,
                 memory_limit,
                 stage_start: Some(volga_scene::reset_peak_rss),
+                allow_outside_paths,
             };
             match build(&scene, &options, &progress) {
                 Ok(report) => {
@@ -201,9 +212,15 @@ fn main() -> ExitCode {
                 ExitCode::from(f.code)
             }
         },
-        Command::Plan { scene, memory_limit } => {
+        Command::Plan {
+            scene,
+            memory_limit,
+            allow_outside_paths,
+        } => {
+            volga_core::memory::set_input_limit(memory_limit);
             // The same stages as `build` up to the plan, with the same memory limit.
             let result = validate_scene(&scene).and_then(|mut s| {
+                s.allow_outside_paths = allow_outside_paths;
                 s.resolve(memory_limit)?;
                 plan(&s, memory_limit)
             });

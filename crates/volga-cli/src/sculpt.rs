@@ -44,20 +44,31 @@ pub struct SculptArgs {
     /// Image width and height.
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=8192))]
     size: u32,
+    /// Refuse work estimated to need more memory than this (e.g. 512M, 8G): reading the
+    /// sculpt and the stroke file's meshes, sampling the start object, the outputs;
+    /// default: the machine's available memory.
+    #[arg(long, value_parser = crate::parse_size)]
+    memory_limit: Option<u64>,
+    /// Let the stroke file read mesh tools outside its own folder (absolute paths, `..`
+    /// above it); by default only files inside it are read.
+    #[arg(long)]
+    allow_outside_paths: bool,
 }
 
 pub fn run(args: SculptArgs) -> Result<(), Failure> {
+    volga_core::memory::set_input_limit(args.memory_limit);
+    let limit = args
+        .memory_limit
+        .or_else(volga_core::memory::available_bytes)
+        .unwrap_or(FALLBACK_MEMORY_LIMIT);
     let file = parse_stroke_file(&args.strokes).map_err(|e| bad_input(e.to_string()))?;
     let mut sculpt = match (&args.sculpt, &file.start) {
         // Regular files only, refused before reading if too large for memory; the error
         // names the file ("PATH: what is wrong").
-        (Some(path), _) => Sculpt::open(path).map_err(|e| bad_input(e.to_string()))?,
-        (None, Some(start)) => start_sculpt(
-            &args.strokes,
-            start,
-            volga_core::memory::available_bytes().unwrap_or(FALLBACK_MEMORY_LIMIT),
-        )
-        .map_err(|e| bad_input(e.to_string()))?,
+        (Some(path), _) => Sculpt::open_with_limit(path, limit / 2).map_err(|e| bad_input(e.to_string()))?,
+        (None, Some(start)) => {
+            start_sculpt(&args.strokes, start, limit, args.allow_outside_paths).map_err(|e| bad_input(e.to_string()))?
+        }
         (None, None) => {
             return Err(bad_input(format!(
                 "{}: no `start` in the stroke file and no --sculpt to apply it to",
@@ -65,8 +76,8 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
             )))
         }
     };
-    let strokes =
-        validate_strokes(&args.strokes, &file, sculpt.grid().spacing()).map_err(|e| bad_input(e.to_string()))?;
+    let strokes = validate_strokes(&args.strokes, &file, sculpt.grid().spacing(), args.allow_outside_paths)
+        .map_err(|e| bad_input(e.to_string()))?;
     let mesh_format = match &args.mesh {
         Some(p) => match p
             .extension()

@@ -326,6 +326,7 @@ pub fn write_outputs(
 
 pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
     let job_args = &args.job;
+    volga_core::memory::set_input_limit(job_args.memory_limit);
     let format = output_format(&args.out, job_args.spec()?.is_binary())?;
     check_distinct_outputs(&args.out, format, args.report.as_deref())?;
     let mut stages = Stages::with_stage_start(volga_scene::reset_peak_rss);

@@ -21,13 +21,12 @@ pub enum CoreError {
     /// A grid too large to represent: [`Grid::new`](crate::Grid::new) with an axis above
     /// `i32::MAX / 2` voxels, or [`Grid::shape`](crate::Grid::shape) /
     /// [`Shape3::new`](crate::Shape3::new) (and so the dense volumes) with a voxel count that
-    /// does not fit in `usize`. The message names the dims and `bytes`.
-    #[error("grid of {dims:?} voxels needs {bytes} bytes, which does not fit in this address space")]
+    /// does not fit in `usize`. The message names the dims and the voxel count.
+    #[error("grid of {dims:?} voxels ({voxels} voxels) is too large to address: at most 1073741823 voxels per axis and a voxel count that fits in this address space")]
     TooLarge {
         /// The dims asked for.
         dims: [u32; 3],
-        /// Despite the name (and the message's "bytes"), the voxel count
-        /// `dims.x · dims.y · dims.z` at every place volga-core raises this error.
-        bytes: u128,
+        /// The voxel count `dims.x · dims.y · dims.z`.
+        voxels: u128,
     },
 }

@@ -117,7 +117,7 @@ impl Grid {
         if dims.cmpgt(UVec3::splat(i32::MAX as u32 / 2)).any() {
             return Err(CoreError::TooLarge {
                 dims: dims.to_array(),
-                bytes: dims.as_dvec3().element_product() as u128,
+                voxels: dims.as_dvec3().element_product() as u128,
             });
         }
         Ok(Grid { transform, dims })
@@ -146,7 +146,7 @@ impl Grid {
             .map(|_| Shape3::new_unchecked(self.dims))
             .map_err(|_| CoreError::TooLarge {
                 dims: self.dims.to_array(),
-                bytes: self.voxel_count() as u128,
+                voxels: self.voxel_count() as u128,
             })
     }
 

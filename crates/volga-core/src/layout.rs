@@ -34,7 +34,7 @@ impl Shape3 {
             Some(Ok(_)) => Ok(Shape3 { dims }),
             _ => Err(CoreError::TooLarge {
                 dims: dims.to_array(),
-                bytes: dims.as_u64vec3().to_array().iter().map(|&d| d as u128).product(),
+                voxels: dims.as_u64vec3().to_array().iter().map(|&d| d as u128).product(),
             }),
         }
     }

@@ -49,6 +49,7 @@ mod error;
 mod field;
 mod filters;
 mod grid;
+pub mod input;
 mod layout;
 pub mod memory;
 mod progress;

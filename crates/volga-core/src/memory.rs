@@ -1,6 +1,27 @@
 //! Memory accounting: what the machine has, and refusing what it cannot hold.
 
 use std::fmt;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The limit set by [`set_input_limit`]; 0 when none is set.
+static INPUT_LIMIT: AtomicU64 = AtomicU64::new(0);
+
+/// Sets the most memory (bytes) one input file's contents may take in this process:
+/// the CLI sets it from `--memory-limit`. `None` returns to the default, the machine's
+/// available memory.
+pub fn set_input_limit(limit: Option<u64>) {
+    INPUT_LIMIT.store(limit.map_or(0, |l| l.max(1)), Ordering::Relaxed);
+}
+
+/// The most bytes a reader may hold for one input (a file's contents, or the voxels a
+/// volume file declares): the limit set by [`set_input_limit`], else the machine's
+/// available memory, else (where that cannot be read) 16 GiB.
+pub fn input_limit() -> u64 {
+    match INPUT_LIMIT.load(Ordering::Relaxed) {
+        0 => available_bytes().unwrap_or(16 << 30),
+        l => l,
+    }
+}
 
 /// Bytes of memory available to a new allocation, from `/proc/meminfo`'s
 /// `MemAvailable` (Linux); `None` where that cannot be read.

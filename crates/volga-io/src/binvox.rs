@@ -200,7 +200,7 @@ fn voxel_of(dims: UVec3, i: u64) -> UVec3 {
 /// `#binvox N`, a missing or malformed `dim`, a run of count 0, a run past the voxel
 /// count, data ending before the last voxel. Bytes after the last voxel are ignored.
 pub fn read_binvox(path: &Path) -> Result<Binvox, IoError> {
-    let bytes = std::fs::read(path).map_err(|e| IoError::io(path, e))?;
+    let bytes = volga_core::input::read_input(path).map_err(|e| IoError::io(path, e))?;
     decode_binvox(&bytes, path)
 }
 

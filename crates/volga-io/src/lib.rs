@@ -60,7 +60,7 @@ pub use model::{
     binvox_from_volume, check_free_space, check_free_space_for, encode_binvox_volume, free_space, read_voxel_model,
     save_voxel_model, write_voxel_model, VoxelFormat, VoxelModel, VoxelValues,
 };
-pub use nrrd_read::{read_nrrd, read_nrrd_with_colour};
+pub use nrrd_read::{read_nrrd, read_nrrd_with_colour, read_nrrd_within};
 pub use nrrd_write::write_nrrd;
 pub use png_io::{decode_png, encode_png, encode_png16, write_png};
 

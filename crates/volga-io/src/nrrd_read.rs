@@ -35,8 +35,16 @@ const CHUNK: usize = 1 << 20;
 /// Header errors are [`IoError::Format`] naming the file and line; a data size that
 /// differs from the header's (truncated or extra data) names both sizes.
 pub fn read_nrrd(path: &Path) -> Result<DenseVolume, IoError> {
+    read_nrrd_within(path, volga_core::memory::input_limit())
+}
+
+/// [`read_nrrd`] refusing, before allocating, a volume whose voxels (4 bytes each) need
+/// more than `max_bytes`; the error names the header's sizes, the bytes needed and
+/// the limit.
+pub fn read_nrrd_within(path: &Path, max_bytes: u64) -> Result<DenseVolume, IoError> {
     let mut nrrd = Nrrd::open(path)?;
     let grid = nrrd.grid(false)?;
+    nrrd.check_memory(grid.voxel_count().saturating_mul(4), max_bytes)?;
     let background = nrrd
         .header
         .key_value(BACKGROUND_KEY)
@@ -54,9 +62,11 @@ pub fn read_nrrd(path: &Path) -> Result<DenseVolume, IoError> {
 /// without a space direction) into one [`DenseVolume`] with a colour channel. The
 /// two grids must be identical.
 pub fn read_nrrd_with_colour(path: &Path, colour_path: &Path) -> Result<DenseVolume, IoError> {
-    let mut volume = read_nrrd(path)?;
+    let max_bytes = volga_core::memory::input_limit();
+    let mut volume = read_nrrd_within(path, max_bytes)?;
     let mut nrrd = Nrrd::open(colour_path)?;
     let grid = nrrd.grid(true)?;
+    nrrd.check_memory(grid.voxel_count().saturating_mul(16), max_bytes)?;
     if grid != volume.grid {
         return Err(IoError::format(
             colour_path,
@@ -95,7 +105,7 @@ struct Nrrd {
 
 impl Nrrd {
     fn open(path: &Path) -> Result<Nrrd, IoError> {
-        let file = File::open(path).map_err(|e| IoError::io(path, e))?;
+        let (file, _) = volga_core::input::open_regular(path).map_err(|e| IoError::io(path, e))?;
         let mut reader = BufReader::new(file);
         let mut parser = HeaderParser::new();
         let mut line_no = 0;
@@ -152,13 +162,15 @@ impl Nrrd {
 
         let (data_path, mut data, start) = match &header.data_file {
             Some(name) => {
-                let name = Path::new(name);
-                let data_path = if name.is_absolute() {
-                    name.to_path_buf()
-                } else {
-                    path.parent().unwrap_or(Path::new("")).join(name)
-                };
-                let file = File::open(&data_path).map_err(|e| IoError::io(&data_path, e))?;
+                let dir = path.parent().unwrap_or(Path::new(""));
+                let data_path = volga_core::input::confine(dir, name).map_err(|why| {
+                    IoError::format(
+                        path,
+                        header.line_of("data file"),
+                        format!("data file `{name}` {why}; only files in the header's folder are read"),
+                    )
+                })?;
+                let (file, _) = volga_core::input::open_regular(&data_path).map_err(|e| IoError::io(&data_path, e))?;
                 (data_path, BufReader::new(file), 0)
             }
             None => (path.to_path_buf(), reader, header_bytes),
@@ -220,6 +232,23 @@ impl Nrrd {
             }
         }
         Ok(nrrd)
+    }
+
+    /// Refuses, before anything is allocated, voxels needing more than `max_bytes`.
+    fn check_memory(&self, needed: u64, max_bytes: u64) -> Result<(), IoError> {
+        if needed <= max_bytes {
+            return Ok(());
+        }
+        use volga_core::memory::Bytes;
+        Err(self.header_error(
+            "sizes",
+            format!(
+                "sizes {} need {} ({needed} bytes) of voxels, more than the {} ({max_bytes} bytes) of memory this read may use (raise --memory-limit or free memory)",
+                self.header.sizes.iter().map(|s| s.to_string()).collect::<Vec<_>>().join(" "),
+                Bytes(needed as u128),
+                Bytes(max_bytes as u128)
+            ),
+        ))
     }
 
     /// A header error at `field`'s line (or where the header ended).

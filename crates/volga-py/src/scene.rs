@@ -15,7 +15,7 @@ use crate::threads;
 /// `scene_json` is a scene given as JSON text, named `path` in messages (relative paths in
 /// it are read from `path`'s folder); without it, `path` is the scene file.
 #[pyfunction]
-#[pyo3(signature = (path, out, scene_json=None, memory_limit=None, threads=None))]
+#[pyo3(signature = (path, out, scene_json=None, memory_limit=None, threads=None, allow_outside_paths=false))]
 pub fn build(
     py: Python<'_>,
     path: PathBuf,
@@ -23,6 +23,7 @@ pub fn build(
     scene_json: Option<String>,
     memory_limit: Option<u64>,
     threads: Option<usize>,
+    allow_outside_paths: bool,
 ) -> PyResult<Py<PyAny>> {
     let file = match &scene_json {
         Some(text) => Some(crate::json::parse::<volga_scene::model::SceneFile>("scene", text)?),
@@ -32,6 +33,7 @@ pub fn build(
         out_dir: out,
         memory_limit,
         stage_start: None,
+        allow_outside_paths,
     };
     let report = threads::run(py, threads, move || match &file {
         Some(file) => volga_scene::build_parsed(&path, file, &options, &NoProgress),

@@ -45,6 +45,8 @@ impl Sculpt {
             "stroke",
             &[spec],
             self.inner.grid().spacing(),
+            // Strokes given in code name files the program chose.
+            true,
         )
         .map_err(scene_error)?;
         Ok(strokes.into_iter().next().expect("one stroke in, one out"))
@@ -130,7 +132,7 @@ impl Sculpt {
             .or_else(volga_core::memory::available_bytes)
             .unwrap_or(u64::MAX);
         let sculpt = py
-            .detach(|| volga_scene::strokes::start_sculpt(Path::new(ORIGIN), &start, limit))
+            .detach(|| volga_scene::strokes::start_sculpt(Path::new(ORIGIN), &start, limit, true))
             .map_err(scene_error)?;
         Ok(Sculpt { inner: sculpt })
     }

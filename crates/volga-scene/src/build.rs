@@ -126,6 +126,10 @@ pub struct BuildOptions {
     /// makes each stage's reported peak its own (what the `volga` CLI does); `None`
     /// leaves process-wide state alone and reports the process's peak so far.
     pub stage_start: Option<fn()>,
+    /// Whether the scene may name files outside its own folder (absolute paths, `..`
+    /// climbing above it). Off by default, so a service can build scenes it did not
+    /// write without their reading arbitrary files; the CLI's `--allow-outside-paths`.
+    pub allow_outside_paths: bool,
 }
 
 /// Builds a scene: every output is staged under a temporary name and renamed only
@@ -160,6 +164,7 @@ fn build_with(
         Some(file) => crate::validate::validate(path, file),
         None => validate_scene(path),
     })?;
+    scene.allow_outside_paths = options.allow_outside_paths;
     stages.run("resolve", || scene.resolve(options.memory_limit))?;
     let plan = stages.run("plan", || plan(&scene, options.memory_limit))?;
     // Volumes are written dense: check the disk before any work.

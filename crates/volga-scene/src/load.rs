@@ -6,7 +6,7 @@ use crate::SceneError;
 /// Reads and parses a scene file, choosing the syntax by extension (`.ron`, `.json`).
 /// Syntax errors, unknown fields and wrong types name the file, line and column.
 pub fn parse_file(path: &Path) -> Result<SceneFile, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+    let text = volga_core::input::read_input_text(path).map_err(|source| SceneError::Read {
         path: path.to_owned(),
         source,
     })?;

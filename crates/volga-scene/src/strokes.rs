@@ -122,7 +122,7 @@ fn one() -> f64 {
 
 /// Parses a stroke file (`.ron` or `.json`); errors name the file, line and column.
 pub fn parse_stroke_file(path: &Path) -> Result<StrokeFile, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+    let text = volga_core::input::read_input_text(path).map_err(|source| SceneError::Read {
         path: path.to_owned(),
         source,
     })?;
@@ -149,7 +149,12 @@ pub fn parse_stroke_file(path: &Path) -> Result<StrokeFile, SceneError> {
 
 /// The sculpt a `start` describes: the object's lazy field (the same node as in a scene)
 /// sampled on a [`SculptGrid`] covering `bounds`.
-pub fn start_sculpt(path: &Path, start: &StartSpec, memory_limit: u64) -> Result<Sculpt, SceneError> {
+pub fn start_sculpt(
+    path: &Path,
+    start: &StartSpec,
+    memory_limit: u64,
+    allow_outside: bool,
+) -> Result<Sculpt, SceneError> {
     let cx = Ctx { path };
     let min = cx.finite3("start.bounds.min", start.bounds.min)?;
     let max = cx.finite3("start.bounds.max", start.bounds.max)?;
@@ -174,6 +179,7 @@ pub fn start_sculpt(path: &Path, start: &StartSpec, memory_limit: u64) -> Result
         scene: path,
         dir,
         memory_limit,
+        allow_outside,
     })?;
     let transform = Transform::new(grid.origin(), DVec3::splat(h)).map_err(|e| cx.err("start", e.to_string()))?;
     let core_grid =
@@ -184,28 +190,56 @@ pub fn start_sculpt(path: &Path, start: &StartSpec, memory_limit: u64) -> Result
 }
 
 /// Validates the strokes for a sculpt of voxel size `spacing` (saws are sampled every half voxel).
-pub fn validate_strokes(path: &Path, file: &StrokeFile, spacing: f64) -> Result<Vec<Stroke>, SceneError> {
-    validate_stroke_list(path, "strokes", &file.strokes, spacing)
+/// Mesh tools are read from the stroke file's folder; with `allow_outside` also from
+/// elsewhere (absolute paths, `..` above it).
+pub fn validate_strokes(
+    path: &Path,
+    file: &StrokeFile,
+    spacing: f64,
+    allow_outside: bool,
+) -> Result<Vec<Stroke>, SceneError> {
+    validate_stroke_list(path, "strokes", &file.strokes, spacing, allow_outside)
 }
 
 /// Validates `strokes` found at the field path `field` of the file `path` (mesh tools are
-/// read relative to its folder).
+/// read relative to its folder, and only from inside it unless `allow_outside`). A mesh
+/// file named by several strokes is read once.
 pub fn validate_stroke_list(
     path: &Path,
     field: &str,
     strokes: &[StrokeSpec],
     spacing: f64,
+    allow_outside: bool,
 ) -> Result<Vec<Stroke>, SceneError> {
     let cx = Ctx { path };
     let dir = path.parent().unwrap_or(Path::new("."));
+    let mut tools = ToolFiles {
+        allow_outside,
+        loaded: Vec::new(),
+    };
     strokes
         .iter()
         .enumerate()
-        .map(|(i, s)| validate_stroke(&cx, dir, &format!("{field}[{i}]"), s, spacing))
+        .map(|(i, s)| validate_stroke(&cx, dir, &format!("{field}[{i}]"), s, spacing, &mut tools))
         .collect()
 }
 
-fn validate_stroke(cx: &Ctx, dir: &Path, f: &str, s: &StrokeSpec, spacing: f64) -> Result<Stroke, SceneError> {
+/// Mesh tools already built, by file, scale and offset: a scene naming one tool file
+/// in many strokes holds one copy of it.
+struct ToolFiles {
+    allow_outside: bool,
+    #[allow(clippy::type_complexity)]
+    loaded: Vec<((std::path::PathBuf, u64, [u64; 3]), Arc<MeshTool>)>,
+}
+
+fn validate_stroke(
+    cx: &Ctx,
+    dir: &Path,
+    f: &str,
+    s: &StrokeSpec,
+    spacing: f64,
+    tools: &mut ToolFiles,
+) -> Result<Stroke, SceneError> {
     let operation = match &s.op {
         OpSpec::Carve => Operation::Carve,
         OpSpec::Add => Operation::Add,
@@ -223,7 +257,7 @@ fn validate_stroke(cx: &Ctx, dir: &Path, f: &str, s: &StrokeSpec, spacing: f64) 
     let t = cx.finite3(&format!("{f}.translate"), s.translate)?;
     let rotation = DQuat::from_euler(EulerRot::XYZ, r.x.to_radians(), r.y.to_radians(), r.z.to_radians());
     let pose = Pose::new(rotation, t).map_err(|e| cx.err(format!("{f}.rotation_deg"), e.to_string()))?;
-    let shape = tool_shape(cx, dir, &format!("{f}.tool"), &s.tool)?;
+    let shape = tool_shape(cx, dir, &format!("{f}.tool"), &s.tool, tools)?;
     let mut tool = Tool::new(shape, pose).map_err(|e| cx.err(format!("{f}.tool"), e.to_string()))?;
     if let Some(path) = &s.path {
         let points = path
@@ -238,7 +272,7 @@ fn validate_stroke(cx: &Ctx, dir: &Path, f: &str, s: &StrokeSpec, spacing: f64) 
     Stroke::new(tool, operation).map_err(|e| cx.err(format!("{f}.op"), e.to_string()))
 }
 
-fn tool_shape(cx: &Ctx, dir: &Path, f: &str, s: &ShapeSpec) -> Result<ToolShape, SceneError> {
+fn tool_shape(cx: &Ctx, dir: &Path, f: &str, s: &ShapeSpec, tools: &mut ToolFiles) -> Result<ToolShape, SceneError> {
     let v = |name: &str, x: V3| cx.finite3(&format!("{f}.{name}"), x);
     match s {
         ShapeSpec::Torus {
@@ -261,16 +295,21 @@ fn tool_shape(cx: &Ctx, dir: &Path, f: &str, s: &ShapeSpec) -> Result<ToolShape,
             )))
         }
         ShapeSpec::Mesh { path, translate, scale } => {
-            let mesh = volga_mesh::load_mesh(dir.join(path)).map_err(|e| cx.err(format!("{f}.path"), e.to_string()))?;
+            let file = crate::nodes::scene_file(cx.path, dir, &format!("{f}.path"), path, tools.allow_outside)?;
             let scale = cx.positive(&format!("{f}.scale"), *scale)?;
             let offset = v("translate", *translate)?;
+            let key = (file.clone(), scale.to_bits(), offset.to_array().map(f64::to_bits));
+            if let Some((_, tool)) = tools.loaded.iter().find(|(k, _)| *k == key) {
+                return Ok(ToolShape::Mesh(Arc::clone(tool)));
+            }
+            let mesh = volga_mesh::load_mesh(&file).map_err(|e| cx.err(format!("{f}.path"), e.to_string()))?;
             let mesh = volga_mesh::TriMesh {
                 positions: mesh.positions.iter().map(|p| *p * scale + offset).collect(),
                 triangles: mesh.triangles,
             };
-            Ok(ToolShape::Mesh(Arc::new(
-                MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?,
-            )))
+            let tool = Arc::new(MeshTool::new(&mesh).map_err(|e| cx.err(f, e.to_string()))?);
+            tools.loaded.push((key, Arc::clone(&tool)));
+            Ok(ToolShape::Mesh(tool))
         }
         ShapeSpec::Cylinder { half_length: None, .. } | ShapeSpec::Cone { height: None, .. } => Err(cx.err(
             f,
@@ -298,13 +337,13 @@ mod tests {
                  (op: Carve, tool: Sphere(center: (0, 0, 0), radius: -1))])",
             )
             .unwrap();
-        let e = validate_strokes(p, &file, 0.1).unwrap_err().to_string();
+        let e = validate_strokes(p, &file, 0.1, false).unwrap_err().to_string();
         assert!(e.contains("strokes[1].op"), "{e}");
         let file = StrokeFile {
             start: None,
             strokes: vec![file.strokes[2].clone()],
         };
-        let e = validate_strokes(p, &file, 0.1).unwrap_err().to_string();
+        let e = validate_strokes(p, &file, 0.1, false).unwrap_err().to_string();
         assert!(e.contains("strokes[0].tool"), "{e}");
         let saw = StrokeFile {
             start: None,
@@ -319,7 +358,7 @@ mod tests {
                 path: Some(vec![[0.0; 3], [f64::NAN, 0.0, 0.0]]),
             }],
         };
-        assert!(validate_strokes(p, &saw, 0.1)
+        assert!(validate_strokes(p, &saw, 0.1, false)
             .unwrap_err()
             .to_string()
             .contains("strokes[0].path[1]"));

@@ -36,6 +36,10 @@ pub struct Scene {
     pub volumes: Vec<VolumeOutputSpec>,
     /// The mesh outputs, as written in the file (names checked).
     pub meshes: Vec<crate::model::MeshOutputSpec>,
+    /// Whether the resolve stage may read files outside the scene's folder (absolute
+    /// paths, `..` above it); `false` after validation. See
+    /// [`BuildOptions::allow_outside_paths`](crate::BuildOptions::allow_outside_paths).
+    pub allow_outside_paths: bool,
 }
 
 impl Scene {
@@ -51,6 +55,7 @@ impl Scene {
             memory_limit: memory_limit
                 .or_else(volga_core::memory::available_bytes)
                 .unwrap_or(u64::MAX),
+            allow_outside: self.allow_outside_paths,
         };
         self.root.resolve(&cx)
     }
@@ -237,6 +242,7 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
         images,
         volumes: file.outputs.volumes.clone(),
         meshes: file.outputs.meshes.clone(),
+        allow_outside_paths: false,
     })
 }
 

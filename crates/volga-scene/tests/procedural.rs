@@ -14,6 +14,7 @@ fn run(dir: &Path, name: &str, scene: &str) -> Report {
         out_dir: dir.join(name),
         memory_limit: Some(1 << 30),
         stage_start: None,
+        allow_outside_paths: false,
     };
     build(&path, &options, &NoProgress).unwrap()
 }

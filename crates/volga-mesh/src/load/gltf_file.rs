@@ -21,7 +21,7 @@ const MAX_INSTANCED_TRIANGLES: u64 = 1 << 27;
 /// when the file names no default), with each node's world transform applied.
 pub fn load_gltf(path: impl AsRef<Path>) -> Result<TriMesh, MeshError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+    let bytes = volga_core::input::read_input(path).map_err(|source| MeshError::Io {
         path: path.to_owned(),
         source,
     })?;
@@ -165,7 +165,8 @@ fn load_buffers<'a>(gltf: &'a gltf::Gltf, path: &Path) -> Result<Vec<Cow<'a, [u8
                 None => {
                     let file = resolve_uri(path, uri).map_err(|e| format!("buffer {i}: {e}"))?;
                     Cow::Owned(
-                        std::fs::read(&file).map_err(|e| format!("buffer {i}: cannot read {}: {e}", file.display()))?,
+                        volga_core::input::read_input(&file)
+                            .map_err(|e| format!("buffer {i}: cannot read {}: {e}", file.display()))?,
                     )
                 }
             },

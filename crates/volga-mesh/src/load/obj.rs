@@ -10,7 +10,7 @@ use crate::{MeshError, TriMesh};
 /// materials ignored (a missing `.mtl` is not an error), points and lines skipped.
 pub fn load_obj(path: impl AsRef<Path>) -> Result<TriMesh, MeshError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+    let bytes = volga_core::input::read_input(path).map_err(|source| MeshError::Io {
         path: path.to_owned(),
         source,
     })?;

@@ -120,7 +120,7 @@ impl Node for MeshNode {
             translate,
         } = &self.source
         {
-            let file = cx.dir.join(path);
+            let file = cx.file(field, path)?;
             check_parse_memory(cx, &file, field)?;
             let mesh = volga_mesh::load_mesh(&file).map_err(|e| SceneError::Invalid {
                 path: cx.scene.to_owned(),

@@ -63,6 +63,37 @@ pub struct Resolve<'a> {
     pub dir: &'a Path,
     /// Bytes a file may take to parse (checked from its size before parsing).
     pub memory_limit: u64,
+    /// Whether paths may leave `dir` (see [`crate::BuildOptions::allow_outside_paths`]).
+    pub allow_outside: bool,
+}
+
+impl Resolve<'_> {
+    /// The file a scene path names: inside the scene's folder unless `allow_outside`;
+    /// errors name the scene file and `field`.
+    pub fn file(&self, field: &str, path: &str) -> Result<std::path::PathBuf, SceneError> {
+        scene_file(self.scene, self.dir, field, path, self.allow_outside)
+    }
+}
+
+/// The file `path` (from `field` of the file `scene`) names, relative to `dir`, refused
+/// when it leaves `dir` unless `allow_outside`.
+pub fn scene_file(
+    scene: &Path,
+    dir: &Path,
+    field: &str,
+    path: &str,
+    allow_outside: bool,
+) -> Result<std::path::PathBuf, SceneError> {
+    if allow_outside {
+        return Ok(dir.join(path));
+    }
+    volga_core::input::confine(dir, path).map_err(|why| SceneError::Invalid {
+        path: scene.to_owned(),
+        field: field.to_owned(),
+        message: format!(
+            "`{path}` {why}: a scene reads only files in its own folder (pass --allow-outside-paths to allow others)"
+        ),
+    })
 }
 
 /// One node of a validated scene. Fields are world space `f64`; baked volumes hold

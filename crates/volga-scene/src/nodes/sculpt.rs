@@ -24,6 +24,8 @@ pub struct SculptNode {
     /// The scene file, known from the resolve stage (stroke errors name it; mesh tools
     /// are relative to its folder).
     scene: Option<PathBuf>,
+    /// Whether mesh tools may be read from outside the scene's folder (from the resolve stage).
+    allow_outside: bool,
 }
 
 impl SculptNode {
@@ -34,6 +36,7 @@ impl SculptNode {
             children: vec![operand],
             strokes,
             scene: None,
+            allow_outside: false,
         }
     }
 
@@ -58,7 +61,13 @@ impl SculptNode {
         let operand = &self.children[0];
         let field = operand.lazy_field(grid)?;
         let mut sculpt = Sculpt::from_field(sculpt_grid, &*field, operand.colour());
-        let strokes = validate_stroke_list(&scene, &format!("{}.strokes", self.field), &self.strokes, h.x)?;
+        let strokes = validate_stroke_list(
+            &scene,
+            &format!("{}.strokes", self.field),
+            &self.strokes,
+            h.x,
+            self.allow_outside,
+        )?;
         for stroke in &strokes {
             sculpt.apply(stroke);
         }
@@ -80,8 +89,15 @@ impl Node for SculptNode {
     fn resolve(&mut self, cx: &Resolve) -> Result<(), SceneError> {
         self.children[0].resolve(cx)?;
         // Every stroke checked now (voxel size 1 for the saws' spacing; rebuilt when sampled).
-        validate_stroke_list(cx.scene, &format!("{}.strokes", self.field), &self.strokes, 1.0)?;
+        validate_stroke_list(
+            cx.scene,
+            &format!("{}.strokes", self.field),
+            &self.strokes,
+            1.0,
+            cx.allow_outside,
+        )?;
         self.scene = Some(cx.scene.to_owned());
+        self.allow_outside = cx.allow_outside;
         Ok(())
     }
     /// Strokes may add material anywhere in the grid.

@@ -72,7 +72,7 @@ impl VolumeNode {
 
 /// Reads a voxel model as a density volume; `field` names the scene field in errors.
 pub fn load_density(cx: &Resolve, path: &str, field: &str) -> Result<SparseVolume, SceneError> {
-    let file = cx.dir.join(path);
+    let file = cx.file(field, path)?;
     let invalid = |message: String| SceneError::Invalid {
         path: cx.scene.to_owned(),
         field: field.to_string(),
