@@ -10,14 +10,15 @@ use std::time::Instant;
 use clap::Args;
 use glam::{DVec3, Vec3};
 use serde_json::json;
-use volga_core::NoProgress;
+use volga_core::memory::Bytes;
+use volga_core::{NoProgress, Progress};
 use volga_io::{StagedOutputs, VoxelFormat};
 
 /// Bytes a mesh file named by a stroke file may take to parse when the available memory is unknown.
 const FALLBACK_MEMORY_LIMIT: u64 = 4 << 30;
 use volga_render::{Camera, Iso, Projection, RenderSettings, Renderer, SurfaceColour};
 use volga_scene::strokes::{parse_stroke_file, start_sculpt, validate_strokes};
-use volga_sculpt::Sculpt;
+use volga_sculpt::{Sculpt, BRICK_BYTES_BOUND};
 
 use crate::failure::{bad_input, failed, Failure};
 
@@ -96,14 +97,53 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
         None => None,
     };
 
+    // The strokes' memory, bounded before any is applied.
+    let too_large = |what: String, needed: u128| {
+        bad_input(format!(
+            "{what} needs up to {} ({needed} bytes), more than the memory limit of {} ({limit} bytes); raise --memory-limit or use fewer voxels",
+            Bytes(needed),
+            Bytes(limit as u128)
+        ))
+    };
+    let mut octree_bound = sculpt.stats().bytes as u128;
+    for (i, stroke) in strokes.iter().enumerate() {
+        octree_bound += sculpt.stroke_brick_bound(stroke) * BRICK_BYTES_BOUND as u128;
+        if octree_bound > limit as u128 {
+            return Err(too_large(
+                format!("applying strokes[0..={i}] of {}", args.strokes.display()),
+                octree_bound,
+            ));
+        }
+    }
+    if args.image.is_some() {
+        // Float and 8-bit pixels, and the PNG.
+        let needed = args.size as u128 * args.size as u128 * 24;
+        if needed > limit as u128 {
+            return Err(too_large(format!("--image at --size {}", args.size), needed));
+        }
+    }
+
     let start = Instant::now();
+    let progress = crate::progress::BarProgress::new();
     let mut changed = Vec::new();
+    progress.start("strokes", strokes.len() as u64);
     for stroke in &strokes {
         let report = sculpt.apply(stroke);
         changed.push(report.changed_world.map(|b| [b.min.to_array(), b.max.to_array()]));
+        progress.inc(1);
     }
+    progress.finish();
     let edit_s = start.elapsed().as_secs_f64();
     let stats = sculpt.stats();
+    if let Some(path) = &args.volume {
+        let (bricks, needed) = sculpt.sparse_volume_bytes(true);
+        if needed > limit as u128 {
+            return Err(too_large(
+                format!("--volume {} ({bricks} bricks of 8³ voxels)", path.display()),
+                needed,
+            ));
+        }
+    }
 
     let mut staged = StagedOutputs::new();
     let io = |e: volga_io::IoError| failed(e.to_string());
@@ -113,7 +153,9 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
     }
     let mut triangles = None;
     if let (Some(path), Some(ply)) = (&args.mesh, mesh_format) {
-        let surface = sculpt.surface(1.0).map_err(|e| failed(e.to_string()))?;
+        let surface = sculpt
+            .surface_bounded(1.0, limit / volga_mesh::BYTES_PER_TRIANGLE)
+            .map_err(|e| bad_input(format!("--mesh {}: {e}", path.display())))?;
         triangles = Some(surface.mesh.triangle_count());
         let bytes = if ply {
             volga_mesh::ply_bytes(&surface.mesh, Some(&surface.normals))

@@ -72,7 +72,35 @@ pub enum ExtractError {
         /// The limit, [`MAX_LATTICE_POINTS_PER_AXIS`].
         max: u64,
     },
+    /// The lattice has more than [`MAX_BLOCKS`] blocks of 16³ cubes: more than an
+    /// extraction visits in reasonable time. Use a larger `cell` or a smaller `region`.
+    #[error("extraction lattice of {points:?} points has {blocks} blocks of 16³ cubes, more than the {max} an extraction visits: use a larger cell or a smaller region")]
+    TooManyBlocks {
+        /// Lattice points along x, y and z.
+        points: [u64; 3],
+        /// Blocks the lattice has.
+        blocks: u64,
+        /// The limit, [`MAX_BLOCKS`].
+        max: u64,
+    },
+    /// The surface has more triangles than the caller allowed
+    /// ([`extract_surface_bounded`]); the extraction stopped there.
+    #[error("the surface has more than {max} triangles, the most this extraction may hold (about {} of memory at {BYTES_PER_TRIANGLE} bytes per triangle): use a larger cell or raise the memory limit", volga_core::memory::Bytes(*max as u128 * BYTES_PER_TRIANGLE as u128))]
+    TooManyTriangles {
+        /// The most triangles allowed.
+        max: u64,
+    },
 }
+
+/// Most blocks of 16³ lattice cubes an extraction visits (2^30: each is at least one
+/// `value_range` query).
+pub const MAX_BLOCKS: u64 = 1 << 30;
+
+/// Peak bytes an extraction holds per output triangle (the triangle, its share of vertex
+/// positions, normals and edge keys, and the per-block copies before merging): what
+/// [`extract_surface_bounded`]'s `max_triangles` is computed from by callers with a
+/// memory limit.
+pub const BYTES_PER_TRIANGLE: u64 = 160;
 
 /// Where a vertex is placed on its lattice edge.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -166,6 +194,18 @@ impl Lattice {
 
 /// [`extract_surface`] with every choice explicit.
 pub fn extract_surface_with<F: Field + ?Sized>(field: &F, job: &Extraction) -> Result<Surface, ExtractError> {
+    extract_surface_bounded(field, job, u64::MAX)
+}
+
+/// [`extract_surface_with`] stopping with [`ExtractError::TooManyTriangles`] once the
+/// surface passes `max_triangles` (callers with a memory limit pass
+/// `limit / BYTES_PER_TRIANGLE`), so a surface larger than memory is refused while it is
+/// being found rather than discovered by the allocator.
+pub fn extract_surface_bounded<F: Field + ?Sized>(
+    field: &F,
+    job: &Extraction,
+    max_triangles: u64,
+) -> Result<Surface, ExtractError> {
     let region = job.region;
     if !(region.min.is_finite() && region.max.is_finite()) || region.is_empty() {
         return Err(ExtractError::Region {
@@ -194,24 +234,49 @@ pub fn extract_surface_with<F: Field + ?Sized>(field: &F, job: &Extraction) -> R
     };
     let inward = field.kind().inward_sign();
     let blocks = (lattice.points - 1 + BLOCK - 1) / BLOCK;
-    let block_list: Vec<IVec3> = (0..blocks.z)
-        .flat_map(|z| (0..blocks.y).flat_map(move |y| (0..blocks.x).map(move |x| IVec3::new(x, y, z))))
+    let block_count = blocks.as_u64vec3().element_product();
+    if block_count > MAX_BLOCKS {
+        return Err(ExtractError::TooManyBlocks {
+            points: points.map(|p| p as u64),
+            blocks: block_count,
+            max: MAX_BLOCKS,
+        });
+    }
+    // Blocks are numbered x fastest and met in that order; only those the surface crosses
+    // are kept, and the triangle count is watched as they are meshed.
+    let (bx, by) = (blocks.x as u64, blocks.y as u64);
+    let triangles = std::sync::atomic::AtomicU64::new(0);
+    let over = std::sync::atomic::AtomicBool::new(false);
+    let outs: Vec<BlockMesh> = (0..block_count)
+        .into_par_iter()
+        .filter_map(|k| {
+            if over.load(std::sync::atomic::Ordering::Relaxed) {
+                return None;
+            }
+            let b = IVec3::new((k % bx) as i32, (k / bx % by) as i32, (k / (bx * by)) as i32);
+            let out = mesh_block(field, &lattice, b, job, inward)?;
+            let total = triangles.fetch_add(out.triangles.len() as u64, std::sync::atomic::Ordering::Relaxed)
+                + out.triangles.len() as u64;
+            if total > max_triangles {
+                over.store(true, std::sync::atomic::Ordering::Relaxed);
+                return None;
+            }
+            Some(out)
+        })
         .collect();
-    let outs: Vec<Option<BlockMesh>> = block_list
-        .par_iter()
-        .map(|&b| mesh_block(field, &lattice, b, job, inward))
-        .collect();
+    if over.load(std::sync::atomic::Ordering::Relaxed) {
+        return Err(ExtractError::TooManyTriangles { max: max_triangles });
+    }
 
     // Merge by lattice edge, in block order: deterministic for any thread count.
-    let mut surface = Surface::default();
+    let mut surface = Surface {
+        blocks_skipped: block_count - outs.len() as u64,
+        blocks_sampled: outs.len() as u64,
+        ..Surface::default()
+    };
     let mut index: HashMap<u64, u32> = HashMap::default();
     let mut remap = Vec::new();
     for out in outs {
-        let Some(out) = out else {
-            surface.blocks_skipped += 1;
-            continue;
-        };
-        surface.blocks_sampled += 1;
         remap.clear();
         for (key, pos) in out.keys.iter().zip(&out.positions) {
             let next = surface.mesh.positions.len() as u32;

@@ -263,7 +263,8 @@ fn build_with(
     })?;
     for m in &scene.meshes {
         stages.run(format!("mesh:{}", m.name), || {
-            write_mesh(&scene, m, &options.out_dir, &mut staged)
+            let left = plan.memory_limit_bytes.saturating_sub(plan.memory.total_bytes);
+            write_mesh(&scene, m, &options.out_dir, &mut staged, left)
         })?;
     }
     let outputs = staged.staged_paths();
@@ -337,13 +338,23 @@ fn write_mesh(
     m: &crate::model::MeshOutputSpec,
     out_dir: &Path,
     staged: &mut StagedOutputs,
+    max_bytes: u64,
 ) -> Result<(), BuildError> {
     let field = scene.root.lazy_field(&scene.grid)?;
-    let surface = volga_mesh::extract_surface(
+    // The triangles (and the file's bytes) fit in what the plan left of the memory limit:
+    // the extraction stops, with an error, past that many triangles.
+    let surface = volga_mesh::extract_surface_bounded(
         field.as_ref(),
-        scene.grid.world_bounds(),
-        scene.grid.transform.min_spacing(),
-        0.5,
+        &volga_mesh::Extraction {
+            region: scene.grid.world_bounds(),
+            cell: scene.grid.transform.min_spacing(),
+            iso: 0.5,
+            placement: volga_mesh::VertexPlacement::Refined {
+                tolerance: 1e-9,
+                max_iterations: 32,
+            },
+        },
+        max_bytes / (volga_mesh::BYTES_PER_TRIANGLE + 64),
     )
     .map_err(|e| {
         BuildError::Scene(SceneError::Invalid {

@@ -184,6 +184,18 @@ pub fn start_sculpt(
     let transform = Transform::new(grid.origin(), DVec3::splat(h)).map_err(|e| cx.err("start", e.to_string()))?;
     let core_grid =
         Grid::new(transform, UVec3::splat(grid.dims() as u32)).map_err(|e| cx.err("start", e.to_string()))?;
+    let needed = grid.sample_bytes_bound(&node.bounds());
+    if needed > memory_limit as u128 {
+        return Err(cx.err(
+            "start.voxel_size",
+            format!(
+                "sampling the start object on a {}³ sculpt needs up to {} ({needed} bytes), more than the memory limit of {} ({memory_limit} bytes); use a larger voxel_size or raise --memory-limit",
+                grid.dims(),
+                volga_core::memory::Bytes(needed),
+                volga_core::memory::Bytes(memory_limit as u128)
+            ),
+        ));
+    }
     let field = node.lazy_field(&core_grid)?;
     let colour = node.colour();
     Ok(Sculpt::from_field(grid, &*field, colour))

@@ -68,7 +68,7 @@ impl Operation {
             Operation::Spray {
                 strength,
                 falloff_world,
-            } => unit(strength) && falloff_world.is_finite() && falloff_world >= 0.0,
+            } => unit(strength) && (0.0..=crate::MAX_WORLD).contains(&falloff_world),
             Operation::Paint { colour, strength } => {
                 unit(strength) && colour.iter().all(|c| c.is_finite() && (0.0..=1.0).contains(c))
             }
@@ -78,7 +78,7 @@ impl Operation {
             Ok(())
         } else {
             Err(SculptError::Operation(format!(
-                "{self:?}: strengths must be in (0, 1], colours in [0, 1], falloff ≥ 0"
+                "{self:?}: strengths must be in (0, 1], colours in [0, 1], falloff in [0, 1e100] world units"
             )))
         }
     }
@@ -135,6 +135,7 @@ impl<'a> Prepared<'a> {
             Operation::Spray { falloff_world, .. } => base + falloff_world,
             _ => base,
         };
+        // Finite: the grid's spacing and the falloff are each at most MAX_WORLD.
         let filter = OrientedBoxFilter::with_half_width(half_width).expect("spacing and falloff are validated");
         let reach = stroke.tool.bounds().expanded(DVec3::splat(half_width));
         let edit_box = grid.voxels_touching(&reach);

@@ -3,7 +3,7 @@
 
 use glam::{DVec3, IVec3, UVec3};
 use volga_core::{Brick as CoreBrick, Field, Grid, SparseVolume, Transform, BRICK_VOXELS};
-use volga_mesh::{extract_surface_with, ExtractError, Extraction, Surface, VertexPlacement};
+use volga_mesh::{extract_surface_bounded, ExtractError, Extraction, Surface, VertexPlacement};
 
 use crate::octree::{child_offset, node_size, BrickColour, Node};
 use crate::Sculpt;
@@ -26,10 +26,30 @@ impl Sculpt {
     /// refined onto the trilinear surface (to 1e-6 in density). Homogeneous nodes are
     /// skipped through `value_range`.
     pub fn surface(&self, cell_voxels: f64) -> Result<Surface, ExtractError> {
-        extract_surface_with(
+        self.surface_bounded(cell_voxels, u64::MAX)
+    }
+
+    /// [`surface`](Sculpt::surface) over the material only (the box of the voxels with
+    /// density above 0, grown by two voxels; an empty sculpt has no surface), stopping with
+    /// [`ExtractError::TooManyTriangles`] past `max_triangles`.
+    pub fn surface_bounded(&self, cell_voxels: f64, max_triangles: u64) -> Result<Surface, ExtractError> {
+        let Some(content) = self.content_bounds() else {
+            return Ok(Surface::default());
+        };
+        // The whole grid's lattice (from one voxel below the grid), cut to whole blocks of
+        // 16 lattice cubes around the material, so the lattice points are the whole grid's.
+        let h = self.grid.spacing();
+        let cell = cell_voxels * h;
+        let full = self.bounds();
+        let pad = DVec3::splat(2.0 * h.max(cell));
+        let block = 16.0 * cell;
+        let k_lo = ((content.min - pad - full.min) / block).floor().max(DVec3::ZERO);
+        let k_hi = ((content.max + pad - full.min) / block).ceil();
+        let region = volga_core::Aabb::new(full.min + k_lo * block, (full.min + k_hi * block).min(full.max));
+        extract_surface_bounded(
             self,
             &Extraction {
-                region: self.bounds(),
+                region,
                 cell: cell_voxels * self.grid.spacing(),
                 iso: 0.5,
                 placement: VertexPlacement::Refined {
@@ -37,6 +57,7 @@ impl Sculpt {
                     max_iterations: 16,
                 },
             },
+            max_triangles,
         )
     }
 }

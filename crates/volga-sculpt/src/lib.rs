@@ -48,6 +48,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+mod bounds;
 mod edit;
 mod export;
 mod field;
@@ -56,9 +57,10 @@ mod octree;
 mod sculpt;
 mod tool;
 
+pub use bounds::BRICK_BYTES_BOUND;
 pub use edit::{EditReport, Operation, Stroke};
 pub use file::{crc32, FileError, SculptFileError, FORMAT_VERSION};
-pub use octree::{NodeStats, SculptGrid, Voxel, BRICK, MAX_LEVELS};
+pub use octree::{NodeStats, SculptGrid, Voxel, BRICK, MAX_LEVELS, MAX_WORLD};
 pub use sculpt::Sculpt;
 pub use tool::{MeshTool, Pose, Tool, ToolError, ToolShape, MAX_SWEEP_SAMPLES};
 
@@ -66,7 +68,7 @@ pub use tool::{MeshTool, Pose, Tool, ToolError, ToolShape, MAX_SWEEP_SAMPLES};
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SculptError {
     /// The grid's placement or depth is not valid ([`SculptGrid::new`]).
-    #[error("sculpt grid needs a finite origin, a finite positive spacing and at most {MAX_LEVELS} levels; got origin {origin:?}, spacing {spacing}, levels {levels}")]
+    #[error("sculpt grid needs an origin within ±1e100, a positive spacing, an extent (spacing × voxels per axis) of at most 1e100 and at most {MAX_LEVELS} levels; got origin {origin:?}, spacing {spacing}, levels {levels}")]
     Grid {
         /// The origin given.
         origin: [f64; 3],

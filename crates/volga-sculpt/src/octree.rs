@@ -281,11 +281,22 @@ pub struct SculptGrid {
 /// The deepest tree: 8·2^17 = 1 048 576 voxels per axis.
 pub const MAX_LEVELS: u32 = 17;
 
+/// The largest world coordinate or length a sculpt works with (origin, the grid's extent,
+/// a spray's falloff): sums and squares of such values stay finite in `f64`, so no edit
+/// overflows to infinity.
+pub const MAX_WORLD: f64 = 1e100;
+
 impl SculptGrid {
-    /// Refuses a non-finite origin, a spacing that is not finite and positive, or more
-    /// than [`MAX_LEVELS`] levels.
+    /// Refuses a non-finite origin, a spacing that is not finite and positive, more than
+    /// [`MAX_LEVELS`] levels, or a grid reaching beyond [`MAX_WORLD`] (an origin
+    /// coordinate, or the extent `spacing · 8·2^levels`, above 1e100 in magnitude).
     pub fn new(origin: DVec3, spacing: f64, levels: u32) -> Result<SculptGrid, crate::SculptError> {
-        if !(origin.is_finite() && spacing.is_finite() && spacing > 0.0) || levels > MAX_LEVELS {
+        let within = |x: f64| x.is_finite() && x.abs() <= MAX_WORLD;
+        if !(origin.to_array().iter().all(|&c| within(c))
+            && spacing > 0.0
+            && within(spacing * node_size(levels.min(MAX_LEVELS)) as f64))
+            || levels > MAX_LEVELS
+        {
             return Err(crate::SculptError::Grid {
                 origin: origin.to_array(),
                 spacing,

@@ -30,9 +30,21 @@ pub enum ToolError {
     /// The saw path needs more tool copies than [`MAX_SWEEP_SAMPLES`].
     #[error("saw path is too long for the sculpt: {samples} tool positions (at most {max})")]
     PathTooLong {
-        /// Tool positions the path needs (`u64::MAX` if beyond counting).
+        /// Tool positions the path needs, counted up to the segment where it passed `max`.
         samples: u64,
         /// The most allowed.
+        max: u64,
+    },
+    /// One segment of the saw path alone needs more tool copies than [`MAX_SWEEP_SAMPLES`].
+    #[error("saw path segment {segment} is {length:e} world units long: at one tool position every {step:e} it needs more than {max} tool positions")]
+    SegmentTooLong {
+        /// Index of the segment's first point in the path.
+        segment: usize,
+        /// Its length (world units; may be infinite when the coordinates are huge).
+        length: f64,
+        /// The step between tool positions (half a voxel).
+        step: f64,
+        /// The most tool positions allowed.
         max: u64,
     },
     /// The shape was refused (the message says why).
@@ -219,12 +231,15 @@ impl Tool {
         }
         let mut samples: Vec<DVec3> = vec![path[0]];
         let mut count = 1u64;
-        for pair in path.windows(2) {
+        for (segment, pair) in path.windows(2).enumerate() {
             let (a, b) = (pair[0], pair[1]);
-            let n = ((b - a).length() / max_step).ceil();
-            if n.is_nan() || n > MAX_SWEEP_SAMPLES as f64 {
-                return Err(ToolError::PathTooLong {
-                    samples: u64::MAX,
+            let length = (b - a).length();
+            let n = (length / max_step).ceil();
+            if !(n <= MAX_SWEEP_SAMPLES as f64) {
+                return Err(ToolError::SegmentTooLong {
+                    segment,
+                    length,
+                    step: max_step,
                     max: MAX_SWEEP_SAMPLES,
                 });
             }

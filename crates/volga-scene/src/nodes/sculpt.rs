@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use glam::{DVec3, IVec3};
 use volga_core::{Aabb, Field, Grid, Progress, Rgb, SparseVolume};
-use volga_sculpt::{Sculpt, SculptGrid};
+use volga_sculpt::{Sculpt, SculptGrid, BRICK_BYTES_BOUND};
 
 use super::{Clipped, Estimate, Node, Resolve};
 use crate::strokes::{validate_stroke_list, StrokeSpec};
@@ -49,15 +49,7 @@ impl SculptNode {
             message,
         };
         let h = grid.transform.spacing();
-        if h.x != h.y || h.y != h.z {
-            return Err(err(format!("a sculpt needs cubic voxels, the grid's are {h:?}")));
-        }
-        let dims = grid.dims().max_element();
-        let mut levels = 0;
-        while (8u32 << levels) < dims {
-            levels += 1;
-        }
-        let sculpt_grid = SculptGrid::new(grid.transform.origin(), h.x, levels).map_err(|e| err(e.to_string()))?;
+        let sculpt_grid = sculpt_grid(grid).map_err(err)?;
         let operand = &self.children[0];
         let field = operand.lazy_field(grid)?;
         let mut sculpt = Sculpt::from_field(sculpt_grid, &*field, operand.colour());
@@ -74,6 +66,21 @@ impl SculptNode {
         sculpt.clear_history();
         Ok(sculpt)
     }
+}
+
+/// The octree grid a sculpt node samples its operand on: the scene grid's origin and
+/// (cubic) voxel size, enough levels to cover its voxels.
+fn sculpt_grid(grid: &Grid) -> Result<SculptGrid, String> {
+    let h = grid.transform.spacing();
+    if h.x != h.y || h.y != h.z {
+        return Err(format!("a sculpt needs cubic voxels, the grid's are {h:?}"));
+    }
+    let dims = grid.dims().max_element();
+    let mut levels = 0;
+    while (8u32 << levels) < dims {
+        levels += 1;
+    }
+    SculptGrid::new(grid.transform.origin(), h.x, levels).map_err(|e| e.to_string())
 }
 
 impl Node for SculptNode {
@@ -107,10 +114,29 @@ impl Node for SculptNode {
     fn colour(&self) -> Rgb {
         self.children[0].colour()
     }
-    /// The operand's bricks twice (the octree and its baked copy).
+    /// The operand's bricks twice (the octree and its baked copy), and the bricks every
+    /// stroke may make dense ([`Sculpt::stroke_brick_bound`]) twice as well: in the octree
+    /// (at [`BRICK_BYTES_BOUND`] bytes each) and in the baked volume.
     fn estimate(&self, grid: &Grid) -> Estimate {
         let e = self.children[0].estimate(grid);
-        e.plus(e)
+        let mut total = e.plus(e);
+        let Ok(sculpt_grid) = sculpt_grid(grid) else {
+            return total;
+        };
+        let scene = self.scene.clone().unwrap_or_default();
+        let field = format!("{}.strokes", self.field);
+        let h = grid.transform.spacing().x;
+        let Ok(strokes) = validate_stroke_list(&scene, &field, &self.strokes, h, self.allow_outside) else {
+            return total;
+        };
+        let empty = Sculpt::empty(sculpt_grid, [0.0; 3]);
+        let bricks: u128 = strokes.iter().map(|s| empty.stroke_brick_bound(s)).sum();
+        let bricks = u64::try_from(bricks).unwrap_or(u64::MAX);
+        total = total.plus(Estimate {
+            bricks,
+            extra_bytes: bricks.saturating_mul(BRICK_BYTES_BOUND),
+        });
+        total
     }
     fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError> {
         let sculpt = self.sculpt(grid)?;
