@@ -112,6 +112,14 @@ pub(crate) fn max_threads(cores: usize) -> usize {
 }
 
 fn main() -> ExitCode {
+    // Interrupted (SIGINT, SIGTERM, SIGHUP): delete the temp files of outputs not yet
+    // renamed, so existing outputs stay as they were and nothing half-written is left.
+    // Exit 130, the shell's code for an interrupt.
+    let _ = ctrlc::set_handler(|| {
+        volga_io::remove_temp_files();
+        eprintln!("interrupted: no output written");
+        std::process::exit(130);
+    });
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
         if n == 0 {

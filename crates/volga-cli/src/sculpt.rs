@@ -96,6 +96,27 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
         Some(p) => Some(VoxelFormat::from_path(p).map_err(|e| bad_input(format!("--volume: {e}")))?),
         None => None,
     };
+    // Every output a different file, whatever the spelling of its path.
+    let mut outputs: Vec<(String, PathBuf)> = Vec::new();
+    for (flag, path) in [("--out", &args.out), ("--mesh", &args.mesh), ("--image", &args.image)] {
+        if let Some(p) = path {
+            outputs.push((format!("{flag} {}", p.display()), p.clone()));
+        }
+    }
+    if let (Some(p), Some(format)) = (&args.volume, voxel_format) {
+        for file in format.output_paths(p, true) {
+            outputs.push((format!("--volume {} (writes {})", p.display(), file.display()), file));
+        }
+    }
+    for (i, (a, pa)) in outputs.iter().enumerate() {
+        for (b, pb) in &outputs[..i] {
+            if volga_io::output_identity(pa) == volga_io::output_identity(pb) {
+                return Err(bad_input(format!(
+                    "{a} and {b} are the same file: choose different outputs"
+                )));
+            }
+        }
+    }
 
     // The strokes' memory, bounded before any is applied.
     let too_large = |what: String, needed: u128| {

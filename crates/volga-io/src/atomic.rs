@@ -11,6 +11,27 @@ use crate::IoError;
 /// Distinguishes temp files of one process (threads may stage the same name).
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
+/// Temp files that exist now (created, not yet renamed or deleted), so a signal handler
+/// can delete them ([`remove_temp_files`]).
+static LIVE_TEMPS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+fn live_temps() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    LIVE_TEMPS.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Deletes every temp file this process's staged and atomic writes hold now, and
+/// returns how many. For a program's SIGINT/SIGTERM handler (the `volga` CLI installs
+/// one) before it exits: an interrupted run then leaves no `.{name}.tmp-*` behind, and
+/// its outputs as they were.
+pub fn remove_temp_files() -> usize {
+    let mut live = live_temps();
+    let n = live.len();
+    for temp in live.drain(..) {
+        let _ = fs::remove_file(temp);
+    }
+    n
+}
+
 /// Buffer between the caller's writes and the temp file.
 const WRITE_BUFFER: usize = 1 << 20;
 
@@ -20,6 +41,8 @@ const WRITE_BUFFER: usize = 1 << 20;
 struct TempOutput {
     temp: PathBuf,
     target: PathBuf,
+    /// [`output_identity`] of `target`.
+    identity: PathBuf,
     armed: bool,
 }
 
@@ -40,11 +63,20 @@ impl TempOutput {
             temp_name.push(name);
             temp_name.push(format!(".tmp-{}-{n}", std::process::id()));
             let temp = dir.join(temp_name);
+            // Registered before it exists, so a handler that runs between the two
+            // deletes it too.
+            live_temps().push(temp.clone());
             match OpenOptions::new().write(true).create_new(true).open(&temp) {
                 Ok(file) => break (file, temp),
                 // A stale temp of an earlier process with the same pid: pick another.
-                Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempts < 64 => attempts += 1,
-                Err(e) => return Err(IoError::io(target, e)),
+                Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempts < 64 => {
+                    forget_temp(&temp);
+                    attempts += 1
+                }
+                Err(e) => {
+                    forget_temp(&temp);
+                    return Err(IoError::io(target, e));
+                }
             }
         };
         // Declared before the writer so that on an early return the writer (and its
@@ -52,6 +84,7 @@ impl TempOutput {
         let guard = TempOutput {
             temp,
             target: target.to_path_buf(),
+            identity: output_identity(target),
             armed: true,
         };
         let mut writer = BufWriter::with_capacity(WRITE_BUFFER, file);
@@ -67,6 +100,7 @@ impl TempOutput {
     fn persist(mut self) -> Result<PathBuf, IoError> {
         fs::rename(&self.temp, &self.target).map_err(|e| IoError::io(&self.target, e))?;
         self.armed = false;
+        forget_temp(&self.temp);
         Ok(std::mem::take(&mut self.target))
     }
 }
@@ -75,7 +109,34 @@ impl Drop for TempOutput {
     fn drop(&mut self) {
         if self.armed {
             let _ = fs::remove_file(&self.temp);
+            forget_temp(&self.temp);
         }
+    }
+}
+
+/// Drops `temp` from the live list (renamed or deleted).
+fn forget_temp(temp: &Path) {
+    let mut live = live_temps();
+    if let Some(i) = live.iter().rposition(|t| t == temp) {
+        live.swap_remove(i);
+    }
+}
+
+/// The file an output path will replace, as the filesystem sees it: its directory with
+/// every symbolic link and `.`/`..` resolved, and its file name. Two output paths with the
+/// same identity are the same file (`d/sub/../v.raw` and `d/v.raw`); a final symbolic
+/// link is not followed, since the rename that writes an output replaces the link itself.
+/// Where the directory does not exist yet, the path as given (made absolute) is used.
+pub fn output_identity(path: &Path) -> PathBuf {
+    let dir = parent_dir(path);
+    let dir = dir.canonicalize().unwrap_or_else(|_| {
+        std::env::current_dir()
+            .map(|c| c.join(dir))
+            .unwrap_or_else(|_| dir.to_path_buf())
+    });
+    match path.file_name() {
+        Some(name) => dir.join(name),
+        None => dir,
     }
 }
 
@@ -129,12 +190,17 @@ impl StagedOutputs {
     }
 
     /// Writes `path`'s new content to a temp file in `path`'s directory. Staging the
-    /// same path twice is an error (two outputs would overwrite each other).
+    /// same file twice, under any spelling of its path ([`output_identity`]), is an error
+    /// (two outputs would overwrite each other).
     pub fn stage(&mut self, path: &Path, write: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> Result<(), IoError> {
-        if self.staged.iter().any(|t| t.target == path) {
+        let identity = output_identity(path);
+        if let Some(t) = self.staged.iter().find(|t| t.identity == identity) {
             return Err(IoError::io(
                 path,
-                io::Error::new(io::ErrorKind::AlreadyExists, "the same output is staged twice"),
+                io::Error::new(
+                    io::ErrorKind::AlreadyExists,
+                    format!("the same file as the output {} staged before it", t.target.display()),
+                ),
             ));
         }
         let temp = TempOutput::write(path, write)?;

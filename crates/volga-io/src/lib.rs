@@ -54,7 +54,7 @@ mod png_io;
 
 use std::path::{Path, PathBuf};
 
-pub use atomic::{write_atomic, StagedOutputs};
+pub use atomic::{output_identity, remove_temp_files, write_atomic, StagedOutputs};
 pub use binvox::{decode_binvox, encode_binvox, read_binvox, write_binvox, Binvox, BinvoxError};
 pub use model::{
     binvox_from_volume, check_free_space, check_free_space_for, encode_binvox_volume, free_space, read_voxel_model,
