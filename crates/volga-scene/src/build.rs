@@ -183,6 +183,10 @@ fn build_with(
             );
             std::iter::once(density).chain(v.colour.then_some(colour))
         })
+        .chain(std::iter::once((
+            options.out_dir.join("images.png"),
+            plan.work.image_disk_bytes,
+        )))
         .collect();
     volga_io::check_free_space_for(&disk)?;
 

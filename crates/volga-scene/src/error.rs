@@ -68,6 +68,14 @@ pub enum SceneError {
         /// its size.
         detail: String,
     },
+    /// The plan's bound on the images' work exceeds [`crate::plan::MAX_SAMPLES`].
+    #[error("{}: scene refused before building: {detail}", path.display())]
+    TooMuchWork {
+        /// The scene file.
+        path: PathBuf,
+        /// What the bound counts and what to change.
+        detail: String,
+    },
 }
 
 /// A build that was planned but failed while running (an output could not be

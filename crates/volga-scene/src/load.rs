@@ -34,9 +34,18 @@ pub fn parse_ron(path: &Path, text: &str) -> Result<SceneFile, SceneError> {
             path: path.to_owned(),
             line: e.position.line,
             column: e.position.col,
-            message: e.code.to_string(),
+            message: match e.code {
+                ron::Error::ExceededRecursionLimit => NESTING.to_string(),
+                code => code.to_string(),
+            },
         })
 }
+
+/// What a scene nested deeper than its parser allows is told.
+const NESTING: &str = "the scene nests deeper than the 128 levels its parser allows (each \
+    operator node such as Cvg, Union, Sculpt or Hypertexture takes several: about 19 nested \
+    operators fit): flatten the tree (one Union or Cvg operator takes any number of \
+    children) or build deeper trees from code";
 
 /// Parses a scene from JSON text; `path` only names it in errors. Syntax errors, unknown
 /// fields and wrong types are [`SceneError::Parse`] with line and column.
@@ -45,7 +54,10 @@ pub fn parse_json(path: &Path, text: &str) -> Result<SceneFile, SceneError> {
         path: path.to_owned(),
         line: e.line(),
         column: e.column(),
-        message: strip_json_position(&e.to_string()),
+        message: match strip_json_position(&e.to_string()) {
+            m if m == "recursion limit exceeded" => NESTING.to_string(),
+            m => m,
+        },
     })
 }
 

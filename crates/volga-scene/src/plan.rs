@@ -46,6 +46,26 @@ pub struct MemoryEstimate {
     pub total_bytes: u64,
 }
 
+/// Upper bounds on the work and disk of the images, decided before anything runs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WorkEstimate {
+    /// Images written: one per image output, `frames` per turntable.
+    pub image_files: u64,
+    /// Rays cast by all images (pixels × supersampling² × frames).
+    pub rays: u64,
+    /// At most this many field samples: every ray crossing the grid's whole diagonal
+    /// at its step, and from every sample a shadow ray per shadow-casting light crossing
+    /// it at the shadow step (early ray termination and empty-space skipping only lower
+    /// it). Saturates at `u64::MAX`.
+    pub samples_upper_bound: u64,
+    /// Bytes the PNG files may take at most (uncompressed pixels, filter bytes, headers).
+    pub image_disk_bytes: u64,
+}
+
+/// Most field samples a build's images may take at most ([`WorkEstimate::samples_upper_bound`],
+/// 2^44 ≈ 1.8·10^13, hours to days on a few cores): more is refused before any work.
+pub const MAX_SAMPLES: u64 = 1 << 44;
+
 /// What a build will do and what it will cost, decided before anything runs.
 #[derive(Debug, Clone, Serialize)]
 pub struct Plan {
@@ -60,6 +80,8 @@ pub struct Plan {
     pub procedural: Vec<Decision>,
     /// Upper bounds on the memory the build holds.
     pub memory: MemoryEstimate,
+    /// Upper bounds on the images' samples and disk.
+    pub work: WorkEstimate,
     /// The limit `memory` was checked against, in bytes: the caller's, else the machine's
     /// available memory.
     pub memory_limit_bytes: u64,
@@ -153,6 +175,19 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
             ),
         });
     }
+    let work = work_estimate(scene);
+    if work.samples_upper_bound > MAX_SAMPLES {
+        return Err(SceneError::TooMuchWork {
+            path: scene.source.clone(),
+            detail: format!(
+                "its images may take up to {:.3e} field samples ({} rays over {} image files), more than the {:.3e} a build may take: lower the image sizes, supersampling, frames or shadow-casting lights, or raise the steps",
+                work.samples_upper_bound as f64,
+                work.rays,
+                work.image_files,
+                MAX_SAMPLES as f64
+            ),
+        });
+    }
     let mut procedural: Vec<Decision> = crate::nodes::all_procedural_plans(&scene.root)
         .into_iter()
         .map(|(node, why)| Decision::new(format!("procedural: {node}"), true, why))
@@ -170,9 +205,41 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
         effects,
         procedural,
         memory,
+        work,
         memory_limit_bytes: limit,
         colour_channel,
     })
+}
+
+fn work_estimate(scene: &Scene) -> WorkEstimate {
+    let diagonal_voxels = scene.grid.sampled_bounds().size().length() / scene.grid.transform.spacing().min_element();
+    let mut w = WorkEstimate {
+        image_files: 0,
+        rays: 0,
+        samples_upper_bound: 0,
+        image_disk_bytes: 0,
+    };
+    for im in &scene.images {
+        let s = &im.settings;
+        let frames = im.turntable.as_ref().map_or(1, |t| t.frames as u64);
+        let pixels = s.image.width as u64 * s.image.height as u64;
+        let rays = pixels * (s.image.supersampling as u64).pow(2) * frames;
+        let per_ray = (diagonal_voxels / s.sampling.step_voxels).ceil() + 1.0;
+        let shadow =
+            s.lighting.shadows.casters.len() as f64 * ((diagonal_voxels / s.lighting.shadows.step_voxels).ceil() + 1.0);
+        let samples = rays as f64 * per_ray * (1.0 + shadow);
+        w.image_files += frames;
+        w.rays = w.rays.saturating_add(rays);
+        w.samples_upper_bound = w.samples_upper_bound.saturating_add(if samples >= u64::MAX as f64 {
+            u64::MAX
+        } else {
+            samples as u64
+        });
+        let bytes_per_pixel = if im.bit_depth == 16 { 8 } else { 4 };
+        let png = pixels * bytes_per_pixel + s.image.height as u64 * 6 + 4096;
+        w.image_disk_bytes = w.image_disk_bytes.saturating_add(png.saturating_mul(frames));
+    }
+    w
 }
 
 fn estimate(scene: &Scene, colour: bool, bake: bool) -> MemoryEstimate {

@@ -461,6 +461,29 @@ fn validate_image(
         settings.lighting.shadows.casters.clear();
     }
     let reads_colour = effects.colour.enabled;
+    // Samples per ray over the grid the image renders, primary and shadow rays, with
+    // what they depend on named (the step, and the grid's voxels along its diagonal).
+    let diagonal_voxels = grid.sampled_bounds().size().length() / grid.transform.spacing().min_element();
+    let mut steps = vec![("step_voxels", settings.sampling.step_voxels)];
+    if !settings.lighting.shadows.casters.is_empty() {
+        steps.push(("shadow_step_voxels", settings.lighting.shadows.step_voxels));
+    }
+    for (name, step) in steps {
+        let samples = diagonal_voxels / step;
+        if step > 0.0 && !(samples <= volga_render::MAX_SAMPLES_PER_RAY as f64) {
+            let d = grid.dims();
+            return Err(cx.err(
+                format!("{f}.{name}"),
+                format!(
+                    "a ray may cross {diagonal_voxels:.0} voxels (the diagonal of the {}×{}×{} grid): at {name} {step} that is {samples:.3e} samples, more than the {} one ray may take; raise {name} or lower the grid's resolution",
+                    d.x,
+                    d.y,
+                    d.z,
+                    volga_render::MAX_SAMPLES_PER_RAY
+                ),
+            ));
+        }
+    }
     // The renderer's own checks, run now so bad settings are input errors (exit 2),
     // including the samples-per-ray budget over the sampled grid the image renders.
     settings.validate().map_err(|e| render_error(cx, f, e))?;
@@ -514,10 +537,33 @@ fn validate_image(
     })
 }
 
+/// Most lights a scene may have.
+pub const MAX_LIGHTS: usize = 64;
+/// Most lights that may cast shadows.
+pub const MAX_SHADOW_CASTERS: usize = 8;
+
 /// The scene's `lights`: directional ones (`direction`) and point ones
 /// (`position`, optional `attenuation`), and which cast shadows, as the lighting
 /// every shaded image starts from.
 fn validate_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lighting, SceneError> {
+    if specs.len() > MAX_LIGHTS {
+        return Err(cx.err(
+            "lights",
+            format!(
+                "{} lights: a scene may have at most {MAX_LIGHTS} (every shaded sample visits each one)",
+                specs.len()
+            ),
+        ));
+    }
+    let casters = specs.iter().filter(|l| l.shadows).count();
+    if casters > MAX_SHADOW_CASTERS {
+        return Err(cx.err(
+            "lights",
+            format!(
+                "{casters} lights cast shadows: at most {MAX_SHADOW_CASTERS} may (each casts a shadow ray from every shaded sample)"
+            ),
+        ));
+    }
     let mut lighting = Lighting {
         lights: Vec::new(),
         point_lights: Vec::new(),

@@ -63,6 +63,12 @@ pub enum HyperObjectSpec {
     },
 }
 
+/// Most modulation steps a hypertexture's chain may have.
+pub const MAX_CHAIN: usize = 64;
+/// Largest offset (world units, per axis) a `Volume` object may be moved by: sums and
+/// products of world coordinates stay finite (as for sculpts, [`volga_sculpt::MAX_WORLD`]).
+pub const MAX_TRANSLATE: f64 = 1e100;
+
 /// One step of the modulation chain, applied to the soft band only.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -148,13 +154,30 @@ impl HypertextureNode {
                 if path.is_empty() {
                     return Err(cx.err(format!("{f}.object.Volume.path"), "must name a .binvox or .nrrd file"));
                 }
+                let tf = format!("{f}.object.Volume.translate");
+                let translate = cx.finite3(&tf, *translate)?;
+                if translate.abs().max_element() > MAX_TRANSLATE {
+                    return Err(cx.err(
+                        tf,
+                        format!("must lie within ±{MAX_TRANSLATE:e} world units on every axis, got {translate}"),
+                    ));
+                }
                 Object::Volume {
                     path: path.clone(),
                     field: format!("{f}.object.Volume.path"),
-                    translate: cx.finite3(&format!("{f}.object.Volume.translate"), *translate)?,
+                    translate,
                 }
             }
         };
+        if spec.chain.len() > MAX_CHAIN {
+            return Err(cx.err(
+                format!("{f}.chain"),
+                format!(
+                    "{} modulation steps: at most {MAX_CHAIN} (each runs at every sample of the soft band)",
+                    spec.chain.len()
+                ),
+            ));
+        }
         let mut chain = Vec::new();
         for (i, m) in spec.chain.iter().enumerate() {
             let mf = format!("{f}.chain[{i}]");
