@@ -50,6 +50,13 @@ mod field;
 mod filters;
 mod grid;
 pub mod input;
+
+/// The largest world coordinate or length volga's grids accept (scene grids, sculpts):
+/// sums, differences and squares of such values stay finite in `f64`.
+pub const MAX_WORLD: f64 = 1e100;
+/// The smallest voxel size volga's grids accept: squares of lengths a few voxels long
+/// stay normal `f64` numbers (a spacing of 1e-300 would square to 0).
+pub const MIN_SPACING: f64 = 1e-100;
 mod layout;
 pub mod memory;
 mod progress;

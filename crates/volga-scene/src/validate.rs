@@ -252,6 +252,14 @@ fn validate_grid(cx: &Ctx, g: &GridSpec) -> Result<Grid, SceneError> {
     if min.cmpge(max).any() {
         return Err(cx.err("grid.bounds", "min must be < max on every axis"));
     }
+    for (name, v) in [("grid.bounds.min", min), ("grid.bounds.max", max)] {
+        if v.abs().max_element() > volga_core::MAX_WORLD {
+            return Err(cx.err(
+                name,
+                format!("must lie within ±1e100 world units on every axis, got {v}"),
+            ));
+        }
+    }
     let size = max - min;
     let voxel = match (g.resolution, &g.voxel_size) {
         (Some(_), Some(_)) => return Err(cx.err("grid", "give either `resolution` or `voxel_size`, not both")),
@@ -271,6 +279,17 @@ fn validate_grid(cx: &Ctx, g: &GridSpec) -> Result<Grid, SceneError> {
             DVec3::from_array(*h)
         }
     };
+    if voxel.min_element() < volga_core::MIN_SPACING {
+        let field = if g.resolution.is_some() {
+            "grid.resolution"
+        } else {
+            "grid.voxel_size"
+        };
+        return Err(cx.err(
+            field,
+            format!("makes voxels of {voxel}: voxels must be at least 1e-100 world units (scale the scene up)"),
+        ));
+    }
     // Cells tile the bounds; a side that is not a whole number of voxels is rounded up
     // (the tolerance absorbs the rounding of size / voxel).
     let dims_f = (size / voxel - 1e-9).ceil().max(DVec3::ONE);

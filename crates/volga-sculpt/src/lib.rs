@@ -68,7 +68,7 @@ pub use tool::{MeshTool, Pose, Tool, ToolError, ToolShape, MAX_SWEEP_SAMPLES};
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SculptError {
     /// The grid's placement or depth is not valid ([`SculptGrid::new`]).
-    #[error("sculpt grid needs an origin within ±1e100, a positive spacing, an extent (spacing × voxels per axis) of at most 1e100 and at most {MAX_LEVELS} levels; got origin {origin:?}, spacing {spacing}, levels {levels}")]
+    #[error("sculpt grid needs an origin within ±1e100, a spacing of at least 1e-100, an extent (spacing × voxels per axis) of at most 1e100 and at most {MAX_LEVELS} levels; got origin {origin:?}, spacing {spacing:e}, levels {levels}")]
     Grid {
         /// The origin given.
         origin: [f64; 3],

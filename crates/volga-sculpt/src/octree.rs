@@ -283,17 +283,18 @@ pub const MAX_LEVELS: u32 = 17;
 
 /// The largest world coordinate or length a sculpt works with (origin, the grid's extent,
 /// a spray's falloff): sums and squares of such values stay finite in `f64`, so no edit
-/// overflows to infinity.
-pub const MAX_WORLD: f64 = 1e100;
+/// overflows to infinity. The same as [`volga_core::MAX_WORLD`].
+pub const MAX_WORLD: f64 = volga_core::MAX_WORLD;
 
 impl SculptGrid {
     /// Refuses a non-finite origin, a spacing that is not finite and positive, more than
-    /// [`MAX_LEVELS`] levels, or a grid reaching beyond [`MAX_WORLD`] (an origin
-    /// coordinate, or the extent `spacing · 8·2^levels`, above 1e100 in magnitude).
+    /// [`MAX_LEVELS`] levels, a grid reaching beyond [`MAX_WORLD`] (an origin
+    /// coordinate, or the extent `spacing · 8·2^levels`, above 1e100 in magnitude), or a
+    /// spacing below [`volga_core::MIN_SPACING`] (1e-100).
     pub fn new(origin: DVec3, spacing: f64, levels: u32) -> Result<SculptGrid, crate::SculptError> {
         let within = |x: f64| x.is_finite() && x.abs() <= MAX_WORLD;
         if !(origin.to_array().iter().all(|&c| within(c))
-            && spacing > 0.0
+            && spacing >= volga_core::MIN_SPACING
             && within(spacing * node_size(levels.min(MAX_LEVELS)) as f64))
             || levels > MAX_LEVELS
         {
