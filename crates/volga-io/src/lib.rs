@@ -58,7 +58,7 @@ pub use atomic::{output_identity, remove_temp_files, write_atomic, StagedOutputs
 pub use binvox::{decode_binvox, encode_binvox, read_binvox, write_binvox, Binvox, BinvoxError};
 pub use model::{
     binvox_from_volume, check_free_space, check_free_space_for, encode_binvox_volume, free_space, read_voxel_model,
-    save_voxel_model, write_voxel_model, VoxelFormat, VoxelModel, VoxelValues,
+    read_voxel_model_within, save_voxel_model, write_voxel_model, VoxelFormat, VoxelModel, VoxelValues,
 };
 pub use nrrd_read::{read_nrrd, read_nrrd_with_colour, read_nrrd_within};
 pub use nrrd_write::write_nrrd;

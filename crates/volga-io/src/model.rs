@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::{DVec3, UVec3};
 use volga_core::{DenseVolume, SparseVolume};
 
-use crate::{read_binvox, read_nrrd, write_nrrd, Binvox, IoError, StagedOutputs};
+use crate::{write_nrrd, Binvox, IoError, StagedOutputs};
 
 /// A voxel model file format, chosen by extension ([`VoxelFormat::from_path`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -200,10 +200,20 @@ impl VoxelModel {
 /// values ([`VoxelValues::classify`]). Errors name the file: unknown extension,
 /// malformed contents, and NRRD samples that are NaN or infinite (first voxel named).
 pub fn read_voxel_model(path: &Path) -> Result<VoxelModel, IoError> {
+    read_voxel_model_within(path, volga_core::memory::input_limit())
+}
+
+/// [`read_voxel_model`] refusing, before reading it, a model that needs more than
+/// `max_bytes` of memory: a `.binvox` file larger than that, a NRRD whose voxels (the
+/// header's sizes, 4 bytes each, wherever its data lives) take more.
+pub fn read_voxel_model_within(path: &Path, max_bytes: u64) -> Result<VoxelModel, IoError> {
     match VoxelFormat::from_path(path)? {
-        VoxelFormat::Binvox => Ok(VoxelModel::Binvox(read_binvox(path)?)),
+        VoxelFormat::Binvox => {
+            let bytes = volga_core::input::read_regular(path, max_bytes).map_err(|e| IoError::io(path, e))?;
+            Ok(VoxelModel::Binvox(crate::decode_binvox(&bytes, path)?))
+        }
         VoxelFormat::Nrrd => {
-            let volume = read_nrrd(path)?;
+            let volume = crate::read_nrrd_within(path, max_bytes)?;
             if let Some(i) = volume.density.as_slice().iter().position(|v| !v.is_finite()) {
                 let d = volume.grid.dims();
                 let (x, y, z) = (

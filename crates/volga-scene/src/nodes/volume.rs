@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 use volga_core::{Aabb, Field, Filter, Grid, Progress, Sampled, SparseVolume};
-use volga_io::{read_voxel_model, VoxelModel, VoxelValues};
+use volga_io::{VoxelModel, VoxelValues};
 
 use super::procedural::{bake_field, Counted, Counters, NodeCounters};
 use super::{bricks_within, Clipped, Estimate, Node, Resolve};
@@ -89,7 +89,8 @@ pub fn load_density(cx: &Resolve, path: &str, field: &str) -> Result<SparseVolum
             )));
         }
     }
-    let model = read_voxel_model(&file).map_err(|e| invalid(e.to_string()))?;
+    // Voxels bounded by the limit wherever they live (a NRRD's detached data included).
+    let model = volga_io::read_voxel_model_within(&file, cx.memory_limit).map_err(|e| invalid(e.to_string()))?;
     match model {
         VoxelModel::Binvox(b) => {
             let dims = b.dims();
