@@ -43,8 +43,8 @@ pub fn parse_ron(path: &Path, text: &str) -> Result<SceneFile, SceneError> {
 
 /// What a scene nested deeper than its parser allows is told.
 const NESTING: &str = "the scene nests deeper than the 128 levels its parser allows (each \
-    operator node such as Cvg, Union, Sculpt or Hypertexture takes several: about 19 nested \
-    operators fit): flatten the tree (one Union or Cvg operator takes any number of \
+    operator node such as Cvg, Union, Sculpt or Hypertexture takes several: 19 nested \
+    operators fit in RON, 40 in JSON): flatten the tree (a Union takes any number of \
     children) or build deeper trees from code";
 
 /// Parses a scene from JSON text; `path` only names it in errors. Syntax errors, unknown
