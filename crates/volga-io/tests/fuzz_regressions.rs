@@ -12,19 +12,25 @@ fn format_message(result: Result<impl std::fmt::Debug, IoError>) -> String {
     }
 }
 
-/// `line skip` on a data file that never ends a line (a device: its length is 0) used
-/// to read forever.
+/// A data file that never ends a line (a device such as `/dev/zero`) used to be read
+/// forever by `line skip`: a device is no data file (refused before it is opened), and
+/// an absolute `data file` is refused as leaving the header's folder.
 #[test]
-fn line_skip_stops_at_the_data_files_length() {
+fn devices_are_not_data_files() {
     let dir = tempfile::tempdir().unwrap();
+    let header = |data: &str| {
+        format!("NRRD0004\ntype: uchar\ndimension: 3\nsizes: 1 1 1\nencoding: raw\nline skip: 1\ndata file: {data}\n")
+    };
     let path = dir.path().join("zero.nrrd");
-    std::fs::write(
-        &path,
-        "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 1 1 1\nencoding: raw\nline skip: 1\ndata file: /dev/zero\n",
-    )
-    .unwrap();
+    std::fs::write(&path, header("/dev/zero")).unwrap();
+    let message = format_message(read_nrrd(&path));
+    assert!(message.contains("is an absolute path"), "{message}");
     if Path::new("/dev/zero").exists() {
-        let message = format_message(read_nrrd(&path));
-        assert!(message.contains("line skip 1 passes the end of /dev/zero"), "{message}");
+        std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.raw")).unwrap();
+        std::fs::write(&path, header("zero.raw")).unwrap();
+        match read_nrrd(&path) {
+            Err(IoError::Io { source, .. }) => assert!(source.to_string().contains("character device"), "{source}"),
+            other => panic!("expected an I/O error, got {other:?}"),
+        }
     }
 }
