@@ -112,3 +112,46 @@ fn unbounded_sources_are_named_as_such() {
         assert!(err.to_string().contains("unbounded"), "{err}");
     }
 }
+
+/// A progress that records what it is told.
+#[derive(Default)]
+struct Recorded {
+    starts: std::sync::Mutex<Vec<(String, u64)>>,
+    done: std::sync::atomic::AtomicU64,
+    finished: std::sync::atomic::AtomicBool,
+}
+
+impl volga_core::Progress for Recorded {
+    fn start(&self, stage: &str, total: u64) {
+        self.starts.lock().unwrap().push((stage.to_owned(), total));
+    }
+    fn inc(&self, n: u64) {
+        self.done.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+    }
+    fn finish(&self) {
+        self.finished.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+#[test]
+fn a_build_reports_its_progress_in_cells() {
+    // Regression (issue 28): ADF builds showed no progress at all.
+    let sphere = ShapeSource(Sphere::new(DVec3::ZERO, 1.0).unwrap());
+    let opts = options(1e-4, 10);
+    let estimate = Adf::estimate(&sphere, &opts).unwrap();
+    let progress = Recorded::default();
+    let adf = Adf::build_with_progress(&sphere, opts, &progress).unwrap();
+    assert_eq!(
+        *progress.starts.lock().unwrap(),
+        vec![("adf cells".to_owned(), estimate.cells)]
+    );
+    let done = progress.done.load(std::sync::atomic::Ordering::Relaxed);
+    assert!(
+        done > 0 && done <= adf.cell_count() as u64,
+        "{done} of {}",
+        adf.cell_count()
+    );
+    assert!(progress.finished.load(std::sync::atomic::Ordering::Relaxed));
+    // The same tree as without progress.
+    assert_eq!(adf, Adf::build(&sphere, opts).unwrap());
+}
