@@ -69,7 +69,7 @@ fn estimate_covers_the_build_of_shapes() {
 fn estimate_covers_the_build_of_meshes() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
     for (name, tolerances) in [("fandisk.obj", [1e-2, 1e-3]), ("spot.obj", [1e-2, 1e-3])] {
-        let mesh = volga_mesh::load_mesh(&dir.join(name)).unwrap();
+        let mesh = volga_mesh::load_mesh(dir.join(name)).unwrap();
         let source = MeshSource::new(&mesh).unwrap();
         let diagonal = mesh.bounds().size().length();
         for fraction in tolerances {
