@@ -85,3 +85,70 @@ fn adf_option_errors_name_their_field_path() {
         assert!(e.contains(field), "{field}: {e}");
     }
 }
+
+#[test]
+fn an_unbounded_source_is_named_as_such() {
+    // Regression (issue 28): an infinite cylinder was refused as a bad tolerance
+    // ("got inf", its diagonal being infinite).
+    let dir = tempfile::tempdir().unwrap();
+    let text = small().replace("radius: 0.25, half_length: 0.3", "radius: 0.25");
+    assert_ne!(text, small());
+    let e = load_scene(&scene_in(dir.path(), &text)).unwrap_err().to_string();
+    assert!(e.contains("root.Union[1].Adf.source") && e.contains("unbounded"), "{e}");
+    assert!(!e.contains("inf"), "{e}");
+}
+
+/// The scene with spot's ADF at `tolerance` (default depth 10), validated and resolved
+/// under `limit` bytes, then planned.
+fn plan_spot(dir: &Path, tolerance: &str, limit: u64) -> Result<volga::scene::plan::Plan, String> {
+    let text = small().replace("tolerance: 1e-2, max_depth: 7", &format!("tolerance: {tolerance}"));
+    let mut scene = volga::scene::validate_scene(&scene_in(dir, &text)).map_err(|e| e.to_string())?;
+    scene.resolve(Some(limit)).map_err(|e| e.to_string())?;
+    volga::scene::plan::plan(&scene, Some(limit)).map_err(|e| e.to_string())
+}
+
+#[test]
+fn a_tolerance_the_memory_cannot_hold_is_refused_before_the_build() {
+    // Regression (issue 28): an `Adf` node at 1e-12 under --memory-limit 1G was planned
+    // without its cells and ran on (4 GB after 60 s). Its estimated build alone is now
+    // refused when the scene is resolved, naming the field, the cells and bytes needed
+    // and the limit.
+    let dir = tempfile::tempdir().unwrap();
+    let e = plan_spot(dir.path(), "1e-12", 1 << 30).unwrap_err();
+    assert!(e.contains("root.Union[0].Adf.tolerance") && e.contains("cells"), "{e}");
+    assert!(e.contains("1.00 GiB"), "{e}");
+    // Within the limit alone, yet not with the grid's band (the tolerance must hold in
+    // the filter's ramp, which keeps more cells): the plan counts the ADF's build among
+    // the nodes' data and refuses the whole.
+    let e = plan_spot(dir.path(), "1e-12", 3 << 30).unwrap_err();
+    assert!(e.contains("ADF builds") && e.contains("3.00 GiB"), "{e}");
+    // A coarse tolerance is planned, its ADF counted.
+    let plan = plan_spot(dir.path(), "1e-2", 3 << 30).unwrap();
+    assert!(plan.memory.nodes_bytes > 0, "{:?}", plan.memory);
+}
+
+/// Records the stages a progress is told of.
+#[derive(Default)]
+struct Stages(std::sync::Mutex<Vec<String>>);
+
+impl volga::core::Progress for Stages {
+    fn start(&self, stage: &str, _total: u64) {
+        self.0.lock().unwrap().push(stage.to_owned());
+    }
+    fn inc(&self, _n: u64) {}
+    fn finish(&self) {}
+}
+
+#[test]
+fn baking_an_adf_node_reports_its_build() {
+    // Regression (issue 28): the `Adf` node's build showed no progress.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load_scene(&scene_in(dir.path(), &small())).unwrap();
+    let stages = Stages::default();
+    scene.root.children()[1].bake(&scene.grid, false, &stages).unwrap();
+    assert!(
+        stages.0.lock().unwrap().iter().any(|s| s == "adf cells"),
+        "{:?}",
+        stages.0
+    );
+}

@@ -133,7 +133,13 @@ impl Adf {
 
     /// An ADF of `source` on this ADF's root cube and options (so the two can be combined).
     pub fn build_like<S: AdfSource + ?Sized>(&self, source: &S) -> Result<Adf, AdfError> {
-        Adf::build_in(source, self.options, self.root_min, self.root_size)
+        Adf::build_in(
+            source,
+            self.options,
+            self.root_min,
+            self.root_size,
+            &volga_core::NoProgress,
+        )
     }
 
     fn apply<B: AdfSource + ?Sized, R: Ranged + Sync>(
@@ -152,6 +158,7 @@ impl Adf {
                 may_jump: false,
                 cells: AtomicUsize::new(0),
                 evaluations: AtomicU64::new(0),
+                progress: &volga_core::NoProgress,
                 lattice_origin: self.root_min,
                 lattice_unit: self.root_size / (1u64 << (self.options.max_depth + 1)) as f64,
             },

@@ -85,8 +85,10 @@ pub use measure::{measure_errors, measure_errors_with_probes, ErrorStats, Probe}
 pub use ray::RayHit;
 #[cfg(feature = "reference-walks")]
 pub use reference_walks::{DescentWalk, OneRayWalk};
-pub use source::{AdfSource, CellCandidates, Csg, CsgOp, FieldSource, MeshSource, Sample};
-pub use tree::{Adf, AdfOptions, BuildStats, LeafInfo, MAX_SUPPORTED_DEPTH, TEST_MARGIN};
+pub use source::{AdfSource, CellCandidates, Csg, CsgOp, FieldSource, MeshSource, Sample, SurfaceMeasures};
+pub use tree::{
+    Adf, AdfOptions, BuildEstimate, BuildStats, LeafInfo, BUILD_BYTES_PER_CELL, MAX_SUPPORTED_DEPTH, TEST_MARGIN,
+};
 /// The signed distance a build samples, and a shape as one (from `volga-shapes`).
 pub use volga_shapes::{DistanceSource, ShapeSource};
 pub use walk::WALK_WINDOW;
@@ -108,10 +110,19 @@ pub enum AdfError {
     /// [`AdfOptions::margin`] is not finite and ≥ 0.
     #[error("margin must be finite and ≥ 0, got {0}")]
     Margin(f64),
-    /// The source has nothing to build a root cube around (no triangles, empty or
-    /// infinite bounds, a single point without a margin).
+    /// The source has nothing to build a root cube around (no triangles, empty bounds, a
+    /// single point without a margin).
     #[error("nothing to build from: {0}")]
     EmptySource(String),
+    /// The source is unbounded (an infinite cylinder, a half-space): an ADF covers a
+    /// finite root cube around the source's bounds.
+    #[error("the source is unbounded (its bounds reach {min:?}..{max:?}): an ADF needs a bounded source, e.g. intersect it with a box")]
+    Unbounded {
+        /// The bounds' minimum corner.
+        min: [f64; 3],
+        /// The bounds' maximum corner.
+        max: [f64; 3],
+    },
     /// The source's distance at this world point is NaN or infinite.
     #[error("the source's value is not finite at {0:?}")]
     NonFinite([f64; 3]),
@@ -120,12 +131,14 @@ pub enum AdfError {
     NotADistance(FieldKind),
     /// The build would hold more than [`AdfOptions::max_cells`] cells.
     #[error(
-        "the ADF would exceed {limit} cells ({bytes} bytes needed so far); raise the tolerance or lower max_depth"
+        "the ADF build stopped at its limit of {limit} cells ({bytes} bytes while building, {per_cell} per cell) before the tolerance was met; raise the tolerance, lower max_depth or allow more memory",
+        per_cell = BUILD_BYTES_PER_CELL
     )]
     TooManyCells {
         /// [`AdfOptions::max_cells`].
         limit: usize,
-        /// The cell storage needed when the limit was passed.
+        /// The bytes the build would hold past the limit ([`BUILD_BYTES_PER_CELL`] per
+        /// cell).
         bytes: u64,
     },
     /// [`Adf::combine`] was given ADFs with different root cubes.

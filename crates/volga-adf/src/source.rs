@@ -97,6 +97,81 @@ pub trait AdfSource: DistanceSource {
     fn may_jump(&self) -> bool {
         false
     }
+
+    /// The surface's area and total absolute mean curvature, for the build's a-priori
+    /// estimate ([`crate::Adf::estimate`]). `None` (the default): unknown; the estimate
+    /// then takes the source's bounding box as a convex stand-in (exact bounds for any
+    /// convex shape inside it, an underestimate for a non-convex one).
+    fn surface_measures(&self) -> Option<SurfaceMeasures> {
+        None
+    }
+}
+
+/// What the build's estimate needs to know of a surface ([`AdfSource::surface_measures`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceMeasures {
+    /// Area (world units²).
+    pub area: f64,
+    /// Total absolute mean curvature `∫|H| dA` (world units): for a triangle mesh
+    /// `½ Σ Lₑ θₑ` over its edges (length × angle between the two faces' normals, π at a
+    /// boundary edge, where the distance wraps around the edge); `4πr` for a sphere;
+    /// `2π ×` the mean width for any convex body (`π(a + b + c)` for an `a × b × c` box).
+    pub curvature: f64,
+}
+
+impl SurfaceMeasures {
+    /// The measures of an `a × b × c` box: upper bounds for every convex body inside it
+    /// (area and mean width are monotone under inclusion of convex bodies).
+    pub fn of_box(size: DVec3) -> Self {
+        SurfaceMeasures {
+            area: 2.0 * (size.x * size.y + size.y * size.z + size.z * size.x),
+            curvature: std::f64::consts::PI * (size.x + size.y + size.z),
+        }
+    }
+
+    /// The measures of a triangle mesh (positions welded where exactly equal, so seams
+    /// split for texture coordinates do not count as boundaries). Degenerate triangles
+    /// count for nothing; an edge shared by more than two triangles counts π per extra
+    /// triangle.
+    pub fn of_mesh(mesh: &TriMesh) -> Self {
+        let mut ids: rustc_hash::FxHashMap<[u64; 3], u32> = Default::default();
+        let mut canonical = Vec::with_capacity(mesh.positions.len());
+        for p in &mesh.positions {
+            let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+            let next = ids.len() as u32;
+            canonical.push(*ids.entry(key).or_insert(next));
+        }
+        let mut area = 0.0;
+        // Per edge: its length and the unit normals of the triangles on it.
+        let mut edges: rustc_hash::FxHashMap<(u32, u32), (f64, Vec<DVec3>)> = Default::default();
+        for (t, corners) in mesh.triangles.iter().enumerate() {
+            let [a, b, c] = mesh.triangle(t);
+            let n = (b - a).cross(c - a);
+            let len = n.length();
+            if !(len > 0.0 && len.is_finite()) {
+                continue;
+            }
+            area += 0.5 * len;
+            let unit = n / len;
+            for (i, j) in [(0, 1), (1, 2), (2, 0)] {
+                let (u, v) = (canonical[corners[i] as usize], canonical[corners[j] as usize]);
+                let key = (u.min(v), u.max(v));
+                let length = mesh.positions[corners[i] as usize].distance(mesh.positions[corners[j] as usize]);
+                edges.entry(key).or_insert_with(|| (length, Vec::new())).1.push(unit);
+            }
+        }
+        let mut curvature = 0.0;
+        for (length, normals) in edges.values() {
+            let angle = match normals.as_slice() {
+                [_] => std::f64::consts::PI,
+                [n1, n2] => n1.dot(*n2).clamp(-1.0, 1.0).acos(),
+                [n1, n2, rest @ ..] => n1.dot(*n2).clamp(-1.0, 1.0).acos() + std::f64::consts::PI * rest.len() as f64,
+                [] => 0.0,
+            };
+            curvature += 0.5 * length * angle;
+        }
+        SurfaceMeasures { area, curvature }
+    }
 }
 
 /// What a source narrowed for one cell of the build ([`AdfSource::candidates`]).
@@ -177,6 +252,9 @@ macro_rules! forward_adf_source {
             fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
                 (**self).inside_in_empty_cell(p, near)
             }
+            fn surface_measures(&self) -> Option<SurfaceMeasures> {
+                (**self).surface_measures()
+            }
         }
     )*};
 }
@@ -208,6 +286,7 @@ pub struct MeshSource {
     plane_slack: f64,
     winding: CappedWinding,
     bounds: Aabb,
+    measures: SurfaceMeasures,
     queries: AtomicU64,
     winding_terms: AtomicU64,
     integer_queries: AtomicU64,
@@ -239,6 +318,7 @@ impl MeshSource {
             plane_slack,
             winding: CappedWinding::new(mesh),
             bounds,
+            measures: SurfaceMeasures::of_mesh(mesh),
             queries: AtomicU64::new(0),
             winding_terms: AtomicU64::new(0),
             integer_queries: AtomicU64::new(0),
@@ -507,6 +587,11 @@ impl AdfSource for MeshSource {
     /// Only with holes (caps closing a boundary).
     fn may_jump(&self) -> bool {
         self.winding.cap_triangle_count() > 0
+    }
+
+    /// Measured once from the triangles ([`SurfaceMeasures::of_mesh`]).
+    fn surface_measures(&self) -> Option<SurfaceMeasures> {
+        Some(self.measures)
     }
 
     /// `½ − w(p)`, with `w_C` summed to 1e-6.

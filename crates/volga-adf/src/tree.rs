@@ -7,7 +7,10 @@ use volga_core::Aabb;
 
 use crate::AdfError;
 
+pub use estimate::{BuildEstimate, BUILD_BYTES_PER_CELL};
+
 pub(crate) mod build;
+mod estimate;
 mod lattice;
 mod query;
 
@@ -77,7 +80,9 @@ pub struct AdfOptions {
     pub tolerance: f64,
     /// Deepest level (the root is level 0); cells there are leaves whatever their error.
     pub max_depth: u8,
-    /// Refuse the build (with the size needed) once it would hold more cells than this.
+    /// Stop the build ([`AdfError::TooManyCells`]) once it would hold more cells than
+    /// this: the guard behind [`Adf::estimate`], which is a model and can be low.
+    /// [`crate::BuildEstimate::cells_within`] turns a memory budget into cells.
     pub max_cells: usize,
     /// Empty margin (world units) between the source's bounds and the root cube, so the
     /// reconstruction is defined around the whole surface. `None`: 5 % of the bounds'
@@ -101,7 +106,7 @@ impl AdfOptions {
         }
     }
 
-    fn check(&self) -> Result<(), AdfError> {
+    pub(crate) fn check(&self) -> Result<(), AdfError> {
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             return Err(AdfError::Tolerance(self.tolerance));
         }
@@ -132,10 +137,11 @@ impl Default for AdfOptions {
     }
 }
 
-/// Cells that fit in half the memory available now (at least 1 M).
+/// Cells whose build fits in the memory available now ([`BUILD_BYTES_PER_CELL`] each;
+/// at least 1 M).
 fn default_max_cells() -> usize {
     let bytes = volga_core::memory::available_bytes().unwrap_or(8 << 30);
-    ((bytes / 2) as usize / std::mem::size_of::<Cell>()).max(1 << 20)
+    BuildEstimate::cells_within(bytes).max(1 << 20)
 }
 
 /// What a build did.

@@ -5,16 +5,24 @@
 //! errors (`max_error`, `rms_error`): measured at points within 2 % of the diagonal of
 //! the surface against the exact signed distance (nearest triangle, certified winding
 //! sign).
+//!
+//! Every flag is checked before the mesh is read, and the build's memory (the ADF's
+//! estimated cells, the image, the probes) against `--memory-limit` before it runs; the
+//! build itself stops at the cells that limit allows, should the estimate be low.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
 use glam::{DVec3, Vec3};
 use serde_json::{json, Value};
-use volga_adf::{measure_errors_with_probes, Adf, AdfOptions, DescentWalk, MeshSource, OneRayWalk, Probe};
+use volga_adf::{
+    measure_errors, measure_errors_with_probes, Adf, AdfOptions, BuildEstimate, DescentWalk, ErrorStats, MeshSource,
+    OneRayWalk, Probe, MAX_SUPPORTED_DEPTH,
+};
+use volga_core::memory::Bytes;
 use volga_core::Field;
-use volga_core::{Aabb, NoProgress};
+use volga_core::{Aabb, NoProgress, Progress};
 use volga_render::{Camera, Iso, Projection, RenderSettings, Renderer, SurfaceColour};
 
 use crate::failure::{bad_input, failed, Failure};
@@ -23,23 +31,41 @@ use crate::failure::{bad_input, failed, Failure};
 pub struct AdfArgs {
     /// Triangle mesh (.obj, .gltf, .glb).
     pub mesh: PathBuf,
-    /// Tolerance as a fraction of the bounding-box diagonal.
+    /// Tolerance as a fraction of the bounding-box diagonal (> 0). A tolerance whose
+    /// estimated cells do not fit in --memory-limit is refused before the build.
     #[arg(long, default_value_t = 1e-4, allow_hyphen_values = true)]
     pub tolerance: f64,
-    /// Maximum octree depth (the root cube is level 0).
+    /// Maximum octree depth (the root cube is level 0), at most 24.
     #[arg(long, default_value_t = 12)]
     pub max_depth: u8,
     /// Band around the surface (fraction of the diagonal) kept free of pruned leaves, so
     /// the tolerance holds in all of it (0: Frisken's pruning, accuracy at the surface).
     #[arg(long, default_value_t = 0.0)]
     pub band: f64,
-    /// Points (within 2 % of the diagonal of the surface) the errors are measured at.
+    /// Points (within 2 % of the diagonal of the surface) the errors are measured at:
+    /// 1 to 10,000,000 (each may take up to 200 exact distance queries to find).
     #[arg(long, default_value_t = 20_000)]
     pub points: usize,
-    /// Image size of the render (square).
+    /// Image size of the render (square), 1 to 16384.
     #[arg(long, default_value_t = 512)]
     pub size: u32,
+    /// Refuse builds estimated to need more memory than this (e.g. 512M, 8G), and stop
+    /// a build that passes it; default: the machine's available memory.
+    #[arg(long, value_parser = crate::parse_size)]
+    pub memory_limit: Option<u64>,
 }
+
+/// Most `--points`: 10⁷ points give error figures far finer than any tolerance needs,
+/// and take up to 2·10⁹ exact distance queries to find.
+pub const MAX_POINTS: usize = 10_000_000;
+
+/// Bytes per `--probes-out` point held while writing: the probe (48), its JSON value
+/// (6 numbers) and its text.
+const PROBE_OUT_BYTES: u64 = 48 + 6 * 48 + 160;
+
+/// Bytes of the walk index besides its 4 bytes per cell (`walk.rs`: a 128³ grid of
+/// node indices, minima and reaches; measured 49 MB with the bunny's 6.97 M cells).
+const WALK_GRID_BYTES: u64 = 128 * 128 * 128 * 16;
 
 #[derive(Args)]
 pub struct AdfBuildArgs {
@@ -71,31 +97,163 @@ pub struct AdfBenchArgs {
 }
 
 struct Built {
+    estimate: BuildEstimate,
     mesh_bounds: Aabb,
     source: MeshSource,
     adf: Adf,
     build_times: Vec<f64>,
 }
 
-fn build(args: &AdfArgs, repeat: u64) -> Result<Built, Failure> {
+/// The flags' own bounds, checked before anything is read (exit 2 naming the flag).
+fn check_flags(args: &AdfArgs) -> Result<(), Failure> {
+    if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
+        return Err(bad_input(format!(
+            "--tolerance {}: must be a finite number > 0 (a fraction of the mesh's bounding-box diagonal)",
+            args.tolerance
+        )));
+    }
+    if args.max_depth > MAX_SUPPORTED_DEPTH {
+        return Err(bad_input(format!(
+            "--max-depth {}: must be at most {MAX_SUPPORTED_DEPTH}",
+            args.max_depth
+        )));
+    }
+    if !(args.band.is_finite() && args.band >= 0.0) {
+        return Err(bad_input(format!(
+            "--band {}: must be a finite number ≥ 0 (a fraction of the diagonal)",
+            args.band
+        )));
+    }
+    if !(1..=MAX_POINTS).contains(&args.points) {
+        return Err(bad_input(format!(
+            "--points {}: must be 1 to {MAX_POINTS} (the errors are measured at these points; with none there is no error to report)",
+            args.points
+        )));
+    }
+    let side = (volga_render::MAX_PIXELS as f64).sqrt() as u32;
+    if !(1..=side).contains(&args.size) {
+        return Err(bad_input(format!(
+            "--size {}: must be 1 to {side} (a {0}² image; at most {} pixels)",
+            args.size,
+            volga_render::MAX_PIXELS
+        )));
+    }
+    Ok(())
+}
+
+/// `--out` must be a directory or creatable as one: refused before the build if it, or
+/// the nearest of its ancestors that exists, is not a directory.
+fn check_out_dir(out: &Path) -> Result<(), Failure> {
+    let mut p = Some(out);
+    while let Some(dir) = p {
+        if let Ok(meta) = std::fs::metadata(dir) {
+            if meta.is_dir() {
+                return Ok(());
+            }
+            let what = if dir == out { "is" } else { "lies under" };
+            return Err(bad_input(format!(
+                "--out {}: {what} an existing file{}, not a directory",
+                out.display(),
+                if dir == out {
+                    String::new()
+                } else {
+                    format!(" ({})", dir.display())
+                }
+            )));
+        }
+        p = dir.parent().filter(|d| !d.as_os_str().is_empty());
+    }
+    Ok(())
+}
+
+/// Bytes per triangle of the mesh and its source (positions, indices, triangles,
+/// boxes, normals, BVH, winding-number data).
+const SOURCE_BYTES_PER_TRIANGLE: u64 = 512;
+
+/// The memory of everything but the ADF's build: the mesh and its source, the walk
+/// index (its grid, and 4 bytes per cell), the image, and (with `--probes-out`) the
+/// probes.
+fn other_bytes(args: &AdfArgs, triangles: usize, estimate: &BuildEstimate, probes_out: bool) -> u64 {
+    let image = u64::from(args.size).pow(2) * (16 + 16 + 4 + 4);
+    let probes = if probes_out {
+        args.points as u64 * PROBE_OUT_BYTES
+    } else {
+        0
+    };
+    let source = triangles as u64 * SOURCE_BYTES_PER_TRIANGLE;
+    let walk = WALK_GRID_BYTES.saturating_add(estimate.cells.saturating_mul(4));
+    source.saturating_add(walk).saturating_add(image).saturating_add(probes)
+}
+
+/// Refuses (exit 1) a build whose estimate does not fit the memory limit, with the cells
+/// and bytes needed; returns the cell limit the build stops at.
+fn check_memory(
+    args: &AdfArgs,
+    triangles: usize,
+    estimate: &BuildEstimate,
+    probes_out: bool,
+) -> Result<usize, Failure> {
+    let (limit, which) = match args.memory_limit {
+        Some(l) => (l, "--memory-limit"),
+        None => (
+            volga_core::memory::available_bytes().unwrap_or(u64::MAX),
+            "the memory available (--memory-limit)",
+        ),
+    };
+    let other = other_bytes(args, triangles, estimate, probes_out);
+    let needed = estimate.build_bytes.saturating_add(other);
+    if needed > limit {
+        return Err(failed(format!(
+            "--tolerance {} (--max-depth {}): the ADF needs about {} cells, {} while building, plus {} for the mesh and the render{}: {} in all, more than {which}, {}; raise --tolerance or lower --max-depth",
+            args.tolerance,
+            args.max_depth,
+            estimate.cells,
+            Bytes(u128::from(estimate.build_bytes)),
+            Bytes(u128::from(other)),
+            if probes_out { " and the probes" } else { "" },
+            Bytes(u128::from(needed)),
+            Bytes(u128::from(limit)),
+        )));
+    }
+    Ok(BuildEstimate::cells_within(limit - other))
+}
+
+fn build(args: &AdfArgs, repeat: u64, probes_out: bool, progress: &dyn Progress) -> Result<Built, Failure> {
+    check_flags(args)?;
     let mesh = volga_mesh::load_mesh(&args.mesh).map_err(|e| bad_input(e.to_string()))?;
     let source = MeshSource::new(&mesh).map_err(|e| bad_input(format!("{}: {e}", args.mesh.display())))?;
     let bounds = mesh.bounds();
-    let options = AdfOptions {
+    let diagonal = bounds.size().length();
+    let mut options = AdfOptions {
         max_depth: args.max_depth,
-        band: args.band * bounds.size().length(),
+        band: args.band * diagonal,
         ..AdfOptions::relative(args.tolerance, &bounds)
     };
+    if !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
+        return Err(bad_input(format!(
+            "--tolerance {}: {} (the mesh's diagonal) times it is {}, not a positive distance",
+            args.tolerance, diagonal, options.tolerance
+        )));
+    }
+    let estimate = Adf::estimate(&source, &options).map_err(|e| bad_input(format!("{}: {e}", args.mesh.display())))?;
+    options.max_cells = check_memory(args, mesh.triangle_count(), &estimate, probes_out)?;
     let mut times = Vec::new();
     let mut adf = None;
     for _ in 0..repeat {
         drop(adf.take());
         let start = Instant::now();
-        let built = Adf::build(&source, options).map_err(|e| bad_input(format!("--tolerance/--max-depth: {e}")))?;
+        let built = Adf::build_with_progress(&source, options, progress).map_err(|e| match e {
+            volga_adf::AdfError::TooManyCells { .. } => failed(format!(
+                "--tolerance {} (--max-depth {}): {e} (estimated {} cells)",
+                args.tolerance, args.max_depth, estimate.cells
+            )),
+            e => bad_input(format!("{}: {e}", args.mesh.display())),
+        })?;
         times.push(start.elapsed().as_secs_f64());
         adf = Some(built);
     }
     Ok(Built {
+        estimate,
         mesh_bounds: bounds,
         source,
         adf: adf.expect("at least one build"),
@@ -126,9 +284,20 @@ fn camera(bounds: &Aabb) -> Result<Camera, Failure> {
 
 /// Statistics and accuracy as JSON (errors relative to the bounding-box diagonal), and the
 /// points the errors were measured at.
-fn report(b: &Built, args: &AdfArgs) -> (Value, Vec<Probe>) {
+/// Errors are `null` when no point was measured (every candidate fell in a pruned leaf):
+/// 0 would read as a perfect build.
+fn report(b: &Built, args: &AdfArgs, keep_probes: bool) -> (Value, Vec<Probe>) {
     let diagonal = b.mesh_bounds.size().length();
-    let (errors, probes) = measure_errors_with_probes(&b.adf, &b.source, &b.mesh_bounds, 0.02 * diagonal, args.points);
+    let band = 0.02 * diagonal;
+    let (errors, probes) = if keep_probes {
+        measure_errors_with_probes(&b.adf, &b.source, &b.mesh_bounds, band, args.points)
+    } else {
+        (
+            measure_errors(&b.adf, &b.source, &b.mesh_bounds, band, args.points),
+            Vec::new(),
+        )
+    };
+    let relative = |e: f64, e_stats: &ErrorStats| (e_stats.points > 0).then_some(e / diagonal);
     let s = b.adf.stats();
     let value = json!({
         "mesh": args.mesh.display().to_string(),
@@ -138,6 +307,8 @@ fn report(b: &Built, args: &AdfArgs) -> (Value, Vec<Probe>) {
         "build_s": median(&b.build_times),
         "build_times_s": b.build_times,
         "cells": s.cells,
+        "estimated_cells": b.estimate.cells,
+        "estimated_build_bytes": b.estimate.build_bytes,
         "leaves": s.leaves,
         "pruned_leaves": s.pruned_leaves,
         "jump_leaves": s.jump_leaves,
@@ -145,9 +316,9 @@ fn report(b: &Built, args: &AdfArgs) -> (Value, Vec<Probe>) {
         "depth_reached": s.depth_reached,
         "evaluations": s.evaluations,
         "bytes": b.adf.memory_bytes(),
-        "max_error": errors.max / diagonal,
-        "rms_error": errors.rms / diagonal,
-        "max_error_below_max_depth": errors.max_below_max_depth / diagonal,
+        "max_error": relative(errors.max, &errors),
+        "rms_error": relative(errors.rms, &errors),
+        "max_error_below_max_depth": relative(errors.max_below_max_depth, &errors),
         "error_points": errors.points,
         "error_points_at_max_depth": errors.points_at_max_depth,
         "error_points_pruned": errors.points_pruned,
@@ -189,9 +360,11 @@ fn render_setup(size: u32) -> (RenderSettings, Iso) {
 }
 
 /// `volga adf MESH --out DIR`.
-pub fn run(args: AdfBuildArgs) -> Result<(), Failure> {
-    let built = build(&args.adf, 1)?;
-    let (mut value, _) = report(&built, &args.adf);
+pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
+    check_flags(&args.adf)?;
+    check_out_dir(&args.out)?;
+    let built = build(&args.adf, 1, false, progress)?;
+    let (mut value, _) = report(&built, &args.adf, false);
     let (settings, iso) = render_setup(args.adf.size);
     let renderer = Renderer::new(&built.adf, &iso, &settings).map_err(|e| failed(e.to_string()))?;
     let start = Instant::now();
@@ -217,8 +390,9 @@ pub fn run(args: AdfBuildArgs) -> Result<(), Failure> {
 
 /// `volga bench adf MESH --tolerance T --json`.
 pub fn bench(args: AdfBenchArgs) -> Result<(), Failure> {
-    let built = build(&args.adf, args.repeat)?;
-    let (mut value, probes) = report(&built, &args.adf);
+    let probes_out = args.probes_out.is_some();
+    let built = build(&args.adf, args.repeat, probes_out, &NoProgress)?;
+    let (mut value, probes) = report(&built, &args.adf, probes_out);
     if let Some(path) = &args.probes_out {
         let text = serde_json::to_string(&probes_json(&built, &args.adf, &probes)).expect("json");
         volga_io::write_atomic(path, |w| w.write_all(text.as_bytes()))

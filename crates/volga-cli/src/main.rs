@@ -199,7 +199,7 @@ fn main() -> ExitCode {
                 ExitCode::from(f.code)
             }
         },
-        Command::Adf(args) => match adf::run(args) {
+        Command::Adf(args) => match adf::run(args, &progress::BarProgress::new()) {
             Ok(()) => ExitCode::SUCCESS,
             Err(f) => {
                 eprintln!("error: {}", f.message);

@@ -154,3 +154,137 @@ fn bad_input_is_refused_with_exit_code_2() {
     assert!(stderr(&o).contains("missing.obj"), "{}", stderr(&o));
     assert!(!out.exists(), "nothing written on bad input");
 }
+
+/// The Stanford bunny vendored in `tests/data`.
+fn bunny() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/stanford-bunny.obj")
+}
+
+/// Runs `volga adf` on the octahedron with `extra` flags into a fresh `out`: (output,
+/// whether `out` exists afterwards).
+fn adf_octahedron(extra: &[&str]) -> (std::process::Output, bool) {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("octa.obj");
+    std::fs::write(&mesh, OCTAHEDRON).unwrap();
+    let out = dir.path().join("out");
+    let mut args = vec!["adf", arg(&mesh), "--max-depth", "5", "--out", arg(&out)];
+    args.extend_from_slice(extra);
+    let o = volga(&args);
+    let exists = out.exists();
+    (o, exists)
+}
+
+#[test]
+fn points_are_bounded_and_zero_points_is_refused() {
+    // Regression (issue 28): `--points 1000000000` aborted on a 48 GB allocation after
+    // the build, and `--points 0` reported `max_error 0.0`, a perfect build.
+    for points in ["0", "1000000000"] {
+        let (o, written) = adf_octahedron(&["--points", points]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(
+            e.contains(&format!("--points {points}")) && e.contains("10000000"),
+            "{e}"
+        );
+        assert!(!written, "nothing written");
+    }
+}
+
+#[test]
+fn size_and_out_are_checked_before_the_build() {
+    // Regression (issue 28): these failed only after the whole build.
+    for (size, limit) in [("0", "16384"), ("100000", "16384")] {
+        let (o, written) = adf_octahedron(&["--size", size]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(e.contains(&format!("--size {size}")) && e.contains(limit), "{e}");
+        assert!(!written);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("octa.obj");
+    std::fs::write(&mesh, OCTAHEDRON).unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "keep").unwrap();
+    for out in [file.clone(), file.join("sub")] {
+        let o = volga(&["adf", arg(&mesh), "--max-depth", "5", "--out", arg(&out)]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(e.contains("--out") && e.contains("not a directory"), "{e}");
+        // Refused before the build: the build's statistics are never printed.
+        assert!(o.stdout.is_empty());
+    }
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep");
+}
+
+#[test]
+fn a_negative_tolerance_is_reported_as_given() {
+    // Regression (issue 28): `--tolerance -1` was reported in world units (−1 × the
+    // diagonal).
+    let (o, written) = adf_octahedron(&["--tolerance", "-1"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("--tolerance -1:"), "{e}");
+    assert!(!e.contains("3.46"), "not the world value: {e}");
+    assert!(!written);
+}
+
+#[test]
+fn a_tolerance_the_memory_cannot_hold_is_refused_before_the_build() {
+    // Regression (issue 28): the bunny at 1e-7 ran with no estimate and no output (4 GB
+    // after 60 s; it needs about 100 M cells, 7.5 GB at its peak). Now the estimate is
+    // checked against --memory-limit before the build (exit 1: valid input, too little
+    // memory), naming the flag, the cells and bytes needed and the limit.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = volga(&[
+        "adf",
+        arg(&bunny()),
+        "--tolerance",
+        "1e-7",
+        "--memory-limit",
+        "1G",
+        "--out",
+        arg(&out),
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("--tolerance") && e.contains("cells") && e.contains("--memory-limit, 1.00 GiB"),
+        "{e}"
+    );
+    assert!(e.contains("GiB while building"), "{e}");
+    assert!(!out.exists(), "nothing written");
+}
+
+#[test]
+fn a_build_past_the_memory_limit_stops_cleanly() {
+    // The estimate is a model: a mesh of zero-area triangles (a segment) has no area or
+    // face angles to count, so its estimate is a few cells, while its distance (a
+    // cylinder's around the segment) refines to the maximum depth along it. The build
+    // stops at the cells the limit allows (exit 1), instead of running on.
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("segment.obj");
+    std::fs::write(&mesh, "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 3 2 1\n").unwrap();
+    let out = dir.path().join("out");
+    let o = volga(&[
+        "adf",
+        arg(&mesh),
+        "--tolerance",
+        "1e-9",
+        "--max-depth",
+        "14",
+        "--size",
+        "16",
+        "--memory-limit",
+        "60M",
+        "--out",
+        arg(&out),
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("--tolerance") && e.contains("stopped at its limit of") && e.contains("cells"),
+        "{e}"
+    );
+    assert!(!out.exists(), "nothing written");
+}

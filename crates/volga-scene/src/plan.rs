@@ -42,6 +42,9 @@ pub struct MemoryEstimate {
     pub image_bytes: u64,
     /// One z-slab of every written volume (raw output is streamed slab by slab).
     pub output_slab_bytes: u64,
+    /// Of `volume_bytes`, the nodes' own data: meshes' BVHs, loaded volumes, ADF builds
+    /// (their estimated cells, `volga_adf::Adf::estimate`).
+    pub nodes_bytes: u64,
     /// The sum of the above, checked against the memory limit.
     pub total_bytes: u64,
 }
@@ -166,12 +169,13 @@ pub fn plan(scene: &Scene, memory_limit: Option<u64>) -> Result<Plan, SceneError
             needed: Bytes(memory.total_bytes as u128),
             limit: Bytes(limit as u128),
             detail: format!(
-                "grid {}×{}×{} = {} voxels, up to {} bricks of 8³ voxels",
+                "grid {}×{}×{} = {} voxels, up to {} bricks of 8³ voxels; the nodes' own data (meshes, ADF builds) {}",
                 d.x,
                 d.y,
                 d.z,
                 scene.grid.voxel_count(),
-                memory.bricks_upper_bound
+                memory.bricks_upper_bound,
+                Bytes(u128::from(memory.nodes_bytes))
             ),
         });
     }
@@ -265,6 +269,7 @@ fn estimate(scene: &Scene, colour: bool, bake: bool) -> MemoryEstimate {
         volume_bytes,
         image_bytes,
         output_slab_bytes,
+        nodes_bytes: nodes.extra_bytes,
         total_bytes: volume_bytes
             .saturating_add(image_bytes)
             .saturating_add(output_slab_bytes),

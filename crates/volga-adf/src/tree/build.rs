@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 use glam::DVec3;
 use rayon::prelude::*;
-use volga_core::Aabb;
+use volga_core::{Aabb, NoProgress, Progress};
 
 use super::lattice::{child_of, lattice_index, SampleCache};
 use super::{
@@ -17,6 +17,9 @@ use crate::{Adf, AdfError};
 /// Levels below the root built as parallel tasks (8³ = 512 tasks at most); deeper
 /// subtrees are built sequentially into one vector each.
 const PARALLEL_DEPTH: u8 = 3;
+
+/// Cells between two progress reports (one lock of the progress bar each).
+const PROGRESS_STEP: usize = 1 << 16;
 
 /// A subtree built apart: `cells[0]` is its root; child indices are relative to the vector.
 pub(crate) struct Subtree {
@@ -35,6 +38,8 @@ pub(crate) struct Builder<'a, S: ?Sized> {
     pub may_jump: bool,
     pub cells: AtomicUsize,
     pub evaluations: AtomicU64,
+    /// Told of every [`PROGRESS_STEP`] cells.
+    pub progress: &'a dyn Progress,
     /// World position of lattice point `(0, 0, 0)` (the root's minimum) and the lattice
     /// step (half the finest cell): keys of the sample cache.
     pub lattice_origin: DVec3,
@@ -48,10 +53,14 @@ type Candidates = Option<CellCandidates>;
 impl<S: AdfSource + ?Sized> Builder<'_, S> {
     fn count(&self, n: usize) -> Result<(), AdfError> {
         let total = self.cells.fetch_add(n, Ordering::Relaxed) + n;
+        let steps = total / PROGRESS_STEP - (total - n) / PROGRESS_STEP;
+        if steps > 0 {
+            self.progress.inc((steps * PROGRESS_STEP) as u64);
+        }
         if total > self.max_cells {
             return Err(AdfError::TooManyCells {
                 limit: self.max_cells,
-                bytes: (total as u64) * std::mem::size_of::<Cell>() as u64,
+                bytes: (total as u64).saturating_mul(super::BUILD_BYTES_PER_CELL),
             });
         }
         Ok(())
@@ -280,6 +289,9 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
                 parent_candidates,
                 &mut cache,
             )?;
+            // The vector grew by doubling; the joins above copy it, so its slack would
+            // double the build's peak (BUILD_BYTES_PER_CELL counts the tree twice).
+            out.shrink_to_fit();
             return Ok((Subtree { cells: out, jumps }, stats));
         }
         match self.decide(min, size, depth, &samples, &mut stats, parent_candidates, None)? {
@@ -406,11 +418,17 @@ impl LocalStats {
 /// The root cube around a source's bounds: the bounds' centre, side = largest extent + 2
 /// margins (at least the margin, so a point or a flat source gets a cube).
 pub(crate) fn root_cube(bounds: &Aabb, margin: Option<f64>) -> Result<(DVec3, f64), AdfError> {
-    if bounds.is_empty() || !(bounds.min.is_finite() && bounds.max.is_finite()) {
+    if bounds.is_empty() || bounds.min.is_nan() || bounds.max.is_nan() {
         return Err(AdfError::EmptySource(format!(
-            "bounds {:?}..{:?} are empty or infinite",
+            "bounds {:?}..{:?} are empty",
             bounds.min, bounds.max
         )));
+    }
+    if !(bounds.min.is_finite() && bounds.max.is_finite()) {
+        return Err(AdfError::Unbounded {
+            min: bounds.min.to_array(),
+            max: bounds.max.to_array(),
+        });
     }
     let diagonal = bounds.size().length();
     let margin = margin.unwrap_or(0.05 * diagonal);
@@ -436,10 +454,27 @@ impl Adf {
     /// cells whose corners are all of one sign and farther than the cell's diagonal are
     /// leaves without tests (no surface can pass through them). The top levels are built
     /// in parallel (rayon); the tree is identical for any thread count.
+    ///
+    /// # Errors
+    /// Bad options and sources ([`AdfError`]); [`AdfError::TooManyCells`] as soon as the
+    /// tree would pass `options.max_cells` (nothing is kept).
     pub fn build<S: AdfSource + ?Sized>(source: &S, options: AdfOptions) -> Result<Adf, AdfError> {
-        options.check()?;
+        Adf::build_with_progress(source, options, &NoProgress)
+    }
+
+    /// [`Adf::build`], telling `progress` of the cells built (one step, `adf cells`, whose
+    /// total is [`Adf::estimate`]'s count, or `max_cells` if lower).
+    pub fn build_with_progress<S: AdfSource + ?Sized>(
+        source: &S,
+        options: AdfOptions,
+        progress: &dyn Progress,
+    ) -> Result<Adf, AdfError> {
         let (root_min, root_size) = root_cube(&source.bounds(), options.margin)?;
-        Adf::build_in(source, options, root_min, root_size)
+        let estimate = Adf::estimate(source, &options)?;
+        progress.start("adf cells", estimate.cells.min(options.max_cells as u64));
+        let built = Adf::build_in(source, options, root_min, root_size, progress);
+        progress.finish();
+        built
     }
 
     /// [`Adf::build`] on a given root cube.
@@ -448,6 +483,7 @@ impl Adf {
         options: AdfOptions,
         root_min: DVec3,
         root_size: f64,
+        progress: &dyn Progress,
     ) -> Result<Adf, AdfError> {
         options.check()?;
         let builder = Builder {
@@ -459,6 +495,7 @@ impl Adf {
             may_jump: source.may_jump(),
             cells: AtomicUsize::new(1),
             evaluations: AtomicU64::new(0),
+            progress,
             lattice_origin: root_min,
             lattice_unit: root_size / (1u64 << (options.max_depth + 1)) as f64,
         };

@@ -8,13 +8,20 @@
 //! The density at a point is `filter.density(d)` of the ADF's reconstructed distance `d`,
 //! so the baked voxels and the lazy field agree to the `f32` payload, and both differ
 //! from the source's own voxelization by at most the tolerance over the filter's slope.
+//!
+//! Bounds, before any work: an unbounded source (an infinite cylinder) is refused at
+//! validation; the ADF's estimated cells ([`Adf::estimate`], from the tolerance, the depth
+//! and the source's area and curvature) are refused at resolve when they alone exceed
+//! the memory limit, and counted in the plan's memory estimate with the grid's band; the
+//! build stops at the cells the memory limit holds, should the estimate be low.
 
 use std::sync::OnceLock;
 
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
-use volga_adf::{Adf, AdfOptions, MeshSource, ShapeSource, MAX_SUPPORTED_DEPTH};
-use volga_core::{Aabb, Field, Grid, Progress, Rgb, SparseVolume};
+use volga_adf::{Adf, AdfError, AdfOptions, AdfSource, BuildEstimate, MeshSource, ShapeSource, MAX_SUPPORTED_DEPTH};
+use volga_core::memory::Bytes;
+use volga_core::{Aabb, Field, Grid, NoProgress, Progress, Rgb, SparseVolume};
 use volga_shapes::{OrientedBoxFilter, Shape, SignedDistance};
 
 use super::mesh::MeshNode;
@@ -67,6 +74,8 @@ pub struct AdfNode {
     source: Source,
     tolerance_fraction: f64,
     max_depth: u8,
+    /// The memory limit given at resolve: the build stops at the cells it holds.
+    memory_limit: u64,
     adf: OnceLock<Result<Adf, String>>,
 }
 
@@ -100,7 +109,17 @@ impl AdfNode {
             ShapeSpec::Torus { .. } => {
                 return Err(cx.err(sf, "a torus is not an ADF source yet (meshes and the other shapes are)"))
             }
-            analytic => Source::Shape(validate_shape(cx, &sf, analytic)?),
+            analytic => {
+                let shape = validate_shape(cx, &sf, analytic)?;
+                let b = shape.bounds();
+                if !(b.min.is_finite() && b.max.is_finite()) {
+                    return Err(cx.err(
+                        sf,
+                        "is unbounded (e.g. a cylinder without half_length): an ADF covers a finite cube around its source; give the shape finite bounds",
+                    ));
+                }
+                Source::Shape(shape)
+            }
         };
         Ok(AdfNode {
             name,
@@ -109,8 +128,36 @@ impl AdfNode {
             source,
             tolerance_fraction: tolerance,
             max_depth: spec.max_depth,
+            memory_limit: u64::MAX,
             adf: OnceLock::new(),
         })
+    }
+
+    /// The build's options with the tolerance holding within `band` of the surface.
+    fn options(&self, band: f64) -> AdfOptions {
+        AdfOptions {
+            max_depth: self.max_depth,
+            band,
+            max_cells: BuildEstimate::cells_within(self.memory_limit),
+            ..AdfOptions::relative(self.tolerance_fraction, &self.source_bounds())
+        }
+    }
+
+    /// Runs `f` on the node's source (the mesh's once resolved).
+    fn with_source<T>(&self, f: impl FnOnce(&dyn AdfSource) -> Result<T, AdfError>) -> Result<T, String> {
+        match &self.source {
+            Source::Mesh(m) => {
+                let mesh = m.mesh().ok_or("the mesh was not loaded (resolve the scene first)")?;
+                let source = MeshSource::new(mesh).map_err(|e| e.to_string())?;
+                f(&source).map_err(|e| e.to_string())
+            }
+            Source::Shape(s) => f(&ShapeSource(*s)).map_err(|e| e.to_string()),
+        }
+    }
+
+    /// The build's estimate within `band` of the surface (0 when unknown).
+    fn build_estimate(&self, band: f64) -> Option<BuildEstimate> {
+        self.with_source(|s| Adf::estimate(s, &self.options(band))).ok()
     }
 
     /// The source's bounds (the placed mesh once resolved).
@@ -123,22 +170,11 @@ impl AdfNode {
 
     /// The ADF, built on first use, with the tolerance holding in the whole ramp of
     /// `grid`'s filter (`band` = its half-width): the density reads the distance there.
-    pub fn adf(&self, grid: &Grid) -> Result<&Adf, SceneError> {
+    /// Its progress is told to `progress` (cells built).
+    pub fn adf(&self, grid: &Grid, progress: &dyn Progress) -> Result<&Adf, SceneError> {
         let built = self.adf.get_or_init(|| {
-            let bounds = self.source_bounds();
-            let options = AdfOptions {
-                max_depth: self.max_depth,
-                band: grid_filter(grid).half_width(),
-                ..AdfOptions::relative(self.tolerance_fraction, &bounds)
-            };
-            match &self.source {
-                Source::Mesh(m) => {
-                    let mesh = m.mesh().ok_or("the mesh was not loaded (resolve the scene first)")?;
-                    let source = MeshSource::new(mesh).map_err(|e| e.to_string())?;
-                    Adf::build(&source, options).map_err(|e| e.to_string())
-                }
-                Source::Shape(s) => Adf::build(&ShapeSource(*s), options).map_err(|e| e.to_string()),
-            }
+            let options = self.options(grid_filter(grid).half_width());
+            self.with_source(|s| Adf::build_with_progress(s, options, progress))
         });
         built.as_ref().map_err(|message| SceneError::Invalid {
             path: Default::default(),
@@ -155,11 +191,37 @@ impl Node for AdfNode {
     fn name(&self) -> &str {
         &self.name
     }
+    /// Loads a mesh source, then refuses an ADF whose estimated build alone (without the
+    /// grid's band, which only adds cells) exceeds the memory limit.
     fn resolve(&mut self, cx: &Resolve) -> Result<(), SceneError> {
-        match &mut self.source {
-            Source::Mesh(m) => m.resolve(cx),
-            Source::Shape(_) => Ok(()),
+        if let Source::Mesh(m) = &mut self.source {
+            m.resolve(cx)?;
         }
+        self.memory_limit = cx.memory_limit;
+        let options = self.options(0.0);
+        let estimate = self
+            .with_source(|s| Adf::estimate(s, &options))
+            .map_err(|message| SceneError::Invalid {
+                path: cx.scene.to_owned(),
+                field: format!("{}.source", self.field),
+                message,
+            })?;
+        if estimate.build_bytes > cx.memory_limit {
+            return Err(SceneError::TooLarge {
+                path: cx.scene.to_owned(),
+                needed: Bytes(u128::from(estimate.build_bytes)),
+                limit: Bytes(u128::from(cx.memory_limit)),
+                detail: format!(
+                    "field `{}.tolerance`: an ADF of tolerance {} at max_depth {} needs about {} cells ({} per cell while building); raise the tolerance or lower max_depth",
+                    self.field,
+                    self.tolerance_fraction,
+                    self.max_depth,
+                    estimate.cells,
+                    volga_adf::BUILD_BYTES_PER_CELL
+                ),
+            });
+        }
+        Ok(())
     }
     fn bounds(&self) -> Aabb {
         self.source_bounds()
@@ -167,24 +229,35 @@ impl Node for AdfNode {
     fn colour(&self) -> Rgb {
         self.colour
     }
-    /// The bricks around the source; the ADF's own cells are refused by its build beyond
-    /// the memory available (`AdfError::TooManyCells`).
+    /// The bricks around the source, and the ADF's build ([`Adf::estimate`] with the
+    /// grid's band) as the node's own bytes; the build also stops at the memory limit
+    /// (`AdfError::TooManyCells`), should the estimate be low.
     fn estimate(&self, grid: &Grid) -> Estimate {
+        let adf = self
+            .build_estimate(grid_filter(grid).half_width())
+            .map_or(0, |e| e.build_bytes);
         Estimate {
             bricks: bricks_within(grid, &self.source_bounds()),
-            extra_bytes: 0,
+            extra_bytes: adf,
         }
     }
     fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError> {
+        self.lazy_field_with(grid, &NoProgress)
+    }
+    fn bake(&self, grid: &Grid, colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
+        let field = self.lazy_field_with(grid, progress)?;
+        Ok(super::procedural::bake_field(&*field, grid, colour))
+    }
+}
+
+impl AdfNode {
+    /// [`Node::lazy_field`], the ADF's build (on first use) told to `progress`.
+    fn lazy_field_with(&self, grid: &Grid, progress: &dyn Progress) -> Result<Box<dyn Field + '_>, SceneError> {
         let density = AdfDensity {
-            adf: self.adf(grid)?,
+            adf: self.adf(grid, progress)?,
             filter: grid_filter(grid),
         };
         Ok(Box::new(Clipped::new(density, grid.world_bounds()).tinted(self.colour)))
-    }
-    fn bake(&self, grid: &Grid, colour: bool, _progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
-        let field = self.lazy_field(grid)?;
-        Ok(super::procedural::bake_field(&*field, grid, colour))
     }
 }
 
