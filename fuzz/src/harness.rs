@@ -682,10 +682,10 @@ fn split<'a>(data: &'a [u8], separator: &[u8]) -> Vec<&'a [u8]> {
     parts
 }
 
-/// A deterministic byte mutator (xorshift64*), for the corpus test: bit flips, byte
-/// insertion and deletion, chunk duplication and splicing from another input,
-/// interesting bytes and numbers (written as text over a number of the input, since
-/// all but the binary parts of these formats are text), truncation.
+/// A deterministic byte mutator (xorshift64*), for the corpus test and the stable runner:
+/// bit flips, byte insertion and deletion, chunk duplication and splicing from another
+/// input, interesting bytes and numbers (written as text over a number of the input, and
+/// as little-endian `f64` or 32-bit integers over any 8 or 4 bytes), truncation.
 pub struct Mutator {
     state: u64,
 }
@@ -718,6 +718,40 @@ const INTERESTING: &[&str] = &[
     "3",
 ];
 
+/// Binary floats that find limits: zero, signs, the extremes, subnormals, non-finite.
+const INTERESTING_F64: &[f64] = &[
+    0.0,
+    -0.0,
+    1.0,
+    -1.0,
+    0.5,
+    1e-300,
+    5e-324,
+    1.5e308,
+    f64::MAX,
+    f64::MIN_POSITIVE,
+    f64::NAN,
+    f64::INFINITY,
+    9007199254740992.0,
+];
+
+/// Binary integers that find limits (levels, counts, sizes).
+const INTERESTING_U32: &[u32] = &[
+    0,
+    1,
+    2,
+    8,
+    16,
+    17,
+    255,
+    256,
+    65535,
+    65536,
+    0x7fff_ffff,
+    0x8000_0000,
+    u32::MAX,
+];
+
 impl Mutator {
     pub fn new(seed: u64) -> Self {
         Mutator {
@@ -748,7 +782,7 @@ impl Mutator {
 
     fn mutate_once(&mut self, data: &mut Vec<u8>, other: &[u8]) {
         let len = data.len();
-        match self.below(9) {
+        match self.below(11) {
             0 if len > 0 => {
                 let i = self.below(len);
                 data[i] ^= 1 << self.below(8);
@@ -795,6 +829,18 @@ impl Mutator {
                     .unwrap_or(len);
                 let number = INTERESTING[self.below(INTERESTING.len())].as_bytes();
                 data.splice(start..end, number.iter().copied());
+            }
+            // A binary number (little-endian, at any offset): an f64 or a 32-bit integer
+            // from the boundary values, for the binary formats (sculpt files, binvox, GLB).
+            9 if len >= 8 => {
+                let i = self.below(len - 7);
+                let value = INTERESTING_F64[self.below(INTERESTING_F64.len())];
+                data[i..i + 8].copy_from_slice(&value.to_le_bytes());
+            }
+            10 if len >= 4 => {
+                let i = self.below(len - 3);
+                let value = INTERESTING_U32[self.below(INTERESTING_U32.len())];
+                data[i..i + 4].copy_from_slice(&value.to_le_bytes());
             }
             _ if len > 0 => data.truncate(self.below(len)),
             _ => data.push(self.next_u64() as u8),

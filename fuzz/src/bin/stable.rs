@@ -375,7 +375,7 @@ static TRACED: Mutex<Option<HashSet<String>>> = Mutex::new(None);
 fn install_hook() {
     std::panic::set_hook(Box::new(|info| {
         let site = info.location().map_or("unknown".to_string(), |l| {
-            format!("{}:{}:{}", l.file(), l.line(), l.column())
+            format!("{}:{}:{}", short_path(l.file()), l.line(), l.column())
         });
         let message = if let Some(s) = info.payload().downcast_ref::<&str>() {
             s.to_string()
@@ -399,6 +399,13 @@ fn install_hook() {
             });
         }
     }));
+}
+
+/// A source path from its crate's folder on (`volga-sculpt/src/edit.rs`,
+/// `tobj-4.0.5/src/lib.rs`): the last three components.
+fn short_path(file: &str) -> String {
+    let parts: Vec<&str> = file.split('/').collect();
+    parts[parts.len().saturating_sub(3)..].join("/")
 }
 
 fn corpus(target: &str) -> Vec<Vec<u8>> {
