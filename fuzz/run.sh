@@ -54,10 +54,14 @@ if ! command -v cargo-fuzz >/dev/null 2>&1; then
 fi
 export RUSTC_BOOTSTRAP=1
 flags=(-O -a -s none)
-if ! cargo fuzz build "${flags[@]}"; then
-    [ "$engine" = auto ] && { echo "the libFuzzer build failed: the stable runner" >&2; run_stable; }
-    exit 2
-fi
+# Target by target: a plain `cargo fuzz build` would also build the stable runner, which
+# has no libFuzzer to link against.
+for t in "${targets[@]}"; do
+    if ! cargo fuzz build "${flags[@]}" "$t"; then
+        [ "$engine" = auto ] && { echo "the libFuzzer build failed: the stable runner" >&2; run_stable; }
+        exit 2
+    fi
+done
 
 summary=()
 failed=0

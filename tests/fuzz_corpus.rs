@@ -19,7 +19,7 @@ const MUTATIONS: u64 = 1500;
 const SCULPT_MUTATIONS: u64 = 400;
 const STROKE_MUTATIONS: u64 = 300;
 const SCENE_BUILD_MUTATIONS: u64 = 100;
-const ADF_MUTATIONS: u64 = 20;
+const ADF_MUTATIONS: u64 = 12;
 
 fn corpus(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus").join(target);

@@ -20,8 +20,9 @@
 //!   ball) and, when valid, planned.
 //! * `sculpt_file`: `.vsculpt` bytes (their last four bytes replaced by the CRC-32 of the
 //!   rest, so mutations reach the parser) read with `Sculpt::from_bytes`; an accepted
-//!   sculpt is written back and re-read, sampled, edited by a small stroke of every
-//!   operation (with undo and redo), meshed and exported when its grid is at most 64³,
+//!   sculpt is written back and re-read, sampled, edited by strokes of every operation
+//!   with a ball of 2.5 voxels at its centre and of radius 1 at its origin (with undo and
+//!   redo), meshed and exported when its grid is at most 64³,
 //!   saved in that directory and reopened.
 //! * `strokes`: stroke-file text (JSON when it starts with `{`, else RON) parsed with
 //!   `parse_stroke_file` from that directory; its `start` is voxelized when the grid it
@@ -226,18 +227,20 @@ impl Harness {
             },
             Operation::Smooth { strength: 1.0 },
         ];
-        if let Ok(tool) = Tool::sphere(centre, 2.5 * h) {
+        // Tools sized in voxels, and in world units as a stroke file gives them.
+        let tools = [Tool::sphere(centre, 2.5 * h), Tool::sphere(grid.origin(), 1.0)];
+        for tool in tools.into_iter().flatten() {
             for operation in operations {
                 if let Ok(stroke) = Stroke::new(tool.clone(), operation) {
                     let _ = sculpt.apply(&stroke);
                 }
             }
-            let v = sculpt.value(centre);
-            assert!((0.0..=1.0).contains(&v), "density {v} after the strokes");
-            if sculpt.undo_len() > 0 {
-                assert!(sculpt.undo());
-                assert!(sculpt.redo());
-            }
+        }
+        let v = sculpt.value(centre);
+        assert!((0.0..=1.0).contains(&v), "density {v} after the strokes");
+        if sculpt.undo_len() > 0 {
+            assert!(sculpt.undo());
+            assert!(sculpt.redo());
         }
         if n <= 64 {
             let _ = sculpt.surface(2.0);
