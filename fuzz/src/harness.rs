@@ -67,10 +67,10 @@ pub const TARGETS: &[&str] = &[
 pub const MAX_STROKES: usize = 16;
 
 /// Cells an `adf_build` build may hold (it is refused beyond, as `AdfOptions::max_cells`).
-pub const ADF_MAX_CELLS: usize = 50_000;
+pub const ADF_MAX_CELLS: usize = 20_000;
 
 /// Deepest level of an `adf_build` build (deeper requests are clamped to it).
-pub const ADF_MAX_DEPTH: u8 = 8;
+pub const ADF_MAX_DEPTH: u8 = 6;
 
 /// Memory limit of the `strokes` and `scene_build` targets (bytes).
 const MEMORY_LIMIT: u64 = 256 << 20;
