@@ -1,30 +1,67 @@
 #!/usr/bin/env bash
-# Fuzzes every reader of volga for a bounded time: fuzz/run.sh [SECONDS_PER_TARGET] [TARGET...]
+# Fuzzes every target of volga for a bounded time:
+#   fuzz/run.sh [--engine auto|libfuzzer|stable] [SECONDS_PER_TARGET] [TARGET...]
 #
-# Installs cargo-fuzz if missing, builds the libFuzzer targets (release, debug assertions
-# on, so integer overflow is a crash too; no sanitizer: the readers are safe Rust), runs
-# each target for SECONDS_PER_TARGET (default 300) starting from the committed seeds in
-# fuzz/corpus/<target>/, and prints per target: seconds, executions, coverage, crashes.
-# New inputs the fuzzer finds go to fuzz/target/corpus/<target>/ (not committed); a
-# crash, out-of-memory (> 2 GiB RSS or one allocation > 2 GiB) or timeout (> 10 s per
-# input) is saved under fuzz/artifacts/<target>/ and makes the script exit 1.
-# Works on stable Rust: cargo-fuzz's nightly flags are enabled with RUSTC_BOOTSTRAP=1.
-# docs/FUZZING.md says what each target covers and how to reproduce a crash.
+# Engines (docs/FUZZING.md):
+# * libfuzzer: cargo-fuzz's coverage-guided libFuzzer. Installs cargo-fuzz from crates.io
+#   if missing, builds the targets (release, debug assertions on, so integer overflow is a
+#   crash too; no sanitizer: the code under test is safe Rust) and runs each from the
+#   committed seeds in fuzz/corpus/<target>/. New inputs go to fuzz/target/corpus/<target>/
+#   (not committed). Limits: 10 s per input, 2 GiB resident or per allocation. Works on
+#   stable Rust (cargo-fuzz's nightly flags are enabled with RUSTC_BOOTSTRAP=1) but needs
+#   a C++ compiler for libFuzzer.
+# * stable: the runner in fuzz/src/bin/stable.rs, plain stable Rust and nothing else: the
+#   seeds and mutations of them, each target in a child process, every input under
+#   catch_unwind, 10 s per input, allocations capped at 2 GiB (an abort is a crash).
+# * auto (default, or $VOLGA_FUZZ_ENGINE): libfuzzer when cargo-fuzz is installed or
+#   installs and its build succeeds, else stable.
+#
+# Prints per target the seconds, executions and crashes (libfuzzer: edges covered;
+# stable: inputs accepted). Crashes, timeouts and out-of-memory inputs are saved under
+# fuzz/artifacts/<target>/; the script exits 1 when there is any, 2 when nothing ran.
 set -uo pipefail
 cd "$(dirname "$0")"
 
+engine=${VOLGA_FUZZ_ENGINE:-auto}
+if [ "${1:-}" = "--engine" ]; then
+    engine=${2:?--engine needs auto, libfuzzer or stable}
+    shift 2
+fi
 seconds=${1:-300}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(obj gltf binvox nrrd scene_ron scene_json)
+all=(obj gltf binvox nrrd scene_ron scene_json sculpt_file strokes scene_build adf_build)
+[ ${#targets[@]} -eq 0 ] && targets=("${all[@]}")
+
+run_stable() {
+    cargo build --profile fuzz-stable --no-default-features --bin stable || exit 2
+    target/fuzz-stable/stable --seconds "$seconds" "${targets[@]}"
+    exit $?
+}
+
+case $engine in
+    stable) run_stable ;;
+    libfuzzer | auto) ;;
+    *) echo "unknown engine \`$engine\` (auto, libfuzzer or stable)" >&2; exit 2 ;;
+esac
 
 if ! command -v cargo-fuzz >/dev/null 2>&1; then
     echo "installing cargo-fuzz" >&2
-    cargo install cargo-fuzz --locked || exit 2
+    if ! cargo install cargo-fuzz --locked; then
+        [ "$engine" = auto ] && { echo "cargo-fuzz did not install: the stable runner" >&2; run_stable; }
+        exit 2
+    fi
 fi
 export RUSTC_BOOTSTRAP=1
 flags=(-O -a -s none)
-cargo fuzz build "${flags[@]}" || exit 2
+# Target by target: a plain `cargo fuzz build` would also build the stable runner, which
+# has no libFuzzer to link against.
+for t in "${targets[@]}"; do
+    if ! cargo fuzz build "${flags[@]}" "$t"; then
+        [ "$engine" = auto ] && { echo "the libFuzzer build failed: the stable runner" >&2; run_stable; }
+        exit 2
+    fi
+done
 
 summary=()
 failed=0
@@ -47,11 +84,11 @@ for t in "${targets[@]}"; do
     crashes=$(( $(ls "artifacts/$t" | wc -l) - before ))
     if [ "$status" -ne 0 ] && [ "$crashes" -eq 0 ]; then crashes="? (exit $status, see $log)"; fi
     [ "$status" -ne 0 ] && failed=1
-    line=$(printf '%-11s %6ss %12s execs %7s edges  crashes: %s' "$t" "$elapsed" "${execs:-?}" "${cov:-?}" "$crashes")
+    line=$(printf '%-12s %6ss %12s execs %7s edges  crashes: %s' "$t" "$elapsed" "${execs:-?}" "${cov:-?}" "$crashes")
     echo "$line"
     summary+=("$line")
 done
 echo
-echo "== fuzz summary ($seconds s per target, $(date -u +%FT%TZ))"
+echo "== libFuzzer summary ($seconds s per target, $(date -u +%FT%TZ))"
 printf '%s\n' "${summary[@]}"
 exit $failed

@@ -1,7 +1,7 @@
-//! Every reader against the committed fuzz corpus (`fuzz/corpus/<target>/`) and a fixed
-//! set of deterministic mutations of it: no input may panic. The long, coverage-guided
-//! runs are `fuzz/run.sh` (docs/FUZZING.md); this test keeps the readers from
-//! regressing on what those runs found, in a few seconds.
+//! Every fuzz target against the committed fuzz corpus (`fuzz/corpus/<target>/`) and a
+//! fixed set of deterministic mutations of it: no input may panic. The long runs are
+//! `fuzz/run.sh` (docs/FUZZING.md); this test keeps the readers, and what callers do next
+//! with what they read, from regressing on what those runs found, in a few seconds.
 
 #[path = "../fuzz/src/harness.rs"]
 mod harness;
@@ -9,10 +9,17 @@ mod harness;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
-use harness::{Harness, Mutator};
+use harness::{Harness, Mutator, TARGETS};
 
-/// Mutated inputs per target (each one to four mutations of a corpus file).
+/// Mutated inputs per reader target (each one to four mutations of a corpus file).
 const MUTATIONS: u64 = 1500;
+
+/// Mutated inputs of the targets that build (a sculpt, a scene, an ADF) after reading:
+/// fewer, so each stays about a second.
+const SCULPT_MUTATIONS: u64 = 400;
+const STROKE_MUTATIONS: u64 = 300;
+const SCENE_BUILD_MUTATIONS: u64 = 100;
+const ADF_MUTATIONS: u64 = 12;
 
 fn corpus(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus").join(target);
@@ -38,13 +45,18 @@ fn run_one(harness: &Harness, target: &str, data: &[u8], origin: &str) {
         std::fs::write(&saved, data).unwrap();
         panic!(
             "{target} panicked on {origin}; input saved as {} (reproduce with \
-             `cargo fuzz run {target} {0}` in fuzz/)",
+             `cargo run --profile fuzz-stable --no-default-features --bin stable -- --replay {target} {0}` \
+             in fuzz/)",
             saved.display()
         );
     }
 }
 
 fn check_target(target: &str) {
+    check_target_with(target, MUTATIONS);
+}
+
+fn check_target_with(target: &str, mutations: u64) {
     let harness = Harness::new();
     let seeds = corpus(target);
     for (path, bytes) in &seeds {
@@ -55,9 +67,9 @@ fn check_target(target: &str) {
         (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
     });
     let mut mutator = Mutator::new(seed);
-    for i in 0..MUTATIONS {
-        let (path, bytes) = &seeds[mutator.next() as usize % seeds.len()];
-        let (_, other) = &seeds[mutator.next() as usize % seeds.len()];
+    for i in 0..mutations {
+        let (path, bytes) = &seeds[mutator.next_u64() as usize % seeds.len()];
+        let (_, other) = &seeds[mutator.next_u64() as usize % seeds.len()];
         let data = mutator.mutate(bytes, other);
         run_one(&harness, target, &data, &format!("mutation {i} of {}", path.display()));
     }
@@ -93,12 +105,33 @@ fn scene_json_corpus_never_panics() {
     check_target("scene_json");
 }
 
-/// The seeds are worth mutating: every seed of every target is accepted by its reader,
-/// except the OBJ heads (first lines of the shared meshes, faces may point past them).
+#[test]
+fn sculpt_file_corpus_never_panics() {
+    check_target_with("sculpt_file", SCULPT_MUTATIONS);
+}
+
+#[test]
+fn strokes_corpus_never_panics() {
+    check_target_with("strokes", STROKE_MUTATIONS);
+}
+
+#[test]
+fn scene_build_corpus_never_panics() {
+    check_target_with("scene_build", SCENE_BUILD_MUTATIONS);
+}
+
+#[test]
+fn adf_build_corpus_never_panics() {
+    check_target_with("adf_build", ADF_MUTATIONS);
+}
+
+/// The seeds are worth mutating: every seed of every target is accepted by its target
+/// (scenes built, strokes applied, ADFs built), except the OBJ heads (first lines of the
+/// shared meshes, faces may point past them).
 #[test]
 fn seeds_are_valid_inputs() {
     let harness = Harness::new();
-    for target in ["obj", "gltf", "binvox", "nrrd", "scene_ron", "scene_json"] {
+    for &target in TARGETS {
         for (path, bytes) in corpus(target) {
             let name = path.file_name().unwrap().to_string_lossy().into_owned();
             if !name.ends_with("-head.obj") {

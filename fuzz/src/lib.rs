@@ -2,7 +2,7 @@
 
 mod harness;
 
-pub use harness::{Harness, Mutator, NRRD_SPLIT};
+pub use harness::{Harness, Mutator, SceneBudget, ADF_MAX_CELLS, ADF_MAX_DEPTH, MAX_STROKES, NRRD_SPLIT, TARGETS};
 
 /// The process-wide harness of a fuzz target.
 pub fn harness() -> &'static Harness {

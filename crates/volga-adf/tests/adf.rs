@@ -426,6 +426,19 @@ fn hard_cases() {
     }
     // An empty mesh is refused.
     assert!(MeshSource::new(&TriMesh::new(vec![], vec![]).unwrap()).is_err());
+    // Finite bounds whose root cube would not be (found by fuzzing, target `adf_build`):
+    // a box reaching 1e308 rounds up to an infinite cube with a NaN corner, and was built
+    // with NaN distances; it is refused, naming the side.
+    for (min, max) in [
+        (-DVec3::ONE, DVec3::new(1.0, 1.0, 1e308)),
+        (DVec3::splat(-1e308), DVec3::splat(1e308)),
+    ] {
+        let err = Adf::build(&ShapeSource(AxisBox::new(min, max).unwrap()), options(1e-2, 6)).unwrap_err();
+        assert!(
+            matches!(err, AdfError::EmptySource(_)) && err.to_string().contains("too large"),
+            "{err}"
+        );
+    }
 }
 
 #[test]

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use volga_mesh::read_gltf;
+use volga_mesh::{read_gltf, read_obj, MeshError};
 
 /// A GLB of `json` and one binary chunk `bin`.
 fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
@@ -68,4 +68,18 @@ fn instancing_bomb_is_refused_before_allocating() {
         e.starts_with("bomb.glb") && e.contains("instances expand to 137625600 triangles"),
         "{e}"
     );
+}
+
+/// Found by the stable runner (target `obj`, 2026-11-27): tobj reads `l` statements as it
+/// reads faces, and a normal index counting back past the normals defined (`2//-9` with
+/// one normal) wrapped to a huge index that overflowed in `tobj::add_vertex_multi_index`
+/// (a panic with overflow checks, wrong data without). volga's scan now checks `l`
+/// corners as it checks faces' and names the line.
+#[test]
+fn line_statement_with_an_out_of_range_normal_is_refused() {
+    let text = "vn 0 1 1 \nl 2//-9 2 3\nv 1 6 1\nv 1 0 7";
+    match read_obj(text.as_bytes(), Path::new("l.obj")) {
+        Err(MeshError::ObjSyntax { line: 2, message, .. }) => assert!(message.contains("out of range"), "{message}"),
+        other => panic!("expected a syntax error on line 2, got {other:?}"),
+    }
 }

@@ -444,6 +444,13 @@ pub(crate) fn root_cube(bounds: &Aabb, margin: Option<f64>) -> Result<(DVec3, f6
     let side = side.log2().ceil().exp2();
     let finest = side / (1u64 << MAX_SUPPORTED_DEPTH) as f64;
     let min = ((bounds.center() - DVec3::splat(side * 0.5)) / finest).floor() * finest;
+    // Finite bounds near f64's limit (1e308) round up to an infinite cube.
+    if !(side.is_finite() && min.is_finite()) {
+        return Err(AdfError::EmptySource(format!(
+            "bounds {:?}..{:?} are too large: the root cube's side would be {side}",
+            bounds.min, bounds.max
+        )));
+    }
     Ok((min, side))
 }
 

@@ -165,9 +165,12 @@ fn scan(text: &str) -> Result<(), Fault> {
                     return Err(syntax(format!("a face needs at least 3 corners, found {corners}")));
                 }
             }
+            // tobj parses `l` as it parses `f` (it drops two-corner ones afterwards), so
+            // its indices are checked as a face's are: an index past the elements defined
+            // overflowed in tobj.
             Some("l") => {
                 for token in words {
-                    corner_indices(token).map_err(syntax)?;
+                    check_face_corner(token, &defined).map_err(syntax)?;
                 }
             }
             // tobj takes the name after the first space, so mirror that exactly.
