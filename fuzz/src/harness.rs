@@ -286,7 +286,7 @@ impl Harness {
                 if extent / start.voxel_size > 56.0 {
                     return false;
                 }
-                match strokes::start_sculpt(&path, start, MEMORY_LIMIT) {
+                match strokes::start_sculpt(&path, start, MEMORY_LIMIT, false) {
                     Ok(sculpt) => sculpt,
                     Err(_) => return false,
                 }
@@ -301,7 +301,7 @@ impl Harness {
             }
         };
         file.strokes.truncate(MAX_STROKES);
-        let Ok(list) = strokes::validate_strokes(&path, &file, sculpt.grid().spacing()) else {
+        let Ok(list) = strokes::validate_strokes(&path, &file, sculpt.grid().spacing(), false) else {
             return false;
         };
         let before = sculpt.clone();
@@ -361,6 +361,7 @@ impl Harness {
             out_dir: self.path("out/scene"),
             memory_limit: Some(MEMORY_LIMIT),
             stage_start: None,
+            allow_outside_paths: false,
         };
         volga_scene::build_parsed(&path, &file, &options, &volga_core::NoProgress).is_ok()
     }

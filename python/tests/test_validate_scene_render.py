@@ -140,3 +140,17 @@ def test_render_returns_rgba_images():
             volga.render(g, **kwargs)
     with pytest.raises(ValueError, match="expected"):
         volga.render(np.zeros((4, 4, 4)))
+
+
+def test_a_scene_reads_only_files_in_its_folder_unless_allowed(tmp_path):
+    v, f = uv_sphere()
+    write_obj(tmp_path / "ball.obj", v, f)
+    (tmp_path / "scenes").mkdir()
+    scene = {"grid": {"bounds": {"min": [-1.5, -1.5, -1.5], "max": [1.5, 1.5, 1.5]}, "resolution": 16},
+             "objects": [{"shape": {"Mesh": {"path": "../ball.obj"}}}],
+             "cameras": [], "outputs": {"volumes": [{"name": "ball"}]}}
+    with pytest.raises(ValueError, match="allow-outside-paths"):
+        volga.build(scene, tmp_path / "out", base_dir=tmp_path / "scenes")
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+    report = volga.build(scene, tmp_path / "out", base_dir=tmp_path / "scenes", allow_outside_paths=True)
+    assert report["voxels"]["active"] > 0

@@ -203,7 +203,7 @@ fn check_memory(
     let other = other_bytes(args, triangles, estimate, probes_out);
     let needed = estimate.build_bytes.saturating_add(other);
     if needed > limit {
-        return Err(failed(format!(
+        return Err(bad_input(format!(
             "--tolerance {} (--max-depth {}): the ADF needs about {} cells, {} while building, plus {} for the mesh and the render{}: {} in all, more than {which}, {}; raise --tolerance or lower --max-depth",
             args.tolerance,
             args.max_depth,

@@ -247,7 +247,7 @@ fn a_tolerance_the_memory_cannot_hold_is_refused_before_the_build() {
         arg(&out),
     ]);
     let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(
         e.contains("--tolerance") && e.contains("cells") && e.contains("--memory-limit, 1.00 GiB"),
         "{e}"

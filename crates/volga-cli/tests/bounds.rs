@@ -444,7 +444,10 @@ fn mesh_output_stops_at_the_memory_limit() {
     );
     let out = dir.path().join("out");
     let o = volga(&["build", &s(&sc), "--out", &s(&out), "--memory-limit", "64M"]);
-    refused(&o, &["outputs.meshes.m", "triangles"]);
+    // Stopped while running (exit 1), not refused before work.
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("outputs.meshes.m") && e.contains("triangles"), "{e}");
     assert!(
         files_in(&out).iter().all(|f| !f.ends_with(".obj")),
         "{:?}",

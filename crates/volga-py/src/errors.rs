@@ -63,6 +63,7 @@ pub fn build_error(e: BuildError) -> PyErr {
         BuildError::Scene(s) => scene_error(s),
         BuildError::Io(io) => os_error(io.to_string()),
         BuildError::Render { .. } => pyo3::exceptions::PyRuntimeError::new_err(e.to_string()),
+        BuildError::Limit { .. } => pyo3::exceptions::PyMemoryError::new_err(e.to_string()),
     }
 }
 

@@ -360,12 +360,16 @@ fn write_mesh(
         },
         max_bytes / (volga_mesh::BYTES_PER_TRIANGLE + 64),
     )
-    .map_err(|e| {
-        BuildError::Scene(SceneError::Invalid {
+    .map_err(|e| match e {
+        volga_mesh::ExtractError::TooManyTriangles { .. } => BuildError::Limit {
+            output: format!("{}: outputs.meshes.{}", scene.source.display(), m.name),
+            message: e.to_string(),
+        },
+        e => BuildError::Scene(SceneError::Invalid {
             path: scene.source.clone(),
             field: format!("outputs.meshes.{}", m.name),
             message: e.to_string(),
-        })
+        }),
     })?;
     let (ext, bytes) = match m.format {
         crate::model::MeshFormatSpec::Obj => ("obj", volga_mesh::obj_bytes(&surface.mesh, Some(&surface.normals))),

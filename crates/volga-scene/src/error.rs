@@ -101,6 +101,15 @@ pub enum BuildError {
         /// The renderer's error.
         message: String,
     },
+    /// An output outgrew what the memory limit leaves it while being made (a mesh output
+    /// with more triangles than fit) and was stopped; nothing was written.
+    #[error("{output}: stopped at the memory limit: {message}")]
+    Limit {
+        /// The output's field path (`outputs.meshes.m`).
+        output: String,
+        /// What passed the limit.
+        message: String,
+    },
 }
 
 impl BuildError {
