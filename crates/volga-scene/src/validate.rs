@@ -489,7 +489,7 @@ fn validate_image(
     }
     for (name, step) in steps {
         let samples = diagonal_voxels / step;
-        if step > 0.0 && !(samples <= volga_render::MAX_SAMPLES_PER_RAY as f64) {
+        if step > 0.0 && (samples.is_nan() || samples > volga_render::MAX_SAMPLES_PER_RAY as f64) {
             let d = grid.dims();
             return Err(cx.err(
                 format!("{f}.{name}"),

@@ -235,7 +235,7 @@ impl Tool {
             let (a, b) = (pair[0], pair[1]);
             let length = (b - a).length();
             let n = (length / max_step).ceil();
-            if !(n <= MAX_SWEEP_SAMPLES as f64) {
+            if n.is_nan() || n > MAX_SWEEP_SAMPLES as f64 {
                 return Err(ToolError::SegmentTooLong {
                     segment,
                     length,
