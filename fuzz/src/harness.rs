@@ -75,6 +75,12 @@ pub const ADF_MAX_DEPTH: u8 = 6;
 /// Memory limit of the `strokes` and `scene_build` targets (bytes).
 const MEMORY_LIMIT: u64 = 256 << 20;
 
+/// Whether `stroke` fits the harness's memory budget by the bound `volga sculpt` checks
+/// before applying it (the sculpt's bricks are bounded before work, as a caller must).
+fn within_budget(sculpt: &volga_sculpt::Sculpt, stroke: &volga_sculpt::Stroke) -> bool {
+    sculpt.stroke_brick_bound(stroke) * volga_sculpt::BRICK_BYTES_BOUND as u128 <= MEMORY_LIMIT as u128 / 4
+}
+
 /// The temporary directory the targets read and write their files in.
 pub struct Harness {
     dir: tempfile::TempDir,
@@ -232,7 +238,10 @@ impl Harness {
         for tool in tools.into_iter().flatten() {
             for operation in operations {
                 if let Ok(stroke) = Stroke::new(tool.clone(), operation) {
-                    let _ = sculpt.apply(&stroke);
+                    // What `volga sculpt` checks before a stroke: its memory bound.
+                    if within_budget(&sculpt, &stroke) {
+                        let _ = sculpt.apply(&stroke);
+                    }
                 }
             }
         }
@@ -306,7 +315,9 @@ impl Harness {
         };
         let before = sculpt.clone();
         for stroke in &list {
-            let _ = sculpt.apply(stroke);
+            if within_budget(&sculpt, stroke) {
+                let _ = sculpt.apply(stroke);
+            }
         }
         let grid = *sculpt.grid();
         let v = sculpt.value(grid.voxel_center(IVec3::splat(grid.dims() / 2)));

@@ -170,7 +170,7 @@ pub enum VoxelModel {
     Binvox(Binvox),
     /// A NRRD volume and what its values mean.
     Nrrd {
-        /// The density channel as [`read_nrrd`] reads it (no colour), every sample
+        /// The density channel as [`read_nrrd`](crate::read_nrrd) reads it (no colour), every sample
         /// finite.
         volume: DenseVolume,
         /// What the samples mean ([`VoxelValues::classify`] of `volume`).
