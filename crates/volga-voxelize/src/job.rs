@@ -235,7 +235,7 @@ impl MeshJob {
         let v = mesh.positions.len() as u64;
         // Vectors grown by doubling hold up to twice their length.
         let mesh_bytes = 2 * (24 * v + 12 * t);
-        let marks = mark_bytes(grid_bricks);
+        let marks = mark_bytes(volga_core::brick_extent(grid.dims()).as_u64vec3(), fills_inside);
         // A dense brick is 2 KiB of f32 plus its map entry; a uniform brick (inside a
         // solid) is a map entry.
         const DENSE: u64 = 2048 + 128;
@@ -383,14 +383,31 @@ fn write_slab_bytes(grid: &Grid) -> u64 {
 /// Grids of more bricks than this are not marked in a bit set (128 MiB): the
 /// bricks are then summed per triangle (an upper bound as well, looser).
 const MAX_MARKED_BRICKS: u64 = 1 << 30;
+/// Grids with more brick columns than this (along x, y and z together) do not bound
+/// their inside by column spans (8 bytes per column: 128 MiB); the inside is then the
+/// whole grid. A grid 1 brick thick and 16 384 wide has 2^28 columns along its thin axis.
+const MAX_SPAN_COLUMNS: u64 = 1 << 24;
 
-/// Bytes of the bit set [`count_bricks`] allocates for a grid of `grid_bricks`.
-fn mark_bytes(grid_bricks: u64) -> u64 {
-    if grid_bricks <= MAX_MARKED_BRICKS {
-        grid_bricks.div_ceil(8)
+/// Brick columns along x, y and z of a grid of `e` bricks.
+fn columns(e: glam::U64Vec3) -> u64 {
+    e.y.saturating_mul(e.z)
+        .saturating_add(e.x.saturating_mul(e.z))
+        .saturating_add(e.x.saturating_mul(e.y))
+}
+
+/// Bytes [`count_bricks`] allocates for a grid of `e` bricks: the bit set, and with
+/// `inside` the column spans.
+fn mark_bytes(e: glam::U64Vec3, inside: bool) -> u64 {
+    let total = e.element_product();
+    if total > MAX_MARKED_BRICKS {
+        return 0;
+    }
+    let spans = if inside && columns(e) <= MAX_SPAN_COLUMNS {
+        8 * columns(e)
     } else {
         0
-    }
+    };
+    total.div_ceil(8) + spans
 }
 
 /// An upper bound on the bricks within `band` voxels of the triangles: each brick
@@ -453,6 +470,9 @@ fn count_bricks(mesh: &TriMesh, grid: &Grid, band: f64, inside: bool) -> (u64, u
     if !inside {
         return (band_bricks, 0);
     }
+    if columns(e.as_u64vec3()) > MAX_SPAN_COLUMNS {
+        return (band_bricks, total);
+    }
     let (nx, ny, nz) = (e.x as usize, e.y as usize, e.z as usize);
     let marked = |x: usize, y: usize, z: usize| {
         let i = x + nx * (y + ny * z);
@@ -500,6 +520,32 @@ mod tests {
     fn tetrahedron(scale: f64) -> TriMesh {
         let p = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z].map(|v| v * scale);
         TriMesh::new(p.to_vec(), vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]).unwrap()
+    }
+
+    /// A grid one brick thick and 16 384 bricks wide has 2^28 brick columns along its thin
+    /// axis: bounding a solid's inside by column spans would take 2 GiB. The estimate
+    /// falls back to the whole grid instead (found by fuzzing `volga plan`).
+    #[test]
+    fn thin_wide_grids_bound_the_inside_without_column_spans() {
+        let mesh = tetrahedron(10.0);
+        let transform = volga_core::Transform::new(DVec3::ZERO, DVec3::splat(1.0)).unwrap();
+        let grid = Grid::new(transform, UVec3::new(8, 131_072, 131_072)).unwrap();
+        let job = MeshJob {
+            resolution: 131_072,
+            mode: MeshJobMode::AntiAliased {
+                thickness_voxels: 1.0,
+                solid: true,
+            },
+        };
+        let e = job.estimate(&mesh, &grid);
+        assert_eq!(e.grid_bricks, 1 << 28);
+        assert_eq!(e.inside_bricks, e.grid_bricks);
+        assert!(e.band_bricks < 64, "{e:?}");
+        assert_eq!(mark_bytes(glam::U64Vec3::new(1, 1 << 14, 1 << 14), true), (1 << 28) / 8);
+        assert_eq!(
+            mark_bytes(glam::U64Vec3::splat(64), true),
+            64 * 64 * 64 / 8 + 8 * 3 * 64 * 64
+        );
     }
 
     #[test]
