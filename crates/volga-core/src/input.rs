@@ -131,7 +131,7 @@ pub fn read_input_text(path: &Path) -> io::Result<String> {
 /// touched). The error says why the path is refused.
 ///
 /// # Errors
-/// An absolute path, an empty one, or one that leaves `dir`.
+/// An absolute path, an empty one, one that leaves `dir` or names `dir` itself.
 pub fn confine(dir: &Path, relative: &str) -> Result<std::path::PathBuf, &'static str> {
     use std::path::Component;
     if relative.is_empty() {
@@ -156,6 +156,9 @@ pub fn confine(dir: &Path, relative: &str) -> Result<std::path::PathBuf, &'stati
             Component::RootDir | Component::Prefix(_) => return Err("is an absolute path"),
         }
     }
+    if depth == 0 {
+        return Err("names the folder itself");
+    }
     Ok(dir.join(inside))
 }
 
@@ -172,6 +175,7 @@ mod tests {
         assert_eq!(confine(d, "../x.obj"), Err("leaves the folder"));
         assert_eq!(confine(d, "a/../../x.obj"), Err("leaves the folder"));
         assert_eq!(confine(d, ""), Err("is empty"));
+        assert_eq!(confine(d, "a/.."), Err("names the folder itself"));
     }
 
     #[test]

@@ -279,14 +279,15 @@ fn validate_grid(cx: &Ctx, g: &GridSpec) -> Result<Grid, SceneError> {
             DVec3::from_array(*h)
         }
     };
+    // The field that set the voxel size.
+    let size_field = if g.resolution.is_some() {
+        "grid.resolution"
+    } else {
+        "grid.voxel_size"
+    };
     if voxel.min_element() < volga_core::MIN_SPACING {
-        let field = if g.resolution.is_some() {
-            "grid.resolution"
-        } else {
-            "grid.voxel_size"
-        };
         return Err(cx.err(
-            field,
+            size_field,
             format!("makes voxels of {voxel}: voxels must be at least 1e-100 world units (scale the scene up)"),
         ));
     }
@@ -294,13 +295,8 @@ fn validate_grid(cx: &Ctx, g: &GridSpec) -> Result<Grid, SceneError> {
     // (the tolerance absorbs the rounding of size / voxel).
     let dims_f = (size / voxel - 1e-9).ceil().max(DVec3::ONE);
     if dims_f.max_element() > MAX_DIM {
-        let field = if g.resolution.is_some() {
-            "grid.resolution"
-        } else {
-            "grid.voxel_size"
-        };
         return Err(cx.err(
-            field,
+            size_field,
             format!("asks for {dims_f:?} voxels per axis; at most {MAX_DIM} are supported"),
         ));
     }

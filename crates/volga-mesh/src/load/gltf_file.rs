@@ -422,7 +422,6 @@ fn decode_base64(text: &str) -> Result<Vec<u8>, String> {
 /// lies inside the folder. So a model handed to a batch build can read its own
 /// buffers and nothing else. Errors quote the URI.
 pub(crate) fn resolve_uri(model: &Path, uri: &str) -> Result<PathBuf, String> {
-    use std::path::Component;
     let decoded = percent_decode(uri);
     let refuse = |why: &str| {
         Err(format!(
@@ -444,33 +443,14 @@ pub(crate) fn resolve_uri(model: &Path, uri: &str) -> Result<PathBuf, String> {
     if decoded.starts_with(['/', '\\']) || Path::new(&decoded).is_absolute() || decoded.contains('\\') {
         return refuse("is an absolute path or contains a backslash");
     }
-    let mut relative = PathBuf::new();
-    let mut depth = 0usize;
-    for component in Path::new(&decoded).components() {
-        match component {
-            Component::Normal(part) => {
-                relative.push(part);
-                depth += 1;
-            }
-            Component::CurDir => {}
-            Component::ParentDir => {
-                if depth == 0 {
-                    return refuse("leaves the model's folder");
-                }
-                relative.pop();
-                depth -= 1;
-            }
-            Component::RootDir | Component::Prefix(_) => return refuse("is an absolute path"),
-        }
-    }
-    if depth == 0 {
-        return refuse("names the model's folder itself");
-    }
     let folder = model
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    let file = folder.join(&relative);
+    let file = match volga_core::input::confine(folder, &decoded) {
+        Ok(file) => file,
+        Err(why) => return refuse(why),
+    };
     // Symbolic links may still point outside: compare the real paths.
     let real_folder = folder.canonicalize().map_err(|e| {
         format!(
