@@ -11,6 +11,17 @@ use crate::Sculpt;
 /// arrays above it and `Arc` counts (a generous round figure over `size_of`).
 pub const BRICK_BYTES_BOUND: u64 = (std::mem::size_of::<Brick>() + BRICK_VOXELS * 12 + 1024) as u64;
 
+/// Bricks of 8³ voxels along x, y and z that the voxel box `b` touches; `None` when empty.
+fn bricks_of(b: &volga_core::IndexBox) -> Option<(u128, u128, u128)> {
+    if b.is_empty() {
+        return None;
+    }
+    let lo = b.min.div_euclid(IVec3::splat(8));
+    let hi = (b.max - 1).div_euclid(IVec3::splat(8)) + 1;
+    let n = (hi - lo).as_u64vec3();
+    Some((n.x as u128, n.y as u128, n.z as u128))
+}
+
 /// Bytes one sparse-volume brick takes beyond its payload (hash-map entry, tag, box).
 const VOLUME_BRICK_OVERHEAD: u64 = 64;
 
@@ -21,18 +32,10 @@ impl Sculpt {
     /// of its reach (clipped to the grid) or, when fewer, a shell four bricks deep on each
     /// face of the reach.
     pub fn stroke_brick_bound(&self, stroke: &Stroke) -> u128 {
-        let prepared = Prepared::new(stroke, self.grid);
-        let b = prepared.edit_box;
-        if b.is_empty() {
+        let Some((x, y, z)) = bricks_of(&Prepared::new(stroke, self.grid).edit_box) else {
             return 0;
-        }
-        let lo = b.min.div_euclid(IVec3::splat(8));
-        let hi = (b.max - 1).div_euclid(IVec3::splat(8)) + 1;
-        let n = (hi - lo).as_u64vec3();
-        let (x, y, z) = (n.x as u128, n.y as u128, n.z as u128);
-        let volume = x * y * z;
-        let shell = 8 * (x * y + y * z + z * x);
-        volume.min(shell)
+        };
+        (x * y * z).min(8 * (x * y + y * z + z * x))
     }
 
     /// The exact number of bricks [`to_sparse_volume`](Sculpt::to_sparse_volume) stores
@@ -81,14 +84,9 @@ impl crate::SculptGrid {
     /// the box's shell (sponges, many parts) can exceed it; the bound is exact for boxes
     /// and generous for convex objects.
     pub fn sample_bytes_bound(&self, world_box: &volga_core::Aabb) -> u128 {
-        let b = self.voxels_touching(world_box);
-        if b.is_empty() {
+        let Some((x, y, z)) = bricks_of(&self.voxels_touching(world_box)) else {
             return 0;
-        }
-        let lo = b.min.div_euclid(IVec3::splat(8));
-        let hi = (b.max - 1).div_euclid(IVec3::splat(8)) + 1;
-        let n = (hi - lo).as_u64vec3();
-        let (x, y, z) = (n.x as u128, n.y as u128, n.z as u128);
+        };
         (x * y * z).min(4 * (x * y + y * z + z * x)) * BRICK_BYTES_BOUND as u128
     }
 }
