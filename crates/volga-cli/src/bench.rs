@@ -110,7 +110,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
                     let path = PathBuf::from(path);
                     let (volume, _) = last.as_ref().ok_or_else(|| bad_input("dump: nothing has run yet"))?;
                     output_format(&path, binary)?;
-                    write_outputs(&path, volume, None)?;
+                    write_outputs(&path, volume, &Default::default(), None)?;
                     say(json!({ "ok": true }))?;
                 }
                 (None | Some(""), _) => {}
@@ -140,7 +140,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
         0.5 * (sorted[sorted.len() / 2 - 1] + sorted[sorted.len() / 2])
     };
     if let Some(out) = &args.out {
-        write_outputs(out, &volume, None)?;
+        write_outputs(out, &volume, &Default::default(), None)?;
     }
     let report = json!({
         "mesh": job_args.mesh_path(),

@@ -118,6 +118,35 @@ fn read_model(path: &Path) -> Result<(&'static str, VoxelValues, VoxelSet, Trans
             let set = VoxelSet::from_dense(&volume, 0.5).map_err(|e| named(&e))?;
             Ok(("nrrd", values, set, volume.grid.transform))
         }
+        VoxelModel::Vdb { grid, values } if grid.class == volga_io::VdbClass::LevelSet => {
+            // Black = inside: distance ≤ 0, i.e. −distance ≥ 0.
+            let v = &grid.volume;
+            let mut negated = volga_core::SparseVolume::new(v.grid, -v.density.background(), false);
+            for b in v.density.sorted_bricks() {
+                let brick = match v.density.brick(b) {
+                    Some(volga_core::Brick::Uniform(d)) => volga_core::Brick::Uniform(-*d),
+                    Some(volga_core::Brick::Dense(d)) => volga_core::Brick::from_voxels(&d.map(|d| -d)),
+                    None => continue,
+                };
+                negated.density.insert_brick(b, brick);
+            }
+            let set = VoxelSet::from_sparse(&negated, 0.0).map_err(|e| named(&e))?;
+            Ok(("vdb", values, set, v.grid.transform))
+        }
+        VoxelModel::Vdb {
+            values: VoxelValues::Distance { min, max, background },
+            grid,
+        } => Err(bad_input(format!(
+            "{}: grid {:?} holds values {min} … {max} over background {background}, neither occupancy nor \
+             densities in [0, 1] nor a level set (class {})",
+            path.display(),
+            grid.name,
+            grid.class.name()
+        ))),
+        VoxelModel::Vdb { grid, values } => {
+            let set = VoxelSet::from_sparse(&grid.volume, 0.5).map_err(|e| named(&e))?;
+            Ok(("vdb", values, set, grid.volume.grid.transform))
+        }
     }
 }
 
@@ -150,10 +179,10 @@ fn summary(o: &Verdict) -> String {
         "{} ({}{}{}): {}×{}×{} grid, {} black voxels, white {n}-adjacency, black {}",
         o.model.as_deref().unwrap_or(Path::new("<array>")).display(),
         o.format,
-        if o.values == "density" {
-            ", densities: black = density ≥ 0.5"
-        } else {
-            ""
+        match o.values {
+            "density" => ", densities: black = density ≥ 0.5",
+            "distance" => ", level set: black = distance ≤ 0",
+            _ => "",
         },
         if o.padded { ", padded by one white layer" } else { "" },
         d.x,

@@ -53,12 +53,50 @@ pub struct JobArgs {
 pub struct VoxelizeArgs {
     #[command(flatten)]
     job: JobArgs,
-    /// Output: .binvox (binary modes) or .nrrd (+ .raw beside it).
+    /// Output: .binvox (binary modes), .nrrd (+ .raw beside it) or .vdb (OpenVDB: a
+    /// level set for --distance, else a fog volume).
     #[arg(long)]
     out: PathBuf,
     /// Write a JSON report here.
     #[arg(long)]
     report: Option<PathBuf>,
+    #[command(flatten)]
+    vdb: VdbArgs,
+}
+
+/// How a `.vdb` output is written.
+#[derive(clap::Args, Clone, Default)]
+pub struct VdbArgs {
+    /// Compression of a .vdb output's values: none, zip (default) or blosc (OpenVDB's
+    /// default: Blosc-LZ4, larger and faster).
+    #[arg(long, value_name = "none|zip|blosc")]
+    pub vdb_compression: Option<String>,
+    /// Store a .vdb output's values as 16-bit floats (half the size, 11 significant bits).
+    #[arg(long)]
+    pub vdb_half: bool,
+}
+
+impl VdbArgs {
+    /// The options for output `out`; the flags are refused for an output that is not
+    /// `.vdb` (exit 2).
+    pub fn options(&self, out: &Path) -> Result<volga_io::VdbOptions, Failure> {
+        let is_vdb = VoxelFormat::from_path(out).is_ok_and(|f| f == VoxelFormat::Vdb);
+        if !is_vdb && (self.vdb_compression.is_some() || self.vdb_half) {
+            return Err(bad_input(format!(
+                "{}: --vdb-compression and --vdb-half apply to .vdb outputs only",
+                out.display()
+            )));
+        }
+        let compression = match self.vdb_compression.as_deref() {
+            None => volga_io::VdbCompression::default(),
+            Some(name) => volga_io::VdbCompression::from_name(name)
+                .ok_or_else(|| bad_input(format!("--vdb-compression `{name}`: expected none, zip or blosc")))?,
+        };
+        Ok(volga_io::VdbOptions {
+            compression,
+            half: self.vdb_half,
+        })
+    }
 }
 
 fn parse_separability(s: &str) -> Result<Separability, String> {
@@ -301,6 +339,7 @@ const REPORT_BYTES_BOUND: u64 = 1 << 20;
 pub fn write_outputs(
     out: &Path,
     volume: &SparseVolume,
+    vdb: &volga_io::VdbOptions,
     report: Option<ReportOutput<'_>>,
 ) -> Result<Vec<PathBuf>, Failure> {
     let format = VoxelFormat::from_path(out).map_err(|e| bad_input(e.to_string()))?;
@@ -310,7 +349,8 @@ pub fn write_outputs(
     }
     volga_io::check_free_space_for(&needs).map_err(|e| failed(e.to_string()))?;
     let mut staged = StagedOutputs::new();
-    let mut outputs = volga_io::write_voxel_model(out, volume, &mut staged).map_err(|e| failed(e.to_string()))?;
+    let mut outputs =
+        volga_io::write_voxel_model_with(out, volume, vdb, &mut staged).map_err(|e| failed(e.to_string()))?;
     if let Some((path, make)) = report {
         let json = make(&outputs);
         staged
@@ -328,6 +368,7 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
     let job_args = &args.job;
     volga_core::memory::set_input_limit(job_args.memory_limit);
     let format = output_format(&args.out, job_args.spec()?.is_binary())?;
+    let vdb = args.vdb.options(&args.out)?;
     check_distinct_outputs(&args.out, format, args.report.as_deref())?;
     let mut stages = Stages::with_stage_start(volga_scene::reset_peak_rss);
     let job = job_args.prepare(&mut stages)?;
@@ -404,6 +445,7 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         write_outputs(
             &args.out,
             &volume,
+            &vdb,
             args.report
                 .as_deref()
                 .map(|p| (p, &make_report as &dyn Fn(&[PathBuf]) -> Vec<u8>)),

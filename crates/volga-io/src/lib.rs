@@ -25,6 +25,8 @@
 //!   [`write_voxel_model`]): `.binvox` and `.nrrd` by extension, with what a NRRD's
 //!   values mean ([`VoxelValues`]: occupancy, density or distance) and the free-space
 //!   check before writing ([`check_free_space`], [`VoxelFormat::bytes_bound`]).
+//! * **OpenVDB** `.vdb` files ([`vdb`]): volumes written as level sets, fog volumes
+//!   and colour grids without densifying, float grids read back into sparse volumes.
 //! * **PNG** images, 8-bit RGBA, non-interlaced ([`encode_png`], 16-bit [`encode_png16`], [`decode_png`],
 //!   [`write_png`]).
 //! * **NRRD** volumes with a detached header (`{stem}.nrrd` + `{stem}.raw`)
@@ -51,6 +53,7 @@ mod nrrd_header;
 mod nrrd_read;
 mod nrrd_write;
 mod png_io;
+pub mod vdb;
 
 use std::path::{Path, PathBuf};
 
@@ -58,11 +61,16 @@ pub use atomic::{output_identity, remove_temp_files, write_atomic, StagedOutputs
 pub use binvox::{decode_binvox, encode_binvox, read_binvox, write_binvox, Binvox, BinvoxError};
 pub use model::{
     binvox_from_volume, check_free_space, check_free_space_for, encode_binvox_volume, free_space, read_voxel_model,
-    read_voxel_model_within, save_voxel_model, write_voxel_model, VoxelFormat, VoxelModel, VoxelValues,
+    read_voxel_model_within, save_voxel_model, write_voxel_model, write_voxel_model_with, VoxelFormat, VoxelModel,
+    VoxelValues,
 };
 pub use nrrd_read::{read_nrrd, read_nrrd_with_colour, read_nrrd_within};
 pub use nrrd_write::write_nrrd;
 pub use png_io::{decode_png, encode_png, encode_png16, write_png};
+pub use vdb::{
+    decode_vdb, encode_vdb, read_vdb, read_vdb_within, vdb_bytes_bound, write_vdb, VdbClass, VdbCompression,
+    VdbGridKind, VdbOptions, VdbVolume,
+};
 
 /// Errors of this crate; every message names the file it concerns.
 #[derive(Debug, thiserror::Error)]

@@ -16,6 +16,9 @@ pub enum VoxelFormat {
     Binvox,
     /// `.nrrd` with a detached `.raw` beside it: one `f32` per voxel.
     Nrrd,
+    /// `.vdb`: OpenVDB's sparse tree ([`crate::vdb`]): a level set, fog volume or other
+    /// float grid, plus a colour grid when the volume has colour.
+    Vdb,
 }
 
 impl VoxelFormat {
@@ -30,28 +33,30 @@ impl VoxelFormat {
         {
             Some("binvox") => Ok(VoxelFormat::Binvox),
             Some("nrrd") => Ok(VoxelFormat::Nrrd),
+            Some("vdb") => Ok(VoxelFormat::Vdb),
             _ => Err(IoError::format(
                 path,
                 None,
-                "unknown voxel model format: expected .binvox or .nrrd",
+                "unknown voxel model format: expected .binvox, .nrrd or .vdb",
             )),
         }
     }
 
-    /// `"binvox"` or `"nrrd"`.
+    /// `"binvox"`, `"nrrd"` or `"vdb"`.
     pub fn name(self) -> &'static str {
         match self {
             VoxelFormat::Binvox => "binvox",
             VoxelFormat::Nrrd => "nrrd",
+            VoxelFormat::Vdb => "vdb",
         }
     }
 
     /// The files writing a model to `path` creates (or replaces): the `.binvox`, or the
     /// `.nrrd` header and its `.raw` data (plus `_colour.nrrd`/`_colour.raw` when
-    /// `colour`). `.binvox` models have no colour.
+    /// `colour`), or the `.vdb` (colour inside it). `.binvox` models have no colour.
     pub fn output_paths(self, path: &Path, colour: bool) -> Vec<PathBuf> {
         match self {
-            VoxelFormat::Binvox => vec![path.to_owned()],
+            VoxelFormat::Binvox | VoxelFormat::Vdb => vec![path.to_owned()],
             VoxelFormat::Nrrd => {
                 let stem = path
                     .file_stem()
@@ -74,10 +79,11 @@ impl VoxelFormat {
     /// binvox: two bytes per run; runs are at most `2·filled + 1` plus one per 255
     /// voxels of the cubic grid (a run holds at most 255), and the header is under
     /// 1 KiB. `filled` is the count of voxels > 0.5 ([`SparseVolume::active_voxel_count`]
-    /// bounds it).
+    /// bounds it). `.vdb`: [`crate::vdb_bytes_bound`] at full precision.
     pub fn bytes_bound(self, volume: &SparseVolume) -> u64 {
         let dims = volume.grid.dims();
         match self {
+            VoxelFormat::Vdb => crate::vdb_bytes_bound(volume, false),
             VoxelFormat::Nrrd => {
                 let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
                 let per_voxel = if volume.colour.is_some() { 16 } else { 4 };
@@ -153,6 +159,36 @@ impl VoxelValues {
         }
     }
 
+    /// [`VoxelValues::classify`] of a sparse volume's voxels inside its grid; a level
+    /// set (`level_set`) is always distances.
+    pub fn classify_sparse(volume: &SparseVolume, level_set: bool) -> VoxelValues {
+        let background = volume.density.background();
+        let index_box = volume.grid.index_box();
+        let (min, max) = volume.density.range_in(&index_box);
+        let (min, max) = if min > max {
+            (background, background)
+        } else {
+            (min, max)
+        };
+        if level_set || background != 0.0 || min < 0.0 || max > 1.0 {
+            return VoxelValues::Distance { min, max, background };
+        }
+        let binary = volume
+            .density
+            .sorted_bricks()
+            .into_iter()
+            .all(|b| match volume.density.brick(b) {
+                Some(volga_core::Brick::Uniform(v)) => *v == 0.0 || *v == 1.0,
+                Some(volga_core::Brick::Dense(d)) => d.iter().all(|v| *v == 0.0 || *v == 1.0),
+                None => true,
+            });
+        if binary {
+            VoxelValues::Occupancy
+        } else {
+            VoxelValues::Density
+        }
+    }
+
     /// `"occupancy"`, `"density"` or `"distance"`.
     pub fn name(&self) -> &'static str {
         match self {
@@ -176,6 +212,15 @@ pub enum VoxelModel {
         /// What the samples mean ([`VoxelValues::classify`] of `volume`).
         values: VoxelValues,
     },
+    /// The first float grid of a `.vdb` file ([`crate::read_vdb`]).
+    Vdb {
+        /// The grid, its name and class.
+        grid: crate::VdbVolume,
+        /// What the values mean: distances for a level set (or values outside
+        /// \[0, 1\] or a background other than 0), else occupancy or density
+        /// ([`VoxelValues::classify_sparse`]).
+        values: VoxelValues,
+    },
 }
 
 impl VoxelModel {
@@ -184,6 +229,7 @@ impl VoxelModel {
         match self {
             VoxelModel::Binvox(_) => VoxelFormat::Binvox,
             VoxelModel::Nrrd { .. } => VoxelFormat::Nrrd,
+            VoxelModel::Vdb { .. } => VoxelFormat::Vdb,
         }
     }
 
@@ -191,23 +237,30 @@ impl VoxelModel {
     pub fn values(&self) -> VoxelValues {
         match self {
             VoxelModel::Binvox(_) => VoxelValues::Occupancy,
-            VoxelModel::Nrrd { values, .. } => *values,
+            VoxelModel::Nrrd { values, .. } | VoxelModel::Vdb { values, .. } => *values,
         }
     }
 }
 
-/// Reads a `.binvox` or `.nrrd` model (format by extension), classifying a NRRD's
-/// values ([`VoxelValues::classify`]). Errors name the file: unknown extension,
-/// malformed contents, and NRRD samples that are NaN or infinite (first voxel named).
+/// Reads a `.binvox`, `.nrrd` or `.vdb` model (format by extension), classifying a
+/// NRRD's or VDB's values ([`VoxelValues::classify`]). Errors name the file: unknown
+/// extension, malformed contents, and samples that are NaN or infinite (first voxel
+/// named).
 pub fn read_voxel_model(path: &Path) -> Result<VoxelModel, IoError> {
     read_voxel_model_within(path, volga_core::memory::input_limit())
 }
 
 /// [`read_voxel_model`] refusing, before reading it, a model that needs more than
 /// `max_bytes` of memory: a `.binvox` file larger than that, a NRRD whose voxels (the
-/// header's sizes, 4 bytes each, wherever its data lives) take more.
+/// header's sizes, 4 bytes each, wherever its data lives) take more, a `.vdb` whose
+/// file or volume does.
 pub fn read_voxel_model_within(path: &Path, max_bytes: u64) -> Result<VoxelModel, IoError> {
     match VoxelFormat::from_path(path)? {
+        VoxelFormat::Vdb => {
+            let grid = crate::read_vdb_within(path, max_bytes)?;
+            let values = VoxelValues::classify_sparse(&grid.volume, grid.class == crate::VdbClass::LevelSet);
+            Ok(VoxelModel::Vdb { grid, values })
+        }
         VoxelFormat::Binvox => {
             let bytes = volga_core::input::read_regular(path, max_bytes).map_err(|e| IoError::io(path, e))?;
             Ok(VoxelModel::Binvox(crate::decode_binvox(&bytes, path)?))
@@ -374,13 +427,26 @@ fn write_pairs(w: &mut dyn std::io::Write, value: u8, mut count: u64) -> std::io
 /// appears on disk until `outputs` is committed, so a model and its report can be
 /// published together. `.binvox` keeps the voxels above 0.5, padded to a cube
 /// ([`binvox_from_volume`], streamed by [`encode_binvox_volume`]); `.nrrd` writes the
-/// header and `.raw` data ([`write_nrrd`]). Returns the final paths staged.
+/// header and `.raw` data ([`write_nrrd`]); `.vdb` the volume's grids with the default
+/// [`VdbOptions`](crate::VdbOptions) ([`write_voxel_model_with`] chooses them). Returns
+/// the final paths staged.
 pub fn write_voxel_model(
     path: &Path,
     volume: &SparseVolume,
     outputs: &mut StagedOutputs,
 ) -> Result<Vec<PathBuf>, IoError> {
+    write_voxel_model_with(path, volume, &crate::VdbOptions::default(), outputs)
+}
+
+/// [`write_voxel_model`] with the options of a `.vdb` output (ignored by other formats).
+pub fn write_voxel_model_with(
+    path: &Path,
+    volume: &SparseVolume,
+    vdb: &crate::VdbOptions,
+    outputs: &mut StagedOutputs,
+) -> Result<Vec<PathBuf>, IoError> {
     match VoxelFormat::from_path(path)? {
+        VoxelFormat::Vdb => crate::write_vdb(path, volume, vdb, outputs),
         VoxelFormat::Binvox => {
             // The model's header must be valid: the same checks as `Binvox::from_filled`.
             let dims = volume.grid.dims();
@@ -484,9 +550,10 @@ mod tests {
             VoxelFormat::Binvox
         );
         assert_eq!(VoxelFormat::from_path(Path::new("b.nrrd")).unwrap(), VoxelFormat::Nrrd);
-        let e = VoxelFormat::from_path(Path::new("out/b.vdb")).unwrap_err();
+        assert_eq!(VoxelFormat::from_path(Path::new("b.VDB")).unwrap(), VoxelFormat::Vdb);
+        let e = VoxelFormat::from_path(Path::new("out/b.vtk")).unwrap_err();
         assert!(
-            e.to_string().starts_with("out/b.vdb: unknown voxel model format"),
+            e.to_string().starts_with("out/b.vtk: unknown voxel model format"),
             "{e}"
         );
         assert_eq!(

@@ -1,7 +1,10 @@
-//! Leaf node: a sampled volume read from a voxel model file (`.binvox` occupancy, or a
-//! `.nrrd` of densities; `volga_io::read_voxel_model`), placed where the file says
-//! (binvox `translate`/`scale`, NRRD origin and spacing), sampled trilinearly.
-//! Distance NRRDs are refused: a CVG operand is a density.
+//! Leaf node: a sampled volume read from a voxel model file (`.binvox` occupancy, a
+//! `.nrrd` of densities, or a `.vdb` fog volume or level set;
+//! `volga_io::read_voxel_model`), placed where the file says (binvox
+//! `translate`/`scale`, NRRD origin and spacing, the VDB transform), sampled
+//! trilinearly. Distance NRRDs are refused: a CVG operand is a density. A VDB level set
+//! becomes the density `clamp(½ − d / 2h, 0, 1)` (`h` its smallest voxel size): ½ on
+//! its zero set, rising inwards over two voxels.
 
 use std::sync::Arc;
 
@@ -23,9 +26,11 @@ pub struct VolumeSpec {
     /// (objects, `Fuzzy`, `Volume`, `Hypertexture`, `Adf`) in file order from 0.
     #[serde(default)]
     pub name: Option<String>,
-    /// The `.binvox` (occupancy: 1 in filled voxels, 0 elsewhere) or `.nrrd` (densities;
-    /// NRRDs of distances are refused) file, relative to the scene file's folder; read in
-    /// the resolve stage and refused when it exceeds the memory limit.
+    /// The `.binvox` (occupancy: 1 in filled voxels, 0 elsewhere), `.nrrd` (densities;
+    /// NRRDs of distances are refused) or `.vdb` (its first float grid: a fog volume's
+    /// densities, or a level set as the density ½ − d/2h) file, relative to the scene
+    /// file's folder; read in the resolve stage and refused when it exceeds the memory
+    /// limit.
     pub path: String,
     /// Linear RGB in \[0, 1\]; white when absent.
     #[serde(default)]
@@ -52,7 +57,7 @@ impl VolumeNode {
     /// [`SceneError::Invalid`] naming `{f}.path` or `{f}.colour`.
     pub fn validate(cx: &Ctx, f: &str, spec: &VolumeSpec, index: usize) -> Result<Self, SceneError> {
         if spec.path.is_empty() {
-            return Err(cx.err(format!("{f}.path"), "must name a .binvox or .nrrd file"));
+            return Err(cx.err(format!("{f}.path"), "must name a .binvox, .nrrd or .vdb file"));
         }
         Ok(VolumeNode {
             name: spec.name.clone().unwrap_or_else(|| format!("volume{index}")),
@@ -117,7 +122,38 @@ pub fn load_density(cx: &Resolve, path: &str, field: &str) -> Result<SparseVolum
             ))),
             _ => Ok(SparseVolume::from_dense(&volume)),
         },
+        VoxelModel::Vdb { grid, .. } if grid.class == volga_io::VdbClass::LevelSet => {
+            Ok(density_of_level_set(&grid.volume))
+        }
+        VoxelModel::Vdb { grid, values } => match values {
+            VoxelValues::Distance { min, max, background } => Err(invalid(format!(
+                "{}: grid {:?} holds values {min} … {max} over background {background}, not densities in [0, 1] \
+                 (a level set must say `class = level set`)",
+                file.display(),
+                grid.name
+            ))),
+            _ => Ok(grid.volume.with_density_kind(volga_core::ChannelKind::Density)),
+        },
     }
+}
+
+/// The density of a level set: `clamp(½ − d / 2h, 0, 1)`, `h` the smallest voxel size,
+/// so the ½ iso-surface is the zero set and trilinear sampling keeps it in place.
+pub fn density_of_level_set(volume: &SparseVolume) -> SparseVolume {
+    use volga_core::Brick;
+    let h = volume.grid.transform.min_spacing();
+    let f = move |d: f32| (0.5 - d as f64 / (2.0 * h)).clamp(0.0, 1.0) as f32;
+    let mut out = SparseVolume::new(volume.grid, f(volume.density.background()), false);
+    for b in volume.density.sorted_bricks() {
+        let brick = match volume.density.brick(b) {
+            Some(Brick::Uniform(v)) => Brick::Uniform(f(*v)),
+            Some(Brick::Dense(d)) => Brick::from_voxels(&d.map(f)),
+            None => continue,
+        };
+        out.density.insert_brick(b, brick);
+    }
+    out.density.prune();
+    out
 }
 
 impl Node for VolumeNode {
