@@ -193,6 +193,32 @@ def test_load_volume_reads_what_save_wrote(tmp_path):
         volga.load_volume(tmp_path / "junk.binvox")
 
 
+def test_vdb_round_trip(tmp_path):
+    v, f = uv_sphere()
+    d = volga.voxelize((v, f), resolution=24, mode="distance")
+    for compression in ["none", "zip", "blosc"]:
+        path = tmp_path / f"d_{compression}.vdb"
+        assert d.to_vdb(path, compression=compression) == [str(path)] or path.exists()
+        back = volga.load_volume(path)
+        assert back.kind == "distance" and back.background == d.background
+        np.testing.assert_array_equal(back.dense(), d.dense())
+    d.to_vdb(tmp_path / "half.vdb", half=True)
+    half = volga.load_volume(tmp_path / "half.vdb").dense()
+    np.testing.assert_array_equal(half, d.dense().astype(np.float16).astype(np.float32))
+    a = volga.voxelize((v, f), resolution=24, mode="anti_aliased", solid=True)
+    a.save(tmp_path / "a.vdb")
+    back = volga.load_volume(tmp_path / "a.vdb")
+    assert back.kind == "density"
+    np.testing.assert_array_equal(back.dense(), a.dense())
+    with pytest.raises(ValueError, match="compression"):
+        d.to_vdb(tmp_path / "x.vdb", compression="lzma")
+    with pytest.raises(ValueError, match="to_vdb"):
+        d.to_vdb(tmp_path / "x.nrrd")
+    (tmp_path / "junk.vdb").write_bytes(b"\x20BDV\0\0\0\0 not really")
+    with pytest.raises(ValueError, match="junk.vdb"):
+        volga.load_volume(tmp_path / "junk.vdb")
+
+
 def test_extract_mesh_is_closed_and_on_the_surface():
     from conftest import edge_face_check
 

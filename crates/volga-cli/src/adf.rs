@@ -74,6 +74,48 @@ pub struct AdfBuildArgs {
     /// Output directory: adf.json (statistics) and adf.png (shaded render).
     #[arg(long)]
     pub out: PathBuf,
+    /// Also write the ADF as an OpenVDB level set (.vdb): its reconstruction at the voxel
+    /// centres of a narrow band (`Adf::to_narrow_band`), world units.
+    #[arg(long)]
+    pub vdb: Option<PathBuf>,
+    /// Voxels along the longest side of the mesh's box for --vdb, 8 to 4096.
+    #[arg(long, default_value_t = 256)]
+    pub vdb_resolution: u32,
+    /// Half-width of the --vdb band in voxels, 1 to 64 (the level set's background).
+    #[arg(long, default_value_t = 3.0)]
+    pub vdb_band: f64,
+    #[command(flatten)]
+    pub vdb_options: crate::voxelize::VdbArgs,
+}
+
+/// Voxels of a level set strictly inside its band (`|d| <` background): the level
+/// set's active voxels.
+fn band_voxels(volume: &volga_core::SparseVolume) -> u64 {
+    let bg = volume.density.background();
+    let grid_box = volume.grid.index_box();
+    volume
+        .density
+        .sorted_bricks()
+        .into_iter()
+        .map(|b| {
+            volga_core::brick_index_box(b)
+                .intersection(&grid_box)
+                .iter()
+                .filter(|ijk| volume.density.get(*ijk).abs() < bg)
+                .count() as u64
+        })
+        .sum()
+}
+
+/// The grid of a `--vdb` level set: `resolution` voxels along the longest side of the
+/// mesh's box, grown by the band and one voxel on every side.
+fn vdb_grid(bounds: &Aabb, resolution: u32, band: f64) -> Result<volga_core::Grid, Failure> {
+    let h = bounds.size().max_element() / resolution as f64;
+    let pad = glam::DVec3::splat((band + 1.0) * h);
+    let (lo, hi) = (bounds.min - pad, bounds.max + pad);
+    let dims = ((hi - lo) / h).ceil().as_uvec3() + glam::UVec3::ONE;
+    let transform = volga_core::Transform::new(lo, glam::DVec3::splat(h)).map_err(|e| bad_input(format!("--vdb: {e}")))?;
+    volga_core::Grid::new(transform, dims).map_err(|e| bad_input(format!("--vdb: {e}")))
 }
 
 #[derive(Args)]
@@ -363,8 +405,64 @@ fn render_setup(size: u32) -> (RenderSettings, Iso) {
 pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
     check_flags(&args.adf)?;
     check_out_dir(&args.out)?;
+    let vdb_options = match &args.vdb {
+        Some(path) => {
+            if !(8..=4096).contains(&args.vdb_resolution) {
+                return Err(bad_input(format!(
+                    "--vdb-resolution {}: must be 8 to 4096",
+                    args.vdb_resolution
+                )));
+            }
+            if !(args.vdb_band.is_finite() && (1.0..=64.0).contains(&args.vdb_band)) {
+                return Err(bad_input(format!("--vdb-band {}: must be 1 to 64 voxels", args.vdb_band)));
+            }
+            if volga_io::VoxelFormat::from_path(path).ok() != Some(volga_io::VoxelFormat::Vdb) {
+                return Err(bad_input(format!("--vdb {}: must name a .vdb file", path.display())));
+            }
+            Some(args.vdb_options.options(path)?)
+        }
+        None => {
+            if args.vdb_options.vdb_compression.is_some() || args.vdb_options.vdb_half {
+                return Err(bad_input("--vdb-compression and --vdb-half need --vdb".to_string()));
+            }
+            None
+        }
+    };
     let built = build(&args.adf, 1, false, progress)?;
+    let level_set = match (&args.vdb, vdb_options) {
+        (Some(path), Some(options)) => {
+            let grid = vdb_grid(&built.mesh_bounds, args.vdb_resolution, args.vdb_band)?;
+            // Every brick of the grid dense at worst: refuse before sampling.
+            let ext = volga_core::brick_extent(grid.dims()).as_u64vec3();
+            let worst = (ext.x * ext.y * ext.z).saturating_mul(512 * 4 + 48);
+            let limit = args.adf.memory_limit.unwrap_or_else(volga_core::memory::input_limit);
+            if worst > limit {
+                return Err(bad_input(format!(
+                    "--vdb-resolution {}: the band may need {} ({worst} bytes), more than the memory limit {} ({limit} bytes)",
+                    args.vdb_resolution,
+                    volga_core::memory::Bytes(worst as u128),
+                    volga_core::memory::Bytes(limit as u128)
+                )));
+            }
+            let h = grid.transform.spacing().x;
+            let volume = built.adf.to_narrow_band(grid, args.vdb_band * h);
+            Some((path.clone(), volume, options))
+        }
+        _ => None,
+    };
     let (mut value, _) = report(&built, &args.adf, false);
+    if let Some((path, volume, options)) = &level_set {
+        let d = volume.grid.dims();
+        value["vdb"] = json!({
+            "path": path,
+            "dims": [d.x, d.y, d.z],
+            "voxel_size": volume.grid.transform.spacing().x,
+            "band_world": volume.density.background(),
+            "band_voxels": band_voxels(volume),
+            "compression": options.compression.name(),
+            "half": options.half,
+        });
+    }
     let (settings, iso) = render_setup(args.adf.size);
     let renderer = Renderer::new(&built.adf, &iso, &settings).map_err(|e| failed(e.to_string()))?;
     let start = Instant::now();
@@ -383,6 +481,11 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
             volga_io::encode_png(w, image.width, image.height, &rgba)
         })
         .map_err(io)?;
+    if let Some((path, volume, options)) = &level_set {
+        volga_io::check_free_space_for(&[(path.clone(), volga_io::vdb_bytes_bound(volume, options.half))])
+            .map_err(io)?;
+        volga_io::write_vdb(path, volume, options, &mut staged).map_err(io)?;
+    }
     staged.commit().map_err(io)?;
     println!("{text}");
     Ok(())

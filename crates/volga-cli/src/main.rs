@@ -10,6 +10,7 @@ mod bench;
 mod bench_noise;
 mod bench_render;
 mod bench_sculpt;
+mod convert;
 mod failure;
 mod progress;
 mod sculpt;
@@ -57,6 +58,9 @@ enum Command {
     /// Validate a voxel model (.binvox, .nrrd) as a discrete surface: components, N-separability,
     /// simple voxels, Euler characteristic; with --mesh, tunnels through it and cover.
     Validate(validate::ValidateArgs),
+    /// Convert a voxel model between .binvox, .nrrd and .vdb (OpenVDB), placed where the
+    /// input says.
+    Convert(convert::ConvertArgs),
     /// Apply a stroke file to a saved sculpt (or its start object); write the sculpt, a mesh, voxels, an image.
     Sculpt(sculpt::SculptArgs),
     /// Build an adaptively sampled distance field of a mesh: its statistics, accuracy and a
@@ -187,6 +191,13 @@ fn main() -> ExitCode {
         Command::Validate(args) => match validate::run(args) {
             Ok(true) => ExitCode::SUCCESS,
             Ok(false) => ExitCode::from(1),
+            Err(f) => {
+                eprintln!("error: {}", f.message);
+                ExitCode::from(f.code)
+            }
+        },
+        Command::Convert(args) => match convert::run(args) {
+            Ok(()) => ExitCode::SUCCESS,
             Err(f) => {
                 eprintln!("error: {}", f.message);
                 ExitCode::from(f.code)

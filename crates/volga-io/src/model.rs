@@ -233,6 +233,36 @@ impl VoxelModel {
         }
     }
 
+    /// The model as a sparse volume placed where the file says: a `.binvox`'s filled
+    /// voxels as occupancy 1 (kind [`ChannelKind::Binary`](volga_core::ChannelKind)), a
+    /// NRRD's samples (kind from [`VoxelValues`]: signed distance, binary or density),
+    /// a VDB grid as read. `path` names the file in errors.
+    pub fn into_volume(self, path: &Path) -> Result<SparseVolume, IoError> {
+        use volga_core::ChannelKind;
+        match self {
+            VoxelModel::Binvox(b) => {
+                let transform = b.transform().map_err(|e| IoError::format(path, None, e.to_string()))?;
+                let grid = volga_core::Grid::new(transform, b.dims())
+                    .map_err(|e| IoError::format(path, None, e.to_string()))?;
+                let mut v = SparseVolume::new(grid, 0.0, false).with_density_kind(ChannelKind::Binary);
+                for ijk in b.filled() {
+                    v.density.set(ijk.as_ivec3(), 1.0);
+                }
+                v.density.prune();
+                Ok(v)
+            }
+            VoxelModel::Nrrd { volume, values } => {
+                let kind = match values {
+                    VoxelValues::Distance { .. } => ChannelKind::SignedDistance,
+                    VoxelValues::Occupancy => ChannelKind::Binary,
+                    VoxelValues::Density => ChannelKind::Density,
+                };
+                Ok(SparseVolume::from_dense(&volume).with_density_kind(kind))
+            }
+            VoxelModel::Vdb { grid, .. } => Ok(grid.volume),
+        }
+    }
+
     /// What the model's values mean (binvox is always occupancy).
     pub fn values(&self) -> VoxelValues {
         match self {

@@ -268,8 +268,31 @@ impl VoxelGrid {
         Ok(PyArray1::from_vec(py, values))
     }
 
-    /// Writes the grid by extension: `.binvox` (binary grids) or `.nrrd` (+ `.raw` beside
-    /// it). All or nothing: files are staged and renamed once complete. Returns the paths.
+    /// Writes the grid as an OpenVDB `.vdb` file: a distance grid as a level set
+    /// (`surface`, background = the band), others as a fog volume (`density`).
+    /// `compression`: `"zip"` (default), `"blosc"` or `"none"`; `half`: 16-bit floats.
+    /// All or nothing, like `save`. Returns the paths written.
+    #[pyo3(signature = (path, compression="zip", half=false))]
+    fn to_vdb(&self, py: Python<'_>, path: PathBuf, compression: &str, half: bool) -> PyResult<Vec<PathBuf>> {
+        if volga_io::VoxelFormat::from_path(&path).ok() != Some(volga_io::VoxelFormat::Vdb) {
+            return Err(value_error(format!("{}: to_vdb writes a .vdb file", path.display())));
+        }
+        let compression = volga_io::VdbCompression::from_name(compression)
+            .ok_or_else(|| value_error(format!("compression `{compression}`: expected none, zip or blosc")))?;
+        let options = volga_io::VdbOptions { compression, half };
+        let volume = self.volume.clone();
+        py.detach(move || {
+            volga_io::check_free_space_for(&[(path.clone(), volga_io::vdb_bytes_bound(&volume, half))])?;
+            let mut staged = volga_io::StagedOutputs::new();
+            volga_io::write_vdb(&path, &volume, &options, &mut staged)?;
+            staged.commit()
+        })
+        .map_err(io_error)
+    }
+
+    /// Writes the grid by extension: `.binvox` (binary grids), `.nrrd` (+ `.raw` beside
+    /// it) or `.vdb` (as `to_vdb` with its defaults). All or nothing: files are staged
+    /// and renamed once complete. Returns the paths.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<Vec<PathBuf>> {
         let format = volga_io::VoxelFormat::from_path(&path).map_err(io_error)?;
         if format == volga_io::VoxelFormat::Binvox && self.kind != Kind::Binary {
@@ -618,7 +641,8 @@ pub fn extract_mesh<'py>(
     arrays::mesh_arrays(py, surface.mesh)
 }
 
-/// Reads a voxel model (`.binvox`, or volga's `.nrrd`) as a grid.
+/// Reads a voxel model (`.binvox`, volga's `.nrrd`, or the first float grid of an
+/// OpenVDB `.vdb`: a level set as distances, a fog volume as densities) as a grid.
 #[pyfunction]
 pub fn load_volume(py: Python<'_>, path: PathBuf) -> PyResult<VoxelGrid> {
     let model = py.detach(|| volga_io::read_voxel_model(&path)).map_err(io_error)?;
@@ -656,6 +680,14 @@ pub fn load_volume(py: Python<'_>, path: PathBuf) -> PyResult<VoxelGrid> {
                 sparse = rebased;
             }
             (sparse, values.name())
+        }
+        volga_io::VoxelModel::Vdb { grid, values } => {
+            let kind = match values {
+                volga_io::VoxelValues::Occupancy => ChannelKind::Binary,
+                volga_io::VoxelValues::Density => ChannelKind::Density,
+                volga_io::VoxelValues::Distance { .. } => ChannelKind::SignedDistance,
+            };
+            (grid.volume.with_density_kind(kind), values.name())
         }
     };
     let stats = json!({ "path": path, "values": values, "active_voxels": volume.active_voxel_count() });

@@ -167,21 +167,40 @@ fn build_with(
     scene.allow_outside_paths = options.allow_outside_paths;
     stages.run("resolve", || scene.resolve(options.memory_limit))?;
     let plan = stages.run("plan", || plan(&scene, options.memory_limit))?;
-    // Volumes are written dense: check the disk before any work.
+    // Volumes: NRRDs are dense; a `.vdb` holds at most a leaf per brick of the grid
+    // (512 values plus masks and headers: a quarter more) and its internal nodes (values,
+    // masks, headers). Check the disk before any work.
     let grid_voxels = scene.grid.voxel_count();
+    let ext = volga_core::brick_extent(scene.grid.dims()).as_u64vec3();
+    let brick_voxels = (ext.x * ext.y * ext.z).saturating_mul(512);
+    let l1_nodes = ext.x.div_ceil(16) * ext.y.div_ceil(16) * ext.z.div_ceil(16);
+    let l2_nodes = ext.x.div_ceil(512) * ext.y.div_ceil(512) * ext.z.div_ceil(512);
     let disk: Vec<(PathBuf, u64)> = scene
         .volumes
         .iter()
         .flat_map(|v| {
-            let density = (
-                options.out_dir.join(format!("{}.raw", v.name)),
-                grid_voxels.saturating_mul(4),
-            );
-            let colour = (
-                options.out_dir.join(format!("{}_colour.raw", v.name)),
-                grid_voxels.saturating_mul(12),
-            );
-            std::iter::once(density).chain(v.colour.then_some(colour))
+            let per_voxel = if v.colour { 16 } else { 4 };
+            let files: Vec<(PathBuf, u64)> = match v.format {
+                crate::model::VolumeFormatSpec::Nrrd => {
+                    let density = (
+                        options.out_dir.join(format!("{}.raw", v.name)),
+                        grid_voxels.saturating_mul(4),
+                    );
+                    let colour = (
+                        options.out_dir.join(format!("{}_colour.raw", v.name)),
+                        grid_voxels.saturating_mul(12),
+                    );
+                    std::iter::once(density).chain(v.colour.then_some(colour)).collect()
+                }
+                crate::model::VolumeFormatSpec::Vdb => vec![(
+                    options.out_dir.join(format!("{}.vdb", v.name)),
+                    brick_voxels.saturating_mul(per_voxel).saturating_mul(5) / 4
+                        + l1_nodes.saturating_mul(per_voxel * 4096 + 4096)
+                        + l2_nodes.saturating_mul(per_voxel * 32768 + 32768)
+                        + (64 << 10),
+                )],
+            };
+            files
         })
         .chain(std::iter::once((
             options.out_dir.join("images.png"),
@@ -257,7 +276,18 @@ fn build_with(
             // Only the channels the output asks for: hide colour from the writer when
             // it was allocated for images but not requested here.
             let colour = if v.colour { None } else { volume.colour.take() };
-            let r = volga_io::write_nrrd(&options.out_dir, &v.name, volume, &mut staged);
+            let r = match v.format {
+                crate::model::VolumeFormatSpec::Nrrd => volga_io::write_nrrd(&options.out_dir, &v.name, volume, &mut staged),
+                crate::model::VolumeFormatSpec::Vdb => volga_io::write_vdb(
+                    &options.out_dir.join(format!("{}.vdb", v.name)),
+                    volume,
+                    &volga_io::VdbOptions {
+                        half: v.half,
+                        ..Default::default()
+                    },
+                    &mut staged,
+                ),
+            };
             if colour.is_some() {
                 volume.colour = colour;
             }

@@ -385,7 +385,8 @@ pub struct OutputsSpec {
     /// PNG images, `{out}/{name}.png` (or a turntable's numbered frames); default none.
     #[serde(default)]
     pub images: Vec<ImageSpec>,
-    /// Baked volumes written as NRRD, `{out}/{name}.nrrd` + `{name}.raw`; default none.
+    /// Baked volumes written as NRRD (`{out}/{name}.nrrd` + `{name}.raw`) or OpenVDB
+    /// (`{out}/{name}.vdb`); default none.
     #[serde(default)]
     pub volumes: Vec<VolumeOutputSpec>,
     /// Meshes of the scene's ½ iso-surface (`volga-mesh`'s shared extractor).
@@ -575,9 +576,27 @@ pub enum ColourSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VolumeOutputSpec {
-    /// File stem: `{out}/{name}.nrrd` + `{out}/{name}.raw`.
+    /// File stem: `{out}/{name}.nrrd` + `{out}/{name}.raw`, or `{out}/{name}.vdb`.
     pub name: String,
-    /// Also write the colour channel (`{name}_colour.nrrd`).
+    /// Also write the colour channel (`{name}_colour.nrrd`, or a Vec3f grid `color`
+    /// inside the `.vdb`).
     #[serde(default)]
     pub colour: bool,
+    /// `Nrrd` (the default: dense, with a `.raw` beside it) or `Vdb` (OpenVDB: a fog
+    /// volume `density`, sparse, zip-compressed).
+    #[serde(default)]
+    pub format: VolumeFormatSpec,
+    /// `.vdb` only: store values as 16-bit floats (default false).
+    #[serde(default)]
+    pub half: bool,
+}
+
+/// The file format of a volume output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum VolumeFormatSpec {
+    /// NRRD header and raw data: every voxel of the grid, `f32`.
+    #[default]
+    Nrrd,
+    /// OpenVDB: the voxels that differ from the background, in OpenVDB's sparse tree.
+    Vdb,
 }

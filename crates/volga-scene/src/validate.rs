@@ -223,6 +223,12 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
         if !stems.insert(v.name.clone()) || (v.colour && !stems.insert(colour_stem)) {
             return Err(cx.err(f, format!("output name `{}` is used twice (or is reserved)", v.name)));
         }
+        if v.half && v.format != crate::model::VolumeFormatSpec::Vdb {
+            return Err(cx.err(
+                format!("outputs.volumes[{i}].half"),
+                "16-bit values are a .vdb option: set `format: Vdb`",
+            ));
+        }
     }
     for (i, m) in file.outputs.meshes.iter().enumerate() {
         let f = format!("outputs.meshes[{i}].name");
