@@ -114,7 +114,8 @@ fn vdb_grid(bounds: &Aabb, resolution: u32, band: f64) -> Result<volga_core::Gri
     let pad = glam::DVec3::splat((band + 1.0) * h);
     let (lo, hi) = (bounds.min - pad, bounds.max + pad);
     let dims = ((hi - lo) / h).ceil().as_uvec3() + glam::UVec3::ONE;
-    let transform = volga_core::Transform::new(lo, glam::DVec3::splat(h)).map_err(|e| bad_input(format!("--vdb: {e}")))?;
+    let transform =
+        volga_core::Transform::new(lo, glam::DVec3::splat(h)).map_err(|e| bad_input(format!("--vdb: {e}")))?;
     volga_core::Grid::new(transform, dims).map_err(|e| bad_input(format!("--vdb: {e}")))
 }
 
@@ -414,7 +415,10 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
                 )));
             }
             if !(args.vdb_band.is_finite() && (1.0..=64.0).contains(&args.vdb_band)) {
-                return Err(bad_input(format!("--vdb-band {}: must be 1 to 64 voxels", args.vdb_band)));
+                return Err(bad_input(format!(
+                    "--vdb-band {}: must be 1 to 64 voxels",
+                    args.vdb_band
+                )));
             }
             if volga_io::VoxelFormat::from_path(path).ok() != Some(volga_io::VoxelFormat::Vdb) {
                 return Err(bad_input(format!("--vdb {}: must name a .vdb file", path.display())));

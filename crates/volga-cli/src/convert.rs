@@ -47,7 +47,10 @@ pub fn run(args: ConvertArgs) -> Result<(), Failure> {
         .iter()
         .find(|p| volga_io::output_identity(p) == input)
     {
-        return Err(bad_input(format!("{}: the output would replace the input", p.display())));
+        return Err(bad_input(format!(
+            "{}: the output would replace the input",
+            p.display()
+        )));
     }
     let model = volga_io::read_voxel_model(&args.input).map_err(|e| bad_input(e.to_string()))?;
     let summary = describe(&model);
@@ -65,7 +68,11 @@ pub fn run(args: ConvertArgs) -> Result<(), Failure> {
     println!(
         "{} ({summary}) → {} ({}×{}×{} grid, origin {:?}, voxel {:?})",
         args.input.display(),
-        outputs.iter().map(|p: &PathBuf| p.display().to_string()).collect::<Vec<_>>().join(" + "),
+        outputs
+            .iter()
+            .map(|p: &PathBuf| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(" + "),
         dims.x,
         dims.y,
         dims.z,

@@ -36,9 +36,12 @@ pub struct SculptArgs {
     /// Write the ½ iso-surface as a mesh (.obj or .ply).
     #[arg(long)]
     mesh: Option<PathBuf>,
-    /// Write the voxels (.nrrd or .binvox).
+    /// Write the voxels (.nrrd, .binvox or .vdb: a fog volume of the densities, with a
+    /// `color` grid).
     #[arg(long)]
     volume: Option<PathBuf>,
+    #[command(flatten)]
+    vdb_args: crate::voxelize::VdbArgs,
     /// Render the sculpt (iso-surface, its colours) to this PNG.
     #[arg(long)]
     image: Option<PathBuf>,
@@ -95,6 +98,15 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
     let voxel_format = match &args.volume {
         Some(p) => Some(VoxelFormat::from_path(p).map_err(|e| bad_input(format!("--volume: {e}")))?),
         None => None,
+    };
+    let vdb = match &args.volume {
+        Some(p) => args.vdb_args.options(p)?,
+        None if args.vdb_args.vdb_compression.is_some() || args.vdb_args.vdb_half => {
+            return Err(bad_input(
+                "--vdb-compression and --vdb-half need --volume X.vdb".to_string(),
+            ))
+        }
+        None => Default::default(),
     };
     // Every output a different file, whatever the spelling of its path.
     let mut outputs: Vec<(String, PathBuf)> = Vec::new();
@@ -187,7 +199,7 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
     }
     if let (Some(path), Some(_)) = (&args.volume, voxel_format) {
         let volume = sculpt.to_sparse_volume(true);
-        volga_io::write_voxel_model(path, &volume, &mut staged).map_err(io)?;
+        volga_io::write_voxel_model_with(path, &volume, &vdb, &mut staged).map_err(io)?;
     }
     if let Some(path) = &args.image {
         let rgba = render(&sculpt, args.size)?;

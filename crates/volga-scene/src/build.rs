@@ -277,7 +277,9 @@ fn build_with(
             // it was allocated for images but not requested here.
             let colour = if v.colour { None } else { volume.colour.take() };
             let r = match v.format {
-                crate::model::VolumeFormatSpec::Nrrd => volga_io::write_nrrd(&options.out_dir, &v.name, volume, &mut staged),
+                crate::model::VolumeFormatSpec::Nrrd => {
+                    volga_io::write_nrrd(&options.out_dir, &v.name, volume, &mut staged)
+                }
                 crate::model::VolumeFormatSpec::Vdb => volga_io::write_vdb(
                     &options.out_dir.join(format!("{}.vdb", v.name)),
                     volume,
