@@ -30,7 +30,7 @@ fi
 seconds=${1:-300}
 shift || true
 targets=("$@")
-all=(obj gltf binvox nrrd scene_ron scene_json sculpt_file strokes scene_build adf_build)
+all=(obj gltf binvox nrrd vdb scene_ron scene_json sculpt_file strokes scene_build adf_build)
 [ ${#targets[@]} -eq 0 ] && targets=("${all[@]}")
 
 run_stable() {

@@ -96,6 +96,11 @@ fn nrrd_corpus_never_panics() {
 }
 
 #[test]
+fn vdb_corpus_never_panics() {
+    check_target("vdb");
+}
+
+#[test]
 fn scene_ron_corpus_never_panics() {
     check_target("scene_ron");
 }

@@ -10,6 +10,10 @@
 //! * `obj`, `gltf`, `binvox`: bytes read in memory (`read_obj`, `read_gltf`,
 //!   `decode_binvox`), named `model.obj` / `model.gltf` / `model.binvox` in that
 //!   directory, so a glTF's relative buffer URI `buffer.bin` resolves to a small file.
+//! * `vdb`: `.vdb` bytes read in memory (`decode_vdb`) under a 64 MiB limit; an
+//!   accepted grid is checked (bricks inside its grid, finite values), written back in
+//!   every compression and at half precision, and read again: same grid, same active
+//!   voxels.
 //! * `nrrd`: the input is up to four parts separated by [`NRRD_SPLIT`]: a header with
 //!   attached or detached data (`v.nrrd`), its data file (`v.raw`), and optionally a
 //!   colour header (`c.nrrd`) and its data file (`c.raw`); the first is read with
@@ -55,6 +59,7 @@ pub const TARGETS: &[&str] = &[
     "gltf",
     "binvox",
     "nrrd",
+    "vdb",
     "scene_ron",
     "scene_json",
     "sculpt_file",
@@ -125,6 +130,7 @@ impl Harness {
             "gltf" => self.gltf(data),
             "binvox" => self.binvox(data),
             "nrrd" => self.nrrd(data),
+            "vdb" => self.vdb(data),
             "scene_ron" => self.scene_ron(data),
             "scene_json" => self.scene_json(data),
             "sculpt_file" => self.sculpt_file(data),
@@ -184,6 +190,62 @@ impl Harness {
             return volga_io::read_nrrd_with_colour(&self.path("v.nrrd"), &self.path("c.nrrd")).is_ok();
         }
         density.is_ok()
+    }
+
+    pub fn vdb(&self, data: &[u8]) -> bool {
+        let Ok(read) = volga_io::decode_vdb(data, 64 << 20) else {
+            return false;
+        };
+        let v = &read.volume;
+        let dims = v.grid.dims();
+        assert!(dims.cmpgt(glam::UVec3::ZERO).all(), "empty grid {dims}");
+        let ext = volga_core::brick_extent(dims);
+        for b in v.density.sorted_bricks() {
+            assert!(
+                b.cmpge(IVec3::ZERO).all() && b.cmplt(ext).all(),
+                "brick {b} outside {ext}"
+            );
+        }
+        // Re-encoding touches every brick: only for small grids.
+        if v.density.brick_count() > 4096 {
+            return true;
+        }
+        let bg = v.density.background();
+        let level_set = volga_io::VdbGridKind::of(v).class == volga_io::VdbClass::LevelSet;
+        let active = v
+            .grid
+            .index_box()
+            .iter()
+            .filter(|ijk| {
+                let x = v.density.get(*ijk);
+                if level_set {
+                    x.abs() < bg
+                } else {
+                    x != bg
+                }
+            })
+            .count() as u64;
+        for compression in [
+            volga_io::VdbCompression::None,
+            volga_io::VdbCompression::Zip,
+            volga_io::VdbCompression::Blosc,
+        ] {
+            for half in [false, true] {
+                let bytes = volga_io::encode_vdb(v, &volga_io::VdbOptions { compression, half });
+                let back = volga_io::decode_vdb(&bytes, 1 << 30);
+                match back {
+                    Ok(back) => {
+                        assert_eq!(back.volume.grid.dims(), dims);
+                        if !half {
+                            assert_eq!(back.active_voxels, active, "{compression:?}");
+                        }
+                    }
+                    // A grid with no active voxel is refused on reading.
+                    Err(e) => assert!(active == 0 || half, "{compression:?} half {half}: {e}"),
+                }
+            }
+        }
+        true
     }
 
     pub fn scene_ron(&self, data: &[u8]) -> bool {

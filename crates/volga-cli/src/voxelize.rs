@@ -67,8 +67,8 @@ pub struct VoxelizeArgs {
 /// How a `.vdb` output is written.
 #[derive(clap::Args, Clone, Default)]
 pub struct VdbArgs {
-    /// Compression of a .vdb output's values: none, zip (default) or blosc (OpenVDB's
-    /// default: Blosc-LZ4, larger and faster).
+    /// Compression of a .vdb output's values: blosc (default, as OpenVDB's own:
+    /// Blosc-LZ4), zip (readable by OpenVDB builds without Blosc; slower) or none.
     #[arg(long, value_name = "none|zip|blosc")]
     pub vdb_compression: Option<String>,
     /// Store a .vdb output's values as 16-bit floats (half the size, 11 significant bits).

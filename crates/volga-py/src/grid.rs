@@ -270,9 +270,10 @@ impl VoxelGrid {
 
     /// Writes the grid as an OpenVDB `.vdb` file: a distance grid as a level set
     /// (`surface`, background = the band), others as a fog volume (`density`).
-    /// `compression`: `"zip"` (default), `"blosc"` or `"none"`; `half`: 16-bit floats.
+    /// `compression`: `"blosc"` (default, OpenVDB's own), `"zip"` or `"none"`; `half`:
+    /// 16-bit floats.
     /// All or nothing, like `save`. Returns the paths written.
-    #[pyo3(signature = (path, compression="zip", half=false))]
+    #[pyo3(signature = (path, compression="blosc", half=false))]
     fn to_vdb(&self, py: Python<'_>, path: PathBuf, compression: &str, half: bool) -> PyResult<Vec<PathBuf>> {
         if volga_io::VoxelFormat::from_path(&path).ok() != Some(volga_io::VoxelFormat::Vdb) {
             return Err(value_error(format!("{}: to_vdb writes a .vdb file", path.display())));

@@ -583,7 +583,7 @@ pub struct VolumeOutputSpec {
     #[serde(default)]
     pub colour: bool,
     /// `Nrrd` (the default: dense, with a `.raw` beside it) or `Vdb` (OpenVDB: a fog
-    /// volume `density`, sparse, zip-compressed).
+    /// volume `density`, sparse, Blosc-compressed).
     #[serde(default)]
     pub format: VolumeFormatSpec,
     /// `.vdb` only: store values as 16-bit floats (default false).

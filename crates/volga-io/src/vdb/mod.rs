@@ -53,11 +53,12 @@ use crate::{IoError, StagedOutputs};
 pub enum VdbCompression {
     /// Stored raw.
     None,
-    /// zlib (`COMPRESS_ZIP`), readable by every OpenVDB.
-    #[default]
+    /// zlib (`COMPRESS_ZIP`), readable by every OpenVDB build (also those without
+    /// Blosc); slower, and on level sets no smaller than Blosc (unshuffled float noise).
     Zip,
-    /// Blosc with LZ4 and byte shuffle (`COMPRESS_BLOSC`), OpenVDB's default: larger
-    /// than zip, faster to write and read.
+    /// Blosc with LZ4 and byte shuffle (`COMPRESS_BLOSC`), OpenVDB's own default (and
+    /// Blender's, Houdini's): the default here too.
+    #[default]
     Blosc,
 }
 
@@ -85,7 +86,7 @@ impl VdbCompression {
 /// How a `.vdb` file is written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct VdbOptions {
-    /// Compression of node values (default zip).
+    /// Compression of node values (default Blosc).
     pub compression: VdbCompression,
     /// Store values as 16-bit floats (grid type `…_HalfFloat`): half the bytes, values
     /// rounded to 11 significant bits.
