@@ -369,8 +369,8 @@ pub(crate) fn parse(bytes: &[u8], max_bytes: u64) -> Res<VdbVolume> {
         return Err(format!("implausible grid count {count}"));
     }
     let mut grids = Vec::new();
-    let mut found: Option<(String, usize)> = None;
-    for _ in 0..count {
+    let mut found: Option<(String, bool)> = None;
+    for index in 0..count {
         let unique = c.string("a grid name")?;
         let name = unique.split('\u{1e}').next().unwrap_or_default().to_string();
         let type_name = c.string("a grid type")?;
@@ -384,7 +384,34 @@ pub(crate) fn parse(bytes: &[u8], max_bytes: u64) -> Res<VdbVolume> {
         });
         let base = type_name.strip_suffix(HALF_SUFFIX).unwrap_or(&type_name);
         if found.is_none() && base == "Tree_float_5_4_3" && parent.is_empty() {
-            found = Some((name, c.pos));
+            found = Some((name, type_name.ends_with(HALF_SUFFIX)));
+            // List the grids after it, by their descriptors (best effort: a file
+            // without offsets, or one cut short, lists fewer).
+            if has_offsets {
+                let mut rest = Cursor { bytes, pos: c.pos };
+                let mut end = end_pos;
+                for _ in index + 1..count {
+                    if end < rest.pos as i64 || end as u64 > bytes.len() as u64 {
+                        break;
+                    }
+                    rest.pos = end as usize;
+                    let (Ok(unique), Ok(type_name), Ok(_), Ok(_), Ok(_), Ok(e)) = (
+                        rest.string("a grid name"),
+                        rest.string("a grid type"),
+                        rest.string("an instance parent"),
+                        rest.i64("a grid position"),
+                        rest.i64("a block position"),
+                        rest.i64("an end position"),
+                    ) else {
+                        break;
+                    };
+                    grids.push(VdbGridInfo {
+                        name: unique.split('\u{1e}').next().unwrap_or_default().to_string(),
+                        type_name,
+                    });
+                    end = e;
+                }
+            }
             break;
         }
         // Skip a grid this reader does not load.
@@ -398,7 +425,7 @@ pub(crate) fn parse(bytes: &[u8], max_bytes: u64) -> Res<VdbVolume> {
         }
         c.pos = end_pos as usize;
     }
-    let Some((name, _)) = found else {
+    let Some((name, half)) = found else {
         let list: Vec<String> = grids
             .iter()
             .map(|g| format!("{:?} ({})", g.name, g.type_name))
@@ -412,7 +439,6 @@ pub(crate) fn parse(bytes: &[u8], max_bytes: u64) -> Res<VdbVolume> {
             }
         ));
     };
-    let half = grids.last().is_some_and(|g| g.type_name.ends_with(HALF_SUFFIX));
     let compression = c.u32("the grid's compression flags")?;
     if compression & !(COMPRESS_ZIP | COMPRESS_ACTIVE_MASK | COMPRESS_BLOSC) != 0 {
         return Err(format!("unknown compression flags {compression:#x}"));
@@ -436,7 +462,8 @@ pub(crate) fn parse(bytes: &[u8], max_bytes: u64) -> Res<VdbVolume> {
     let children = c.u32("the root's child count")? as usize;
     if tiles.saturating_mul(12 + 4 + 1) > c.remaining() || children.saturating_mul(12 + 8192) > c.remaining() {
         return Err(format!(
-            "{tiles} root tiles and {children} root children cannot fit in the file"
+            "truncated or corrupt: {tiles} root tiles and {children} root children cannot fit in the {} bytes left",
+            c.remaining()
         ));
     }
     let mut tree = TreeIn {
