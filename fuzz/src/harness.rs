@@ -212,19 +212,27 @@ impl Harness {
         }
         let bg = v.density.background();
         let level_set = volga_io::VdbGridKind::of(v).class == volga_io::VdbClass::LevelSet;
-        let active = v
-            .grid
-            .index_box()
-            .iter()
-            .filter(|ijk| {
-                let x = v.density.get(*ijk);
-                if level_set {
-                    x.abs() < bg
-                } else {
-                    x != bg
-                }
+        // Brick by brick (the background is never active): the grid may be huge.
+        let grid_box = v.grid.index_box();
+        let active: u64 = v
+            .density
+            .sorted_bricks()
+            .into_iter()
+            .map(|b| {
+                volga_core::brick_index_box(b)
+                    .intersection(&grid_box)
+                    .iter()
+                    .filter(|ijk| {
+                        let x = v.density.get(*ijk);
+                        if level_set {
+                            x.abs() < bg
+                        } else {
+                            x != bg
+                        }
+                    })
+                    .count() as u64
             })
-            .count() as u64;
+            .sum();
         for compression in [
             volga_io::VdbCompression::None,
             volga_io::VdbCompression::Zip,
