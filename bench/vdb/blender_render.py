@@ -17,7 +17,7 @@ images are rendered by Cycles on the CPU (a minute or two on two cores).
 Needs Blender as a Python module: `pip install bpy==5.0.1` (a CPython 3.11 wheel).
 Run from the repository root:
 
-    /work/venv-peers/bin/python bench/vdb/blender_render.py --volga PATH_TO_VOLGA --out DIR
+    python bench/vdb/blender_render.py --volga target/release/volga --out docs/images/vdb
 
 The .vdb files go to a temporary directory (or to DIR with --keep-vdb); only the
 PNGs are written to DIR.
@@ -54,7 +54,7 @@ def make_vdbs(volga, vdb_dir):
         ),
         "fog": (
             os.path.join(vdb_dir, "bunny_fog.vdb"),
-            ["--anti-aliased", "--solid"],  # default compression: zip
+            ["--anti-aliased", "--solid", "--vdb-compression", "zip"],
         ),
     }
     paths = {}

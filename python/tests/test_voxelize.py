@@ -198,7 +198,8 @@ def test_vdb_round_trip(tmp_path):
     d = volga.voxelize((v, f), resolution=24, mode="distance")
     for compression in ["none", "zip", "blosc"]:
         path = tmp_path / f"d_{compression}.vdb"
-        assert d.to_vdb(path, compression=compression) == [str(path)] or path.exists()
+        written = d.to_vdb(path, compression=compression)
+        assert [str(p) for p in written] == [str(path)] and path.exists()
         back = volga.load_volume(path)
         assert back.kind == "distance" and back.background == d.background
         np.testing.assert_array_equal(back.dense(), d.dense())
