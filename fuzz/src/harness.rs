@@ -210,29 +210,7 @@ impl Harness {
         if v.density.brick_count() > 4096 {
             return true;
         }
-        let bg = v.density.background();
-        let level_set = volga_io::VdbGridKind::of(v).class == volga_io::VdbClass::LevelSet;
-        // Brick by brick (the background is never active): the grid may be huge.
-        let grid_box = v.grid.index_box();
-        let active: u64 = v
-            .density
-            .sorted_bricks()
-            .into_iter()
-            .map(|b| {
-                volga_core::brick_index_box(b)
-                    .intersection(&grid_box)
-                    .iter()
-                    .filter(|ijk| {
-                        let x = v.density.get(*ijk);
-                        if level_set {
-                            x.abs() < bg
-                        } else {
-                            x != bg
-                        }
-                    })
-                    .count() as u64
-            })
-            .sum();
+        let active = volga_io::vdb_active_voxels(v);
         for compression in [
             volga_io::VdbCompression::None,
             volga_io::VdbCompression::Zip,

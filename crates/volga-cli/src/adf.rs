@@ -88,25 +88,6 @@ pub struct AdfBuildArgs {
     pub vdb_options: crate::voxelize::VdbArgs,
 }
 
-/// Voxels of a level set strictly inside its band (`|d| <` background): the level
-/// set's active voxels.
-fn band_voxels(volume: &volga_core::SparseVolume) -> u64 {
-    let bg = volume.density.background();
-    let grid_box = volume.grid.index_box();
-    volume
-        .density
-        .sorted_bricks()
-        .into_iter()
-        .map(|b| {
-            volga_core::brick_index_box(b)
-                .intersection(&grid_box)
-                .iter()
-                .filter(|ijk| volume.density.get(*ijk).abs() < bg)
-                .count() as u64
-        })
-        .sum()
-}
-
 /// The grid of a `--vdb` level set: `resolution` voxels along the longest side of the
 /// mesh's box, grown by the band and one voxel on every side.
 fn vdb_grid(bounds: &Aabb, resolution: u32, band: f64) -> Result<volga_core::Grid, Failure> {
@@ -462,7 +443,7 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
             "dims": [d.x, d.y, d.z],
             "voxel_size": volume.grid.transform.spacing().x,
             "band_world": volume.density.background(),
-            "band_voxels": band_voxels(volume),
+            "band_voxels": volga_io::vdb_active_voxels(volume),
             "compression": options.compression.name(),
             "half": options.half,
         });

@@ -121,16 +121,7 @@ fn read_model(path: &Path) -> Result<(&'static str, VoxelValues, VoxelSet, Trans
         VoxelModel::Vdb { grid, values } if grid.class == volga_io::VdbClass::LevelSet => {
             // Black = inside: distance ≤ 0, i.e. −distance ≥ 0.
             let v = &grid.volume;
-            let mut negated = volga_core::SparseVolume::new(v.grid, -v.density.background(), false);
-            for b in v.density.sorted_bricks() {
-                let brick = match v.density.brick(b) {
-                    Some(volga_core::Brick::Uniform(d)) => volga_core::Brick::Uniform(-*d),
-                    Some(volga_core::Brick::Dense(d)) => volga_core::Brick::from_voxels(&d.map(|d| -d)),
-                    None => continue,
-                };
-                negated.density.insert_brick(b, brick);
-            }
-            let set = VoxelSet::from_sparse(&negated, 0.0).map_err(|e| named(&e))?;
+            let set = VoxelSet::from_sparse(&v.map_density(|d| -d), 0.0).map_err(|e| named(&e))?;
             Ok(("vdb", values, set, v.grid.transform))
         }
         VoxelModel::Vdb {

@@ -392,6 +392,31 @@ impl SparseVolume {
         self.density.memory_bytes() + self.colour.as_ref().map_or(0, |c| c.memory_bytes())
     }
 
+    /// A volume on the same grid whose scalar channel is `f` of this one's, voxel by
+    /// voxel (the background too), brick by brick: a uniform brick stays one value, a
+    /// dense brick collapses if `f` makes it uniform, bricks equal to the new background
+    /// are dropped. No colour; the channel keeps `density_kind` (set another with
+    /// [`SparseVolume::with_density_kind`]).
+    pub fn map_density(&self, f: impl Fn(f32) -> f32 + Sync) -> SparseVolume {
+        let background = f(self.density.background());
+        let bricks = self.density.sorted_bricks();
+        let mapped: Vec<(IVec3, Brick<f32>)> = bricks
+            .par_iter()
+            .filter_map(|&b| {
+                let brick = match self.density.brick(b)? {
+                    Brick::Uniform(v) => Brick::Uniform(f(*v)),
+                    Brick::Dense(d) => Brick::from_voxels(&d.map(&f)),
+                };
+                (brick != Brick::Uniform(background)).then_some((b, brick))
+            })
+            .collect();
+        let mut out = SparseVolume::new(self.grid, background, false).with_density_kind(self.density_kind);
+        for (b, brick) in mapped {
+            out.density.insert_brick(b, brick);
+        }
+        out
+    }
+
     /// Densifies the volume; fails if the grid is too large to address.
     pub fn to_dense(&self) -> Result<DenseVolume, CoreError> {
         let mut out = DenseVolume::new(self.grid, self.density.background(), self.colour.is_some())?;
@@ -470,6 +495,25 @@ mod tests {
     use super::*;
     use crate::Transform;
     use glam::DVec3;
+
+    #[test]
+    fn map_density_maps_every_voxel_and_the_background() {
+        let grid = Grid::new(Transform::new(DVec3::ZERO, DVec3::ONE).unwrap(), UVec3::new(20, 9, 9)).unwrap();
+        let mut v = SparseVolume::new(grid, 3.0, false).with_density_kind(ChannelKind::SignedDistance);
+        v.density.insert_brick(IVec3::new(1, 0, 0), Brick::Uniform(-3.0));
+        v.density.set(IVec3::new(-1, 4, 17), 0.5);
+        v.density.set(IVec3::new(2, 2, 2), -1.25);
+        v.density.insert_brick(IVec3::new(2, 0, 0), Brick::Uniform(3.0));
+        let m = v.map_density(|d| -2.0 * d);
+        assert_eq!(m.density.background(), -6.0);
+        assert_eq!(m.density_kind, ChannelKind::SignedDistance);
+        for ijk in IndexBox::new(IVec3::splat(-8), IVec3::new(24, 16, 24)).iter() {
+            assert_eq!(m.density.get(ijk), -2.0 * v.density.get(ijk), "{ijk}");
+        }
+        // The brick equal to the old background is dropped; the uniform one stays uniform.
+        assert!(m.density.brick(IVec3::new(2, 0, 0)).is_none());
+        assert_eq!(m.density.brick(IVec3::new(1, 0, 0)), Some(&Brick::Uniform(6.0)));
+    }
 
     #[test]
     fn set_get_negative_and_prune() {

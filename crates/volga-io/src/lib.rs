@@ -68,8 +68,8 @@ pub use nrrd_read::{read_nrrd, read_nrrd_with_colour, read_nrrd_within};
 pub use nrrd_write::write_nrrd;
 pub use png_io::{decode_png, encode_png, encode_png16, write_png};
 pub use vdb::{
-    decode_vdb, encode_vdb, read_vdb, read_vdb_within, vdb_bytes_bound, write_vdb, VdbClass, VdbCompression,
-    VdbGridKind, VdbOptions, VdbVolume,
+    decode_vdb, encode_vdb, read_vdb, read_vdb_within, vdb_active_voxels, vdb_bytes_bound, write_vdb, VdbClass,
+    VdbCompression, VdbGridKind, VdbOptions, VdbVolume,
 };
 
 /// Errors of this crate; every message names the file it concerns.

@@ -648,17 +648,10 @@ pub fn extract_mesh<'py>(
 pub fn load_volume(py: Python<'_>, path: PathBuf) -> PyResult<VoxelGrid> {
     let model = py.detach(|| volga_io::read_voxel_model(&path)).map_err(io_error)?;
     let (volume, values) = match model {
-        volga_io::VoxelModel::Binvox(b) => {
-            let transform = b
-                .transform()
-                .map_err(|e| value_error(format!("{}: {e}", path.display())))?;
-            let grid = Grid::new(transform, b.dims()).map_err(|e| value_error(format!("{}: {e}", path.display())))?;
-            let mut volume = SparseVolume::new(grid, 0.0, false).with_density_kind(ChannelKind::Binary);
-            for v in b.filled() {
-                volume.density.set(v.as_ivec3(), 1.0);
-            }
-            (volume, "occupancy")
-        }
+        model @ volga_io::VoxelModel::Binvox(_) => (
+            model.into_volume(&path).map_err(|e| value_error(e.to_string()))?,
+            "occupancy",
+        ),
         volga_io::VoxelModel::Nrrd { volume, values } => {
             let kind = match values {
                 volga_io::VoxelValues::Occupancy => ChannelKind::Binary,

@@ -147,6 +147,37 @@ impl VdbGridKind {
     }
 }
 
+impl VdbGridKind {
+    /// Whether a voxel of this grid holding `value` is active: `|value| <` background
+    /// for a level set, `value ≠` background otherwise.
+    pub fn is_active(&self, value: f32, background: f32) -> bool {
+        match self.class {
+            VdbClass::LevelSet => value.abs() < background,
+            _ => value != background,
+        }
+    }
+}
+
+/// The active voxels `volume`'s density grid will have in a `.vdb` file (what OpenVDB
+/// reports as its active voxel count): voxels inside the grid, brick by brick.
+pub fn vdb_active_voxels(volume: &SparseVolume) -> u64 {
+    let kind = VdbGridKind::of(volume);
+    let bg = volume.density.background();
+    let grid_box = volume.grid.index_box();
+    volume
+        .density
+        .sorted_bricks()
+        .into_iter()
+        .map(|b| {
+            volga_core::brick_index_box(b)
+                .intersection(&grid_box)
+                .iter()
+                .filter(|ijk| kind.is_active(volume.density.get(*ijk), bg))
+                .count() as u64
+        })
+        .sum()
+}
+
 /// The bytes of `volume` as a `.vdb` file: its density channel as a float grid (see
 /// the module documentation) and, when present, its colour as a Vec3f grid `color`.
 /// Equal volumes and options give equal bytes whatever the thread count.
@@ -154,13 +185,13 @@ pub fn encode_vdb(volume: &SparseVolume, options: &VdbOptions) -> Vec<u8> {
     let kind = VdbGridKind::of(volume);
     let bg = volume.density.background();
     let level_set = move |v: f32| {
-        if v.abs() < bg {
+        if kind.is_active(v, bg) {
             (v, true)
         } else {
             (bg.copysign(v), false)
         }
     };
-    let other = move |v: f32| (v, v != bg);
+    let other = move |v: f32| (v, kind.is_active(v, bg));
     let classify: &(dyn Fn(f32) -> (f32, bool) + Sync) = match kind.class {
         VdbClass::LevelSet => &level_set,
         _ => &other,

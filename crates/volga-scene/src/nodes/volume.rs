@@ -97,7 +97,7 @@ pub fn load_density(cx: &Resolve, path: &str, field: &str) -> Result<SparseVolum
     // Voxels bounded by the limit wherever they live (a NRRD's detached data included).
     let model = volga_io::read_voxel_model_within(&file, cx.memory_limit).map_err(|e| invalid(e.to_string()))?;
     match model {
-        VoxelModel::Binvox(b) => {
+        VoxelModel::Binvox(ref b) => {
             let dims = b.dims();
             let voxels = dims.x as u64 * dims.y as u64 * dims.z as u64;
             if voxels.saturating_mul(4) > cx.memory_limit {
@@ -106,14 +106,8 @@ pub fn load_density(cx: &Resolve, path: &str, field: &str) -> Result<SparseVolum
                     file.display()
                 )));
             }
-            let transform = b.transform().map_err(|e| invalid(e.to_string()))?;
-            let grid = Grid::new(transform, dims).map_err(|e| invalid(e.to_string()))?;
-            let mut v = SparseVolume::new(grid, 0.0, false);
-            for ijk in b.filled() {
-                v.density.set(ijk.as_ivec3(), 1.0);
-            }
-            v.density.prune();
-            Ok(v)
+            let v = model.into_volume(&file).map_err(|e| invalid(e.to_string()))?;
+            Ok(v.with_density_kind(volga_core::ChannelKind::Density))
         }
         VoxelModel::Nrrd { volume, values } => match values {
             VoxelValues::Distance { .. } => Err(invalid(format!(
@@ -140,20 +134,10 @@ pub fn load_density(cx: &Resolve, path: &str, field: &str) -> Result<SparseVolum
 /// The density of a level set: `clamp(½ − d / 2h, 0, 1)`, `h` the smallest voxel size,
 /// so the ½ iso-surface is the zero set and trilinear sampling keeps it in place.
 pub fn density_of_level_set(volume: &SparseVolume) -> SparseVolume {
-    use volga_core::Brick;
     let h = volume.grid.transform.min_spacing();
-    let f = move |d: f32| (0.5 - d as f64 / (2.0 * h)).clamp(0.0, 1.0) as f32;
-    let mut out = SparseVolume::new(volume.grid, f(volume.density.background()), false);
-    for b in volume.density.sorted_bricks() {
-        let brick = match volume.density.brick(b) {
-            Some(Brick::Uniform(v)) => Brick::Uniform(f(*v)),
-            Some(Brick::Dense(d)) => Brick::from_voxels(&d.map(f)),
-            None => continue,
-        };
-        out.density.insert_brick(b, brick);
-    }
-    out.density.prune();
-    out
+    volume
+        .map_density(|d| (0.5 - d as f64 / (2.0 * h)).clamp(0.0, 1.0) as f32)
+        .with_density_kind(volga_core::ChannelKind::Density)
 }
 
 impl Node for VolumeNode {
