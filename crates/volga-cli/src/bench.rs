@@ -49,7 +49,7 @@ pub struct BenchArgs {
     /// Serve runs on request over stdin/stdout (the peer benchmark's worker protocol).
     #[arg(long)]
     serve: bool,
-    /// Write the last result here (.binvox or .nrrd).
+    /// Write the last result here (.binvox, .nrrd or .vdb).
     #[arg(long)]
     out: Option<PathBuf>,
 }

@@ -55,7 +55,7 @@ enum Command {
     /// Voxelize a mesh: binary surface or solid with 6/18/26 separability, anti-aliased
     /// surface or solid, or narrow-band signed distance.
     Voxelize(voxelize::VoxelizeArgs),
-    /// Validate a voxel model (.binvox, .nrrd) as a discrete surface: components, N-separability,
+    /// Validate a voxel model (.binvox, .nrrd, .vdb) as a discrete surface: components, N-separability,
     /// simple voxels, Euler characteristic; with --mesh, tunnels through it and cover.
     Validate(validate::ValidateArgs),
     /// Convert a voxel model between .binvox, .nrrd and .vdb (OpenVDB), placed where the

@@ -16,8 +16,9 @@ use volga_topology::{verdict, Connectivity, Requirement, Verdict, VerdictError, 
 
 #[derive(Args)]
 pub struct ValidateArgs {
-    /// Voxel model: .binvox (black = filled) or .nrrd of densities (black = density ≥ 0.5;
-    /// a NRRD of distances is refused).
+    /// Voxel model: .binvox (black = filled), .nrrd of densities (black = density ≥ 0.5;
+    /// a NRRD of distances is refused) or .vdb (a fog volume's density ≥ 0.5, a level
+    /// set's distance ≤ 0).
     model: PathBuf,
     /// Reference surface (.obj, .gltf, .glb) in the model's world space: N-tunnels
     /// through it, cover and minimal cover.
@@ -92,7 +93,7 @@ pub fn run(args: ValidateArgs) -> Result<bool, Failure> {
     Ok(output.passed)
 }
 
-/// The black voxels of a `.binvox` or `.nrrd` model, its format, what its values mean
+/// The black voxels of a `.binvox`, `.nrrd` or `.vdb` model, its format, what its values mean
 /// and its world transform. A NRRD of densities is thresholded at 0.5 (black =
 /// density ≥ 0.5); a NRRD of distances is refused (bad input): its inside is `d ≤ 0`,
 /// not a density, and validating it as one would report nothing black.

@@ -22,7 +22,7 @@
 //! assert_eq!(std::fs::read_to_string(&a).unwrap(), "replaced");
 //! ```
 //! * **Any voxel model** ([`VoxelFormat::from_path`], [`read_voxel_model`],
-//!   [`write_voxel_model`]): `.binvox` and `.nrrd` by extension, with what a NRRD's
+//!   [`write_voxel_model`]): `.binvox`, `.nrrd` and `.vdb` by extension, with what a NRRD's
 //!   values mean ([`VoxelValues`]: occupancy, density or distance) and the free-space
 //!   check before writing ([`check_free_space`], [`VoxelFormat::bytes_bound`]).
 //! * **OpenVDB** `.vdb` files ([`vdb`]): volumes written as level sets, fog volumes

@@ -1,5 +1,5 @@
 //! Voxel models in one place: the format from a path's extension, reading and writing
-//! any voxel model (`.binvox`, `.nrrd`), what a NRRD's values mean, the bytes a model
+//! any voxel model (`.binvox`, `.nrrd`, `.vdb`), what a NRRD's or VDB's values mean, the bytes a model
 //! will take on disk and the free-space check before writing it.
 
 use std::path::{Path, PathBuf};
@@ -150,9 +150,15 @@ impl VoxelValues {
         if volume.density.as_slice().is_empty() {
             (min, max) = (background, background);
         }
-        if background != 0.0 || min < 0.0 || max > 1.0 {
+        VoxelValues::decide(min, max, background, false, || binary)
+    }
+
+    /// The rule of [`VoxelValues::classify`] from a volume's value range, background and
+    /// (asked only when needed) whether every value is 0 or 1.
+    fn decide(min: f32, max: f32, background: f32, level_set: bool, binary: impl FnOnce() -> bool) -> VoxelValues {
+        if level_set || background != 0.0 || min < 0.0 || max > 1.0 {
             VoxelValues::Distance { min, max, background }
-        } else if binary {
+        } else if binary() {
             VoxelValues::Occupancy
         } else {
             VoxelValues::Density
@@ -170,23 +176,17 @@ impl VoxelValues {
         } else {
             (min, max)
         };
-        if level_set || background != 0.0 || min < 0.0 || max > 1.0 {
-            return VoxelValues::Distance { min, max, background };
-        }
-        let binary = volume
-            .density
-            .sorted_bricks()
-            .into_iter()
-            .all(|b| match volume.density.brick(b) {
-                Some(volga_core::Brick::Uniform(v)) => *v == 0.0 || *v == 1.0,
-                Some(volga_core::Brick::Dense(d)) => d.iter().all(|v| *v == 0.0 || *v == 1.0),
-                None => true,
-            });
-        if binary {
-            VoxelValues::Occupancy
-        } else {
-            VoxelValues::Density
-        }
+        VoxelValues::decide(min, max, background, level_set, || {
+            volume
+                .density
+                .sorted_bricks()
+                .into_iter()
+                .all(|b| match volume.density.brick(b) {
+                    Some(volga_core::Brick::Uniform(v)) => *v == 0.0 || *v == 1.0,
+                    Some(volga_core::Brick::Dense(d)) => d.iter().all(|v| *v == 0.0 || *v == 1.0),
+                    None => true,
+                })
+        })
     }
 
     /// `"occupancy"`, `"density"` or `"distance"`.

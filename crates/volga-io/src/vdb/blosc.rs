@@ -148,8 +148,7 @@ pub(crate) fn compress(data: &[u8]) -> Option<Vec<u8>> {
     let mut shuffled = vec![0u8; data.len()];
     shuffle(TYPESIZE, data, &mut shuffled);
     let packed = lz4_flex::block::compress(&shuffled);
-    let stored = if packed.len() < data.len() { &packed } else { &shuffled };
-    let total = HEADER + 4 + 4 + stored.len();
+    let total = HEADER + 4 + 4 + packed.len();
     if total >= data.len() {
         return None;
     }
@@ -159,8 +158,8 @@ pub(crate) fn compress(data: &[u8]) -> Option<Vec<u8>> {
         out.extend_from_slice(&(v as u32).to_le_bytes());
     }
     out.extend_from_slice(&((HEADER + 4) as u32).to_le_bytes());
-    out.extend_from_slice(&(stored.len() as i32).to_le_bytes());
-    out.extend_from_slice(stored);
+    out.extend_from_slice(&(packed.len() as i32).to_le_bytes());
+    out.extend_from_slice(&packed);
     Some(out)
 }
 

@@ -152,7 +152,10 @@ impl HypertextureNode {
             }
             HyperObjectSpec::Volume { path, translate } => {
                 if path.is_empty() {
-                    return Err(cx.err(format!("{f}.object.Volume.path"), "must name a .binvox or .nrrd file"));
+                    return Err(cx.err(
+                        format!("{f}.object.Volume.path"),
+                        "must name a .binvox, .nrrd or .vdb file",
+                    ));
                 }
                 let tf = format!("{f}.object.Volume.translate");
                 let translate = cx.finite3(&tf, *translate)?;
