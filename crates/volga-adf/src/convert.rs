@@ -56,10 +56,20 @@ impl Adf {
 
 impl Adf {
     /// The zero iso-surface as a triangle mesh, through the shared extractor
-    /// (`volga_mesh::extract_surface`: marching tetrahedra on a lattice of spacing `cell`
+    /// (`volga_mesh::extract_surface`: marching cubes on a lattice of spacing `cell`
     /// over the root cube, vertices refined onto the reconstruction, normals from its
     /// gradient; blocks whose range excludes 0 are skipped by the tree's ranges).
     pub fn to_mesh(&self, cell: f64) -> Result<volga_mesh::Surface, volga_mesh::ExtractError> {
         volga_mesh::extract_surface(self, self.root_box(), cell, 0.0)
+    }
+
+    /// The zero iso-surface over `region` by any extraction job (`job.region` and
+    /// `job.iso` as given: pass 0 for the surface), stopping past `max_triangles`.
+    pub fn to_mesh_with(
+        &self,
+        job: &volga_mesh::Extraction,
+        max_triangles: u64,
+    ) -> Result<volga_mesh::Surface, volga_mesh::ExtractError> {
+        volga_mesh::extract_surface_bounded(self, job, max_triangles)
     }
 }

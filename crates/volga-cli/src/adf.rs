@@ -86,6 +86,15 @@ pub struct AdfBuildArgs {
     pub vdb_band: f64,
     #[command(flatten)]
     pub vdb_options: crate::voxelize::VdbArgs,
+    /// Also write the ADF's zero iso-surface as a mesh (.obj or .ply), extracted on a
+    /// lattice of --mesh-resolution cells along the longest side of the mesh's box.
+    #[arg(long)]
+    pub mesh: Option<PathBuf>,
+    /// Lattice cells along the longest side of the mesh's box for --mesh, 8 to 4096.
+    #[arg(long, default_value_t = 256)]
+    pub mesh_resolution: u32,
+    #[command(flatten)]
+    pub mesh_args: crate::mesh_out::MeshArgs,
 }
 
 /// The grid of a `--vdb` level set: `resolution` voxels along the longest side of the
@@ -413,7 +422,35 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
             None
         }
     };
+    args.mesh_args.checked()?;
+    match &args.mesh {
+        Some(p) => {
+            crate::mesh_out::check_mesh_path(p)?;
+            if !(8..=4096).contains(&args.mesh_resolution) {
+                return Err(bad_input(format!(
+                    "--mesh-resolution {}: must be 8 to 4096",
+                    args.mesh_resolution
+                )));
+            }
+        }
+        None if args.mesh_args.given() => {
+            return Err(bad_input("--mesh-method and --mesh-adaptivity need --mesh".to_string()))
+        }
+        None => {}
+    }
     let built = build(&args.adf, 1, false, progress)?;
+    let mesh_out = match &args.mesh {
+        Some(path) => {
+            let b = built.mesh_bounds;
+            let cell = b.size().max_element() / args.mesh_resolution as f64;
+            let region = Aabb::new(b.min - 2.0 * cell, b.max + 2.0 * cell);
+            let limit = args.adf.memory_limit.unwrap_or_else(volga_core::memory::input_limit);
+            let start = Instant::now();
+            let surface = crate::mesh_out::extract(&built.adf, region, cell, 0.0, &args.mesh_args, limit, path)?;
+            Some((path.clone(), surface, start.elapsed().as_secs_f64()))
+        }
+        None => None,
+    };
     let level_set = match (&args.vdb, vdb_options) {
         (Some(path), Some(options)) => {
             let grid = vdb_grid(&built.mesh_bounds, args.vdb_resolution, args.vdb_band)?;
@@ -448,6 +485,16 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
             "half": options.half,
         });
     }
+    if let Some((path, surface, seconds)) = &mesh_out {
+        value["mesh"] = json!({
+            "path": path,
+            "method": args.mesh_args.mesh_method,
+            "adaptivity": args.mesh_args.mesh_adaptivity,
+            "triangles": surface.mesh.triangle_count(),
+            "vertices": surface.mesh.positions.len(),
+            "seconds": seconds,
+        });
+    }
     let (settings, iso) = render_setup(args.adf.size);
     let renderer = Renderer::new(&built.adf, &iso, &settings).map_err(|e| failed(e.to_string()))?;
     let start = Instant::now();
@@ -466,6 +513,11 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
             volga_io::encode_png(w, image.width, image.height, &rgba)
         })
         .map_err(io)?;
+    if let Some((path, surface, _)) = &mesh_out {
+        let bytes = crate::mesh_out::mesh_bytes(path, surface);
+        volga_io::check_free_space_for(&[(path.clone(), bytes.len() as u64)]).map_err(io)?;
+        staged.stage(path, |w| w.write_all(&bytes)).map_err(io)?;
+    }
     if let Some((path, volume, options)) = &level_set {
         volga_io::check_free_space_for(&[(path.clone(), volga_io::vdb_bytes_bound(volume, options.half))])
             .map_err(io)?;

@@ -34,6 +34,9 @@ pub enum BenchCommand {
     Sculpt(crate::bench_sculpt::SculptBenchArgs),
     /// Build an ADF of a mesh: build time, cells, bytes, errors, render speed, as JSON.
     Adf(crate::adf::AdfBenchArgs),
+    /// Every mesh extraction method on a mesh's anti-aliased solid: seconds, triangles,
+    /// Hausdorff distance to the exact mesh (voxels), sharp-edge error, manifold check, as JSON.
+    Extract(crate::bench_extract::ExtractBenchArgs),
 }
 
 #[derive(Args)]
@@ -61,6 +64,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
         BenchCommand::Noise(args) => return crate::bench_noise::run(args),
         BenchCommand::Sculpt(args) => return crate::bench_sculpt::run(args),
         BenchCommand::Adf(args) => return crate::adf::bench(args),
+        BenchCommand::Extract(args) => return crate::bench_extract::run(args),
     };
     let job_args = &args.job;
     let binary = job_args.spec()?.is_binary();

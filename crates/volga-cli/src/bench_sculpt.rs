@@ -89,7 +89,7 @@ fn median(v: &mut [f64]) -> f64 {
     v[v.len() / 2]
 }
 
-fn voxelize(mesh: &TriMesh, resolution: u32) -> Result<SparseVolume, Failure> {
+pub(crate) fn voxelize(mesh: &TriMesh, resolution: u32) -> Result<SparseVolume, Failure> {
     let job = MeshJob {
         resolution,
         mode: MeshJobMode::AntiAliased {
@@ -304,7 +304,7 @@ fn rerender(sculpt: &Sculpt, mesh: &TriMesh, size: u32, radius: f64) -> Result<V
     }))
 }
 
-fn time_median<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+pub(crate) fn time_median<T>(repeat: usize, mut f: impl FnMut() -> T) -> (f64, T) {
     let mut out = f(); // warm-up
     let mut times = Vec::new();
     for _ in 0..repeat {
@@ -320,12 +320,7 @@ fn extraction(mesh: &TriMesh, resolution: u32, python: Option<&Path>) -> Result<
     let field = Sampled::new(&volume, Filter::Trilinear);
     let region = volume.grid.center_bounds();
     let h = volume.grid.transform.spacing().x;
-    let job = |placement| Extraction {
-        region,
-        cell: h,
-        iso: 0.5,
-        placement,
-    };
+    let job = |placement| Extraction::new(region, h, 0.5).with_placement(placement);
     let (linear_s, linear) = time_median(3, || extract_surface_with(&field, &job(VertexPlacement::Linear)));
     let linear = linear.map_err(|e| failed(e.to_string()))?;
     let refined_job = job(VertexPlacement::Refined {

@@ -7,11 +7,13 @@
 mod accuracy;
 mod adf;
 mod bench;
+mod bench_extract;
 mod bench_noise;
 mod bench_render;
 mod bench_sculpt;
 mod convert;
 mod failure;
+mod mesh_out;
 mod progress;
 mod sculpt;
 mod validate;

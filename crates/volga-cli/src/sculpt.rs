@@ -36,6 +36,8 @@ pub struct SculptArgs {
     /// Write the ½ iso-surface as a mesh (.obj or .ply).
     #[arg(long)]
     mesh: Option<PathBuf>,
+    #[command(flatten)]
+    mesh_args: crate::mesh_out::MeshArgs,
     /// Write the voxels (.nrrd, .binvox or .vdb: a fog volume of the densities, with a
     /// `color` grid).
     #[arg(long)]
@@ -95,6 +97,10 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
         },
         None => None,
     };
+    let (mesh_method, mesh_adaptivity) = args.mesh_args.checked()?;
+    if args.mesh.is_none() && args.mesh_args.given() {
+        return Err(bad_input("--mesh-method and --mesh-adaptivity need --mesh".to_string()));
+    }
     let voxel_format = match &args.volume {
         Some(p) => Some(VoxelFormat::from_path(p).map_err(|e| bad_input(format!("--volume: {e}")))?),
         None => None,
@@ -187,7 +193,12 @@ pub fn run(args: SculptArgs) -> Result<(), Failure> {
     let mut triangles = None;
     if let (Some(path), Some(ply)) = (&args.mesh, mesh_format) {
         let surface = sculpt
-            .surface_bounded(1.0, limit / volga_mesh::BYTES_PER_TRIANGLE)
+            .surface_with(
+                1.0,
+                mesh_method,
+                mesh_adaptivity,
+                limit / volga_mesh::BYTES_PER_TRIANGLE,
+            )
             .map_err(|e| bad_input(format!("--mesh {}: {e}", path.display())))?;
         triangles = Some(surface.mesh.triangle_count());
         let bytes = if ply {

@@ -62,6 +62,13 @@ pub struct VoxelizeArgs {
     report: Option<PathBuf>,
     #[command(flatten)]
     vdb: VdbArgs,
+    /// Also write the volume's iso-surface as a mesh (.obj or .ply): ½ of the density
+    /// (anti-aliased, binary) or 0 of the distance, on the voxel-centre lattice, closed
+    /// where the surface meets the grid's border (outside the grid is empty).
+    #[arg(long = "mesh", id = "mesh_out", value_name = "MESH_OUT")]
+    mesh_out: Option<PathBuf>,
+    #[command(flatten)]
+    mesh_args: crate::mesh_out::MeshArgs,
 }
 
 /// How a `.vdb` output is written.
@@ -211,7 +218,7 @@ impl JobArgs {
         Ok(spec)
     }
 
-    fn limit(&self) -> u64 {
+    pub fn limit(&self) -> u64 {
         self.memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX)
     }
 
@@ -342,8 +349,42 @@ pub fn write_outputs(
     vdb: &volga_io::VdbOptions,
     report: Option<ReportOutput<'_>>,
 ) -> Result<Vec<PathBuf>, Failure> {
+    write_outputs_with(out, volume, vdb, report, None)
+}
+
+/// The iso-surface of a voxelized volume: ½ of a density, 0 of a distance, on the
+/// voxel-centre lattice grown by one voxel (outside the grid reads the background, so a
+/// surface touching the border closes there).
+pub fn volume_surface(
+    volume: &SparseVolume,
+    args: &crate::mesh_out::MeshArgs,
+    limit: u64,
+    path: &Path,
+) -> Result<volga_mesh::Surface, Failure> {
+    let field = volga_core::Sampled::new(volume, volga_core::Filter::Trilinear);
+    let iso = match volume.density_kind {
+        volga_core::ChannelKind::SignedDistance => 0.0,
+        _ => 0.5,
+    };
+    let h = volume.grid.transform.min_spacing();
+    let b = volume.grid.center_bounds();
+    let region = volga_core::Aabb::new(b.min - h, b.max + h);
+    crate::mesh_out::extract(&field, region, h, iso, args, limit, path)
+}
+
+/// [`write_outputs`] with a mesh file staged beside the model.
+pub fn write_outputs_with(
+    out: &Path,
+    volume: &SparseVolume,
+    vdb: &volga_io::VdbOptions,
+    report: Option<ReportOutput<'_>>,
+    mesh: Option<(&Path, &[u8])>,
+) -> Result<Vec<PathBuf>, Failure> {
     let format = VoxelFormat::from_path(out).map_err(|e| bad_input(e.to_string()))?;
     let mut needs: Vec<(PathBuf, u64)> = vec![(out.to_path_buf(), format.bytes_bound(volume))];
+    if let Some((path, bytes)) = mesh {
+        needs.push((path.to_path_buf(), bytes.len() as u64));
+    }
     if let Some((path, _)) = report {
         needs.push((path.to_path_buf(), REPORT_BYTES_BOUND));
     }
@@ -351,6 +392,12 @@ pub fn write_outputs(
     let mut staged = StagedOutputs::new();
     let mut outputs =
         volga_io::write_voxel_model_with(out, volume, vdb, &mut staged).map_err(|e| failed(e.to_string()))?;
+    if let Some((path, bytes)) = mesh {
+        staged
+            .stage(path, |w| w.write_all(bytes))
+            .map_err(|e| failed(e.to_string()))?;
+        outputs.push(path.to_path_buf());
+    }
     if let Some((path, make)) = report {
         let json = make(&outputs);
         staged
@@ -370,6 +417,14 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
     let format = output_format(&args.out, job_args.spec()?.is_binary())?;
     let vdb = args.vdb.options(&args.out)?;
     check_distinct_outputs(&args.out, format, args.report.as_deref())?;
+    args.mesh_args.checked()?;
+    match &args.mesh_out {
+        Some(p) => crate::mesh_out::check_mesh_path(p)?,
+        None if args.mesh_args.given() => {
+            return Err(bad_input("--mesh-method and --mesh-adaptivity need --mesh".to_string()))
+        }
+        None => {}
+    }
     let mut stages = Stages::with_stage_start(volga_scene::reset_peak_rss);
     let job = job_args.prepare(&mut stages)?;
     if format == VoxelFormat::Nrrd {
@@ -441,14 +496,24 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         };
         serde_json::to_vec_pretty(&r).expect("report serializes")
     };
+    let mesh = match &args.mesh_out {
+        Some(path) => {
+            let surface = stages.run("mesh", || {
+                volume_surface(&volume, &args.mesh_args, job_args.limit(), path)
+            })?;
+            Some((path.as_path(), crate::mesh_out::mesh_bytes(path, &surface)))
+        }
+        None => None,
+    };
     let outputs = stages.run("write", || {
-        write_outputs(
+        write_outputs_with(
             &args.out,
             &volume,
             &vdb,
             args.report
                 .as_deref()
                 .map(|p| (p, &make_report as &dyn Fn(&[PathBuf]) -> Vec<u8>)),
+            mesh.as_ref().map(|(p, b)| (*p, b.as_slice())),
         )
     })?;
     report.stages = stages.list;

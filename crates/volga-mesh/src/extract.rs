@@ -40,6 +40,14 @@ use volga_core::{Aabb, Field};
 
 use crate::TriMesh;
 
+mod cubes;
+mod dual;
+pub mod simplify;
+mod span;
+mod table;
+
+pub use span::IsoIndex;
+
 /// Cubes per block edge.
 const BLOCK: i32 = 16;
 /// At most this many lattice points per axis (edge keys must fit in 64 bits).
@@ -83,6 +91,16 @@ pub enum ExtractError {
         /// The limit, [`MAX_BLOCKS`].
         max: u64,
     },
+    /// The adaptivity is negative, NaN or infinite; holds the value given.
+    #[error("adaptivity must be finite and at least 0 (cells), got {0}")]
+    Adaptivity(f64),
+    /// An [`IsoIndex`] would keep more than `max_bytes` of samples: narrow the iso range,
+    /// use a larger cell or raise the memory limit.
+    #[error("the iso-value index would keep more than {} of samples: narrow the iso range, use a larger cell or raise the memory limit", volga_core::memory::Bytes(*max_bytes as u128))]
+    IndexTooLarge {
+        /// The most bytes allowed.
+        max_bytes: u64,
+    },
     /// The surface has more triangles than the caller allowed
     /// ([`extract_surface_bounded`]); the extraction stopped there.
     #[error("the surface has more than {max} triangles, the most this extraction may hold (about {} of memory at {BYTES_PER_TRIANGLE} bytes per triangle): use a larger cell or raise the memory limit", volga_core::memory::Bytes(*max as u128 * BYTES_PER_TRIANGLE as u128))]
@@ -118,6 +136,41 @@ pub enum VertexPlacement {
     },
 }
 
+/// How the surface is drawn through the lattice cubes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum ExtractMethod {
+    /// Marching tetrahedra: six Kuhn tetrahedra per cube, no ambiguous case at all; about
+    /// three times the triangles of marching cubes.
+    Tetrahedra,
+    /// Marching cubes with topology-correct cases: faces by the asymptotic decider,
+    /// interiors by the trilinear interpolant's cross-sections (tubes where it has one).
+    #[default]
+    Cubes,
+    /// Dual contouring on the marching-cubes loops: one vertex per loop at the minimizer
+    /// of its crossings' tangent planes (sharp edges and corners kept), one quad per
+    /// crossing lattice edge.
+    Dual,
+}
+
+impl ExtractMethod {
+    /// Every method, in the order tables list them.
+    pub const ALL: [ExtractMethod; 3] = [ExtractMethod::Tetrahedra, ExtractMethod::Cubes, ExtractMethod::Dual];
+
+    /// The method's name as the CLI, scene files and reports spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ExtractMethod::Tetrahedra => "tetrahedra",
+            ExtractMethod::Cubes => "cubes",
+            ExtractMethod::Dual => "dual",
+        }
+    }
+
+    /// The method named `name` (as [`name`](Self::name) spells it).
+    pub fn from_name(name: &str) -> Option<ExtractMethod> {
+        ExtractMethod::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
 /// What to extract: the lattice and the level.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Extraction {
@@ -129,6 +182,47 @@ pub struct Extraction {
     pub iso: f64,
     /// How a vertex is placed on a lattice edge that crosses `iso`.
     pub placement: VertexPlacement,
+    /// How the surface is drawn through the cubes.
+    pub method: ExtractMethod,
+    /// Largest distance (in lattice cells) a simplified vertex may lie from the plane of
+    /// any triangle it replaced; 0 keeps every triangle. See [`simplify`](crate::extract::simplify).
+    pub adaptivity: f64,
+}
+
+impl Extraction {
+    /// The lattice of spacing `cell` over `region` at `iso`, marching cubes, vertices
+    /// refined onto the surface (tolerance `1e-9`, at most 32 steps), no simplification.
+    pub fn new(region: Aabb, cell: f64, iso: f64) -> Extraction {
+        Extraction {
+            region,
+            cell,
+            iso,
+            placement: VertexPlacement::Refined {
+                tolerance: 1e-9,
+                max_iterations: 32,
+            },
+            method: ExtractMethod::Cubes,
+            adaptivity: 0.0,
+        }
+    }
+
+    /// This extraction with another method.
+    pub fn with_method(mut self, method: ExtractMethod) -> Extraction {
+        self.method = method;
+        self
+    }
+
+    /// This extraction with another adaptivity (cells).
+    pub fn with_adaptivity(mut self, adaptivity: f64) -> Extraction {
+        self.adaptivity = adaptivity;
+        self
+    }
+
+    /// This extraction with another vertex placement.
+    pub fn with_placement(mut self, placement: VertexPlacement) -> Extraction {
+        self.placement = placement;
+        self
+    }
 }
 
 /// An extracted surface: the mesh and one unit outward normal per vertex.
@@ -147,6 +241,10 @@ pub struct Surface {
     /// Blocks skipped without sampling because [`Field::value_range`] put them wholly on
     /// one side of `iso`.
     pub blocks_skipped: u64,
+    /// Cubes ([`ExtractMethod::Cubes`]) whose interior joined two loops into a tube.
+    pub tubes: u64,
+    /// Edge collapses made by the simplification (`adaptivity > 0`).
+    pub collapses: u64,
 }
 
 /// The iso-surface of `field` at `iso` on the lattice of spacing `cell` over `region`,
@@ -158,23 +256,12 @@ pub fn extract_surface<F: Field + ?Sized>(
     cell: f64,
     iso: f64,
 ) -> Result<Surface, ExtractError> {
-    extract_surface_with(
-        field,
-        &Extraction {
-            region,
-            cell,
-            iso,
-            placement: VertexPlacement::Refined {
-                tolerance: 1e-9,
-                max_iterations: 32,
-            },
-        },
-    )
+    extract_surface_with(field, &Extraction::new(region, cell, iso))
 }
 
 /// The lattice of an extraction: points `region.min + ijk·cell`, `0 ≤ ijk < points`.
 #[derive(Clone, Copy)]
-struct Lattice {
+pub(crate) struct Lattice {
     origin: DVec3,
     cell: f64,
     points: IVec3,
@@ -192,20 +279,8 @@ impl Lattice {
     }
 }
 
-/// [`extract_surface`] with every choice explicit.
-pub fn extract_surface_with<F: Field + ?Sized>(field: &F, job: &Extraction) -> Result<Surface, ExtractError> {
-    extract_surface_bounded(field, job, u64::MAX)
-}
-
-/// [`extract_surface_with`] stopping with [`ExtractError::TooManyTriangles`] once the
-/// surface passes `max_triangles` (callers with a memory limit pass
-/// `limit / BYTES_PER_TRIANGLE`), so a surface larger than memory is refused while it is
-/// being found rather than discovered by the allocator.
-pub fn extract_surface_bounded<F: Field + ?Sized>(
-    field: &F,
-    job: &Extraction,
-    max_triangles: u64,
-) -> Result<Surface, ExtractError> {
+/// The lattice of `job` and its blocks per axis, after checking every parameter.
+fn checked_lattice(job: &Extraction) -> Result<(Lattice, IVec3), ExtractError> {
     let region = job.region;
     if !(region.min.is_finite() && region.max.is_finite()) || region.is_empty() {
         return Err(ExtractError::Region {
@@ -218,6 +293,9 @@ pub fn extract_surface_bounded<F: Field + ?Sized>(
     }
     if !job.iso.is_finite() {
         return Err(ExtractError::Iso(job.iso));
+    }
+    if !(job.adaptivity.is_finite() && job.adaptivity >= 0.0) {
+        return Err(ExtractError::Adaptivity(job.adaptivity));
     }
     let cubes = (region.size() / job.cell).ceil().max(DVec3::ONE);
     let points = [cubes.x + 1.0, cubes.y + 1.0, cubes.z + 1.0];
@@ -232,7 +310,6 @@ pub fn extract_surface_bounded<F: Field + ?Sized>(
         cell: job.cell,
         points: IVec3::new(points[0] as i32, points[1] as i32, points[2] as i32),
     };
-    let inward = field.kind().inward_sign();
     let blocks = (lattice.points - 1 + BLOCK - 1) / BLOCK;
     let block_count = blocks.as_u64vec3().element_product();
     if block_count > MAX_BLOCKS {
@@ -242,6 +319,26 @@ pub fn extract_surface_bounded<F: Field + ?Sized>(
             max: MAX_BLOCKS,
         });
     }
+    Ok((lattice, blocks))
+}
+
+/// [`extract_surface`] with every choice explicit.
+pub fn extract_surface_with<F: Field + ?Sized>(field: &F, job: &Extraction) -> Result<Surface, ExtractError> {
+    extract_surface_bounded(field, job, u64::MAX)
+}
+
+/// [`extract_surface_with`] stopping with [`ExtractError::TooManyTriangles`] once the
+/// surface passes `max_triangles` (callers with a memory limit pass
+/// `limit / BYTES_PER_TRIANGLE`), so a surface larger than memory is refused while it is
+/// being found rather than discovered by the allocator.
+pub fn extract_surface_bounded<F: Field + ?Sized>(
+    field: &F,
+    job: &Extraction,
+    max_triangles: u64,
+) -> Result<Surface, ExtractError> {
+    let (lattice, blocks) = checked_lattice(job)?;
+    let inward = field.kind().inward_sign();
+    let block_count = blocks.as_u64vec3().element_product();
     // Blocks are numbered x fastest and met in that order; only those the surface crosses
     // are kept, and the triangle count is watched as they are meshed.
     let (bx, by) = (blocks.x as u64, blocks.y as u64);
@@ -268,7 +365,12 @@ pub fn extract_surface_bounded<F: Field + ?Sized>(
         return Err(ExtractError::TooManyTriangles { max: max_triangles });
     }
 
-    // Merge by lattice edge, in block order: deterministic for any thread count.
+    Ok(finish(field, job, outs, block_count))
+}
+
+/// Merges block meshes (in block order: deterministic for any thread count), simplifies
+/// them if asked, and adds the normals.
+fn finish<F: Field + ?Sized>(field: &F, job: &Extraction, outs: Vec<BlockMesh>, block_count: u64) -> Surface {
     let mut surface = Surface {
         blocks_skipped: block_count - outs.len() as u64,
         blocks_sampled: outs.len() as u64,
@@ -278,18 +380,34 @@ pub fn extract_surface_bounded<F: Field + ?Sized>(
     let mut remap = Vec::new();
     for out in outs {
         remap.clear();
+        surface.tubes += out.tubes;
         for (key, pos) in out.keys.iter().zip(&out.positions) {
             let next = surface.mesh.positions.len() as u32;
+            if *key == PRIVATE {
+                surface.mesh.positions.push(*pos);
+                remap.push(next);
+                continue;
+            }
             let id = *index.entry(*key).or_insert_with(|| {
                 surface.mesh.positions.push(*pos);
                 next
             });
+            // A dual block refers to other blocks' cube vertices before their owner places
+            // them (position NaN until then).
+            if surface.mesh.positions[id as usize].is_nan() {
+                surface.mesh.positions[id as usize] = *pos;
+            }
             remap.push(id);
         }
         surface
             .mesh
             .triangles
             .extend(out.triangles.iter().map(|t| t.map(|v| remap[v as usize])));
+    }
+    debug_assert!(surface.mesh.positions.iter().all(|p| p.is_finite()));
+    if job.adaptivity > 0.0 {
+        let stats = simplify::simplify(&mut surface.mesh, job.adaptivity * job.cell);
+        surface.collapses = stats.collapses;
     }
     let positions = &surface.mesh.positions;
     surface.normals = positions
@@ -300,14 +418,55 @@ pub fn extract_surface_bounded<F: Field + ?Sized>(
             grads.into_iter().map(|g| field.kind().outward(g).normalize_or_zero())
         })
         .collect();
-    Ok(surface)
+    surface
 }
 
-/// One block's triangles over its own vertex list; `keys[v]` names vertex `v`'s lattice edge.
+/// One block's triangles over its own vertex list; `keys[v]` names vertex `v` (a lattice
+/// edge, a cube's loop, a face split: see the methods' modules).
+#[derive(Default)]
 struct BlockMesh {
     keys: Vec<u64>,
     positions: Vec<DVec3>,
     triangles: Vec<[u32; 3]>,
+    /// Cubes whose two loops were joined into a tube.
+    tubes: u64,
+}
+
+/// The key of a vertex that belongs to one cube alone (never merged).
+const PRIVATE: u64 = u64::MAX;
+
+/// Field values on lattice points `lo ..= lo + n − 1`, x fastest.
+struct BlockSamples {
+    lo: IVec3,
+    n: IVec3,
+    values: Vec<f64>,
+}
+
+impl BlockSamples {
+    /// Samples `field` on lattice points `lo ..= hi`, rows along x through the batch path
+    /// (`values_along`: a sampled field reads its bricks once per row).
+    fn sample<F: Field + ?Sized>(field: &F, lattice: &Lattice, lo: IVec3, hi: IVec3) -> BlockSamples {
+        let n = hi - lo + 1;
+        let mut values = vec![0.0f64; (n.x * n.y * n.z) as usize];
+        let step = DVec3::new(lattice.cell, 0.0, 0.0);
+        for (k, row) in values.chunks_exact_mut(n.x as usize).enumerate() {
+            let (y, z) = (k as i32 % n.y, k as i32 / n.y);
+            let line = volga_core::Line {
+                origin: lattice.world(IVec3::new(0, lo.y + y, lo.z + z)),
+                step,
+            };
+            field.values_along(&line, lo.x as u64, row);
+        }
+        BlockSamples { lo, n, values }
+    }
+
+    /// The values turned to the inward-signed space of `iso` (inside `≥ 0`).
+    fn signed(mut self, inward: f64, iso: f64) -> BlockSamples {
+        for v in &mut self.values {
+            *v = inward * (*v - iso);
+        }
+        self
+    }
 }
 
 /// The six Kuhn tetrahedra of a cube (corner `c` at `(c & 1, c >> 1 & 1, c >> 2 & 1)`):
@@ -326,6 +485,38 @@ fn corner(c: usize) -> IVec3 {
     IVec3::new((c & 1) as i32, (c >> 1 & 1) as i32, (c >> 2 & 1) as i32)
 }
 
+/// Whether the block's lattice points `lo ..= hi` may hold both sides of `iso` (from the
+/// field's conservative value range).
+fn block_may_cross<F: Field + ?Sized>(
+    field: &F,
+    lattice: &Lattice,
+    lo: IVec3,
+    hi: IVec3,
+    iso: f64,
+    inward: f64,
+) -> bool {
+    let (vlo, vhi) = field.value_range(&Aabb::new(lattice.world(lo), lattice.world(hi)));
+    let (slo, shi) = if inward > 0.0 {
+        (vlo - iso, vhi - iso)
+    } else {
+        (iso - vhi, iso - vlo)
+    };
+    // All inside or all outside: no edge changes side.
+    !(slo >= 0.0 || shi < 0.0)
+}
+
+/// The lattice points a block samples: its own (`lo ..= hi`), and for the dual method one
+/// more below (the cubes around its lattice edges).
+fn block_points(lattice: &Lattice, block: IVec3, method: ExtractMethod) -> (IVec3, IVec3, IVec3) {
+    let lo = block * BLOCK;
+    let hi = (lo + BLOCK).min(lattice.points - 1);
+    let sample_lo = match method {
+        ExtractMethod::Dual => (lo - 1).max(IVec3::ZERO),
+        _ => lo,
+    };
+    (lo, hi, sample_lo)
+}
+
 fn mesh_block<F: Field + ?Sized>(
     field: &F,
     lattice: &Lattice,
@@ -333,43 +524,41 @@ fn mesh_block<F: Field + ?Sized>(
     job: &Extraction,
     inward: f64,
 ) -> Option<BlockMesh> {
-    let lo = block * BLOCK;
-    let hi = (lo + BLOCK).min(lattice.points - 1); // last lattice point of the block
-    let world_box = Aabb::new(lattice.world(lo), lattice.world(hi));
-    let (vlo, vhi) = field.value_range(&world_box);
-    let (slo, shi) = if inward > 0.0 {
-        (vlo - job.iso, vhi - job.iso)
-    } else {
-        (job.iso - vhi, job.iso - vlo)
-    };
-    if slo >= 0.0 || shi < 0.0 {
-        return None; // all inside or all outside: no edge changes side
+    let (lo, hi, sample_lo) = block_points(lattice, block, job.method);
+    if !block_may_cross(field, lattice, lo, hi, job.iso, inward) {
+        return None;
     }
-    let n = hi - lo + 1; // lattice points in the block per axis
+    let samples = BlockSamples::sample(field, lattice, sample_lo, hi).signed(inward, job.iso);
+    Some(mesh_samples(field, lattice, &samples, lo, job, inward))
+}
+
+/// One block's mesh from its inward-signed samples.
+fn mesh_samples<F: Field + ?Sized>(
+    field: &F,
+    lattice: &Lattice,
+    samples: &BlockSamples,
+    lo: IVec3,
+    job: &Extraction,
+    inward: f64,
+) -> BlockMesh {
+    match job.method {
+        ExtractMethod::Tetrahedra => tetrahedra_block(field, lattice, samples, job, inward),
+        ExtractMethod::Cubes => cubes::mesh_block(field, lattice, samples, job, inward),
+        ExtractMethod::Dual => dual::mesh_block(field, lattice, samples, lo, job, inward),
+    }
+}
+
+/// Marching tetrahedra over one block's samples.
+fn tetrahedra_block<F: Field + ?Sized>(
+    field: &F,
+    lattice: &Lattice,
+    b: &BlockSamples,
+    job: &Extraction,
+    inward: f64,
+) -> BlockMesh {
+    let (lo, n, s) = (b.lo, b.n, &b.values);
     let at = |p: IVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
-    // Rows along x through the batch path (`values_along`: a sampled field reads its
-    // bricks once per row instead of looking each point up).
-    let mut s = vec![0.0f64; (n.x * n.y * n.z) as usize];
-    let step = DVec3::new(lattice.cell, 0.0, 0.0);
-    for z in 0..n.z {
-        for y in 0..n.y {
-            let row_start = at(IVec3::new(0, y, z));
-            let row = &mut s[row_start..row_start + n.x as usize];
-            let line = volga_core::Line {
-                origin: lattice.world(IVec3::new(0, lo.y + y, lo.z + z)),
-                step,
-            };
-            field.values_along(&line, lo.x as u64, row);
-            for v in row.iter_mut() {
-                *v = inward * (*v - job.iso);
-            }
-        }
-    }
-    let mut out = BlockMesh {
-        keys: Vec::new(),
-        positions: Vec::new(),
-        triangles: Vec::new(),
-    };
+    let mut out = BlockMesh::default();
     // Local vertex of (lattice point, direction bits 1..7), u32::MAX if none yet.
     let mut local = vec![u32::MAX; s.len() * 8];
     for z in 0..n.z - 1 {
@@ -401,7 +590,7 @@ fn mesh_block<F: Field + ?Sized>(
             }
         }
     }
-    Some(out)
+    out
 }
 
 /// Triangles of one tetrahedron, oriented counter-clockwise seen from outside.
@@ -461,7 +650,7 @@ fn emit_tetrahedron(
 /// The vertex on the lattice edge `pa → pb` (values `sa`, `sb` on opposite sides, in the
 /// inward-signed space where inside is `≥ 0`).
 #[allow(clippy::too_many_arguments)]
-fn place<F: Field + ?Sized>(
+pub(crate) fn place<F: Field + ?Sized>(
     field: &F,
     lattice: &Lattice,
     pa: IVec3,

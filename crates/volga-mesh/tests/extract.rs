@@ -103,12 +103,8 @@ fn sphere_vertices_lie_on_the_surface_within_1e_9() {
     // Linear placement (marching-cubes style) is off by O(cell²/r), but not more.
     let linear = extract_surface_with(
         &field,
-        &Extraction {
-            region: Aabb::new(DVec3::splat(-7.0), DVec3::splat(7.0)),
-            cell: 0.37,
-            iso: 0.0,
-            placement: VertexPlacement::Linear,
-        },
+        &Extraction::new(Aabb::new(DVec3::splat(-7.0), DVec3::splat(7.0)), 0.37, 0.0)
+            .with_placement(VertexPlacement::Linear),
     )
     .unwrap();
     assert_eq!(

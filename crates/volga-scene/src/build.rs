@@ -381,15 +381,9 @@ fn write_mesh(
     // the extraction stops, with an error, past that many triangles.
     let surface = volga_mesh::extract_surface_bounded(
         field.as_ref(),
-        &volga_mesh::Extraction {
-            region: scene.grid.world_bounds(),
-            cell: scene.grid.transform.min_spacing(),
-            iso: 0.5,
-            placement: volga_mesh::VertexPlacement::Refined {
-                tolerance: 1e-9,
-                max_iterations: 32,
-            },
-        },
+        &volga_mesh::Extraction::new(scene.grid.world_bounds(), scene.grid.transform.min_spacing(), 0.5)
+            .with_method(m.method.unwrap_or_default().into())
+            .with_adaptivity(m.adaptivity.unwrap_or(0.0)),
         max_bytes / (volga_mesh::BYTES_PER_TRIANGLE + 64),
     )
     .map_err(|e| match e {

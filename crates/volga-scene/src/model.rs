@@ -403,6 +403,37 @@ pub struct MeshOutputSpec {
     pub name: String,
     /// The file's format and extension: `Obj` or `Ply`.
     pub format: MeshFormatSpec,
+    /// How the surface is drawn: `Cubes` (default: marching cubes, topology-correct),
+    /// `Dual` (dual contouring: sharp edges and corners kept) or `Tetrahedra`.
+    #[serde(default)]
+    pub method: Option<MeshMethodSpec>,
+    /// Simplification bound in voxels, 0 to 10 (default 0: every triangle kept): vertices
+    /// merge while each stays within this distance of the planes of the triangles it
+    /// replaces, so flat regions get fewer, larger triangles.
+    #[serde(default)]
+    pub adaptivity: Option<f64>,
+}
+
+/// A mesh output's extraction method (`volga_mesh::ExtractMethod`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum MeshMethodSpec {
+    /// Marching cubes with the asymptotic decider and interior tunnels.
+    #[default]
+    Cubes,
+    /// Dual contouring on the marching-cubes loops (sharp features).
+    Dual,
+    /// Marching tetrahedra (three times the triangles).
+    Tetrahedra,
+}
+
+impl From<MeshMethodSpec> for volga_mesh::ExtractMethod {
+    fn from(m: MeshMethodSpec) -> Self {
+        match m {
+            MeshMethodSpec::Cubes => volga_mesh::ExtractMethod::Cubes,
+            MeshMethodSpec::Dual => volga_mesh::ExtractMethod::Dual,
+            MeshMethodSpec::Tetrahedra => volga_mesh::ExtractMethod::Tetrahedra,
+        }
+    }
 }
 
 /// The file format of a mesh output; both carry per-vertex normals (outward, from the

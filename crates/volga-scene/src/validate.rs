@@ -236,6 +236,14 @@ pub fn validate(path: &Path, file: &SceneFile) -> Result<Scene, SceneError> {
         if !stems.insert(m.name.clone()) {
             return Err(cx.err(f, format!("output name `{}` is used twice (or is reserved)", m.name)));
         }
+        if let Some(a) = m.adaptivity {
+            if !(0.0..=10.0).contains(&a) {
+                return Err(cx.err(
+                    format!("outputs.meshes[{i}].adaptivity"),
+                    format!("must be between 0 and 10 voxels, got {a}"),
+                ));
+            }
+        }
     }
     if images.is_empty() && file.outputs.volumes.is_empty() && file.outputs.meshes.is_empty() {
         return Err(cx.err("outputs", "the scene asks for no output (no images, no volumes)"));

@@ -3,7 +3,7 @@
 
 use glam::{DVec3, IVec3, UVec3};
 use volga_core::{Brick as CoreBrick, Field, Grid, SparseVolume, Transform, BRICK_VOXELS};
-use volga_mesh::{extract_surface_bounded, ExtractError, Extraction, Surface, VertexPlacement};
+use volga_mesh::{extract_surface_bounded, ExtractError, ExtractMethod, Extraction, Surface, VertexPlacement};
 
 use crate::octree::{child_offset, node_size, BrickColour, Node};
 use crate::Sculpt;
@@ -33,6 +33,18 @@ impl Sculpt {
     /// density above 0, grown by two voxels; an empty sculpt has no surface), stopping with
     /// [`ExtractError::TooManyTriangles`] past `max_triangles`.
     pub fn surface_bounded(&self, cell_voxels: f64, max_triangles: u64) -> Result<Surface, ExtractError> {
+        self.surface_with(cell_voxels, ExtractMethod::default(), 0.0, max_triangles)
+    }
+
+    /// [`surface_bounded`](Sculpt::surface_bounded) by a chosen extraction method, simplified
+    /// within `adaptivity` cells (0 keeps every triangle; see `volga_mesh::extract::simplify`).
+    pub fn surface_with(
+        &self,
+        cell_voxels: f64,
+        method: ExtractMethod,
+        adaptivity: f64,
+        max_triangles: u64,
+    ) -> Result<Surface, ExtractError> {
         let Some(content) = self.content_bounds() else {
             return Ok(Surface::default());
         };
@@ -48,15 +60,13 @@ impl Sculpt {
         let region = volga_core::Aabb::new(full.min + k_lo * block, (full.min + k_hi * block).min(full.max));
         extract_surface_bounded(
             self,
-            &Extraction {
-                region,
-                cell: cell_voxels * self.grid.spacing(),
-                iso: 0.5,
-                placement: VertexPlacement::Refined {
+            &Extraction::new(region, cell_voxels * self.grid.spacing(), 0.5)
+                .with_placement(VertexPlacement::Refined {
                     tolerance: 1e-6,
                     max_iterations: 16,
-                },
-            },
+                })
+                .with_method(method)
+                .with_adaptivity(adaptivity),
             max_triangles,
         )
     }
