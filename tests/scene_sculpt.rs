@@ -79,7 +79,9 @@ fn a_mesh_output_of_any_object_is_a_closed_manifold_torus() {
     let dir = tempfile::tempdir().unwrap();
     let text = r#"Scene(grid: (bounds: (min: (-1, -1, -1), max: (1, 1, 1)), resolution: 32),
         objects: [(shape: Torus(center: (0.05, 0, 0), axis: (0, 0.2, 1), major_radius: 0.6, minor_radius: 0.25))],
-        cameras: [], outputs: (meshes: [(name: "torus", format: Obj)]))"#;
+        cameras: [], outputs: (meshes: [(name: "torus", format: Obj),
+            (name: "torus_dual", format: Obj, method: Dual, adaptivity: 0.3),
+            (name: "torus_tetrahedra", format: Obj, method: Tetrahedra)]))"#;
     let out = dir.path().join("out");
     build(
         &scene_in(dir.path(), text),
@@ -92,9 +94,35 @@ fn a_mesh_output_of_any_object_is_a_closed_manifold_torus() {
         &NoProgress,
     )
     .unwrap();
-    let mesh = volga::mesh::load_obj(out.join("torus.obj")).unwrap();
-    let stats = mesh.edge_stats();
-    assert_eq!((stats.boundary_edges, stats.non_manifold_edges), (0, 0));
-    let euler = stats.welded_vertices as i64 - stats.edges as i64 + mesh.triangle_count() as i64;
-    assert_eq!(euler, 0, "a torus");
+    let mut triangles = Vec::new();
+    for name in ["torus", "torus_dual", "torus_tetrahedra"] {
+        let mesh = volga::mesh::load_obj(out.join(format!("{name}.obj"))).unwrap();
+        let stats = mesh.edge_stats();
+        assert_eq!((stats.boundary_edges, stats.non_manifold_edges), (0, 0), "{name}");
+        let euler = stats.welded_vertices as i64 - stats.edges as i64 + mesh.triangle_count() as i64;
+        assert_eq!(euler, 0, "{name}: a torus");
+        triangles.push(mesh.triangle_count());
+    }
+    // Marching cubes: about a third of the tetrahedra's; the simplified dual mesh: fewer.
+    assert!(
+        triangles[0] * 2 < triangles[2] && triangles[1] < triangles[0],
+        "{triangles:?}"
+    );
+    // An adaptivity out of bounds is refused naming the field.
+    let bad = r#"Scene(grid: (bounds: (min: (-1, -1, -1), max: (1, 1, 1)), resolution: 8),
+        objects: [(shape: Sphere(center: (0, 0, 0), radius: 0.5))],
+        cameras: [], outputs: (meshes: [(name: "s", format: Obj, adaptivity: 11.0)]))"#;
+    let e = build(
+        &scene_in(dir.path(), bad),
+        &BuildOptions {
+            out_dir: dir.path().join("bad"),
+            memory_limit: None,
+            stage_start: None,
+            allow_outside_paths: false,
+        },
+        &NoProgress,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("outputs.meshes[0].adaptivity"), "{e}");
 }

@@ -234,3 +234,17 @@ def test_extract_mesh_is_closed_and_on_the_surface():
         assert np.abs(d).max() < 0.5 * g.pitch
     with pytest.raises(ValueError, match="iso"):
         volga.extract_mesh(g, iso=float("nan"))
+    # Every method closed and oriented; adaptivity keeps that with fewer triangles.
+    counts = {}
+    for method in ("tetrahedra", "cubes", "dual"):
+        for adaptivity in (0.0, 0.5):
+            V, F = volga.extract_mesh(g, method=method, adaptivity=adaptivity)
+            closed, oriented = edge_face_check(F)
+            assert closed and oriented, (method, adaptivity)
+            counts[method, adaptivity] = len(F)
+    assert counts["cubes", 0.0] < 0.5 * counts["tetrahedra", 0.0]
+    assert counts["cubes", 0.5] < counts["cubes", 0.0]
+    with pytest.raises(ValueError, match="method"):
+        volga.extract_mesh(g, method="surface-nets")
+    with pytest.raises(ValueError, match="adaptivity"):
+        volga.extract_mesh(g, adaptivity=-1.0)

@@ -300,13 +300,20 @@ def build(
 
 
 def extract_mesh(
-    grid: VoxelGrid, iso: Optional[float] = None, threads: Optional[int] = None
+    grid: VoxelGrid,
+    iso: Optional[float] = None,
+    threads: Optional[int] = None,
+    method: str = "cubes",
+    adaptivity: float = 0.0,
 ) -> Tuple[np.ndarray, np.ndarray]:
     """The iso-surface of a grid's trilinear field as ``(vertices (N, 3) float64,
     faces (M, 3) int64)``: closed and manifold wherever the surface lies inside the grid,
     oriented outward, vertices refined onto the surface. ``iso`` defaults to 0.5 for
-    binary and density grids and 0 for distances."""
-    return _volga.extract_mesh(grid, iso, threads)
+    binary and density grids and 0 for distances. ``method``: ``"cubes"`` (marching cubes
+    with the asymptotic decider), ``"dual"`` (dual contouring: sharp edges kept) or
+    ``"tetrahedra"``; ``adaptivity`` (voxels, 0 to 10) merges vertices while each stays
+    within that distance of the planes of the triangles it replaces (docs/EXTRACT.md)."""
+    return _volga.extract_mesh(grid, iso, threads, method, adaptivity)
 
 
 def _unwrap(obj: Any) -> Any:

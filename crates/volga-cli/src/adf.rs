@@ -88,8 +88,8 @@ pub struct AdfBuildArgs {
     pub vdb_options: crate::voxelize::VdbArgs,
     /// Also write the ADF's zero iso-surface as a mesh (.obj or .ply), extracted on a
     /// lattice of --mesh-resolution cells along the longest side of the mesh's box.
-    #[arg(long)]
-    pub mesh: Option<PathBuf>,
+    #[arg(long = "mesh", id = "mesh_out", value_name = "MESH_OUT")]
+    pub mesh_out: Option<PathBuf>,
     /// Lattice cells along the longest side of the mesh's box for --mesh, 8 to 4096.
     #[arg(long, default_value_t = 256)]
     pub mesh_resolution: u32,
@@ -423,7 +423,7 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
         }
     };
     args.mesh_args.checked()?;
-    match &args.mesh {
+    match &args.mesh_out {
         Some(p) => {
             crate::mesh_out::check_mesh_path(p)?;
             if !(8..=4096).contains(&args.mesh_resolution) {
@@ -439,7 +439,7 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
         None => {}
     }
     let built = build(&args.adf, 1, false, progress)?;
-    let mesh_out = match &args.mesh {
+    let mesh_out = match &args.mesh_out {
         Some(path) => {
             let b = built.mesh_bounds;
             let cell = b.size().max_element() / args.mesh_resolution as f64;

@@ -203,20 +203,24 @@ impl<'a> Reference<'a> {
             .par_iter()
             .map(|&p| out_bvh.closest(p).map_or(f64::INFINITY, |c| c.distance) / h)
             .collect();
-        // Normal error at triangle centroids: the output's face normal against the nearest
-        // exact triangle's (either orientation: scans and peers differ in winding).
-        let normal: Vec<f64> = out
+        // Normal error at triangle centroids, area-weighted: the output's face normal against
+        // the nearest exact triangle's (either orientation: scans and peers differ in winding).
+        let normal: Vec<(f64, f64)> = out
             .triangles
             .par_iter()
             .filter_map(|t| {
                 let [a, b, c] = t.map(|v| out.positions[v as usize]);
-                let n = (b - a).cross(c - a).normalize_or_zero();
+                let cross = (b - a).cross(c - a);
+                let n = cross.normalize_or_zero();
                 let near = self.bvh.closest((a + b + c) / 3.0)?;
                 let [p, q, r] = self.mesh.triangle(near.triangle as usize);
                 let m = (q - p).cross(r - p).normalize_or_zero();
-                (n != DVec3::ZERO && m != DVec3::ZERO).then(|| n.dot(m).abs().min(1.0).acos().to_degrees())
+                (n != DVec3::ZERO && m != DVec3::ZERO)
+                    .then(|| (n.dot(m).abs().min(1.0).acos().to_degrees(), cross.length()))
             })
             .collect();
+        let area: f64 = normal.iter().map(|(_, w)| w).sum();
+        let normal_rms = (normal.iter().map(|(d, w)| d * d * w).sum::<f64>() / area.max(f64::MIN_POSITIVE)).sqrt();
         let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
         let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
         let (to_max, back_max) = (max(&to_exact), max(&back));
@@ -232,7 +236,7 @@ impl<'a> Reference<'a> {
             "sharp_edge_points": self.sharp.len(),
             "sharp_edge_max": max(&sharp),
             "sharp_edge_rms": rms(&sharp),
-            "normal_rms_degrees": rms(&normal),
+            "normal_rms_degrees": normal_rms,
             "manifold": check.0 == 0 && check.1 == 0,
             "edges_not_in_two_faces": check.0,
             "inconsistent_edges": check.1,

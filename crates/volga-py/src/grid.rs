@@ -614,13 +614,20 @@ pub fn voxelize(
 /// The iso-surface of a grid as `(vertices (N, 3) float64, faces (M, 3) int64)`: closed and
 /// manifold wherever the surface lies inside the grid, vertices refined onto the surface.
 #[pyfunction]
-#[pyo3(signature = (grid, iso=None, threads=None))]
+#[pyo3(signature = (grid, iso=None, threads=None, method="cubes", adaptivity=0.0))]
 pub fn extract_mesh<'py>(
     py: Python<'py>,
     grid: &VoxelGrid,
     iso: Option<f64>,
     threads: Option<usize>,
+    method: &str,
+    adaptivity: f64,
 ) -> PyResult<arrays::MeshArrays<'py>> {
+    let method = volga_mesh::ExtractMethod::from_name(method)
+        .ok_or_else(|| value_error(format!("method `{method}`: expected cubes, dual or tetrahedra")))?;
+    if !(adaptivity.is_finite() && (0.0..=10.0).contains(&adaptivity)) {
+        return Err(value_error(format!("adaptivity {adaptivity}: must be 0 to 10 voxels")));
+    }
     let iso = iso.unwrap_or(match grid.kind {
         Kind::Distance => 0.0,
         _ => 0.5,
@@ -631,12 +638,10 @@ pub fn extract_mesh<'py>(
     let volume = grid.volume.clone();
     let surface = threads::run(py, threads, move || {
         let field = Sampled::new(&*volume, Filter::Trilinear);
-        volga_mesh::extract_surface(
-            &field,
-            volume.grid.world_bounds(),
-            volume.grid.transform.min_spacing(),
-            iso,
-        )
+        let job = volga_mesh::Extraction::new(volume.grid.world_bounds(), volume.grid.transform.min_spacing(), iso)
+            .with_method(method)
+            .with_adaptivity(adaptivity);
+        volga_mesh::extract_surface_with(&field, &job)
     })?
     .map_err(|e| value_error(e.to_string()))?;
     arrays::mesh_arrays(py, surface.mesh)

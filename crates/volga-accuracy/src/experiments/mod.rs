@@ -16,6 +16,7 @@ use crate::KnobResult;
 
 mod adf_tolerance;
 mod binary_vs_antialiased;
+mod extraction;
 mod filter_width;
 mod narrow_band;
 mod render_effects;
@@ -122,6 +123,7 @@ pub const EXPERIMENTS: &[Experiment] = &[
     render_step::EXPERIMENT,
     render_filters::EXPERIMENT,
     adf_tolerance::EXPERIMENT,
+    extraction::EXPERIMENT,
     render_effects::EXPERIMENT,
     render_effects::SUPERSAMPLING,
 ];

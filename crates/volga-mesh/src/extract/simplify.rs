@@ -21,6 +21,7 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 
 use crate::TriMesh;
 
@@ -109,11 +110,8 @@ pub fn simplify(mesh: &mut TriMesh, epsilon: f64) -> SimplifyStats {
     let eps2 = epsilon * epsilon;
     let nv = mesh.positions.len();
     let mut pos = mesh.positions.clone();
-    let mut tris = mesh.triangles.clone();
-    let mut alive = vec![true; tris.len()];
-    let mut vt: Vec<Vec<u32>> = vec![Vec::new(); nv];
     let mut q = vec![Quadric::default(); nv];
-    for (t, tri) in tris.iter().enumerate() {
+    for tri in &mesh.triangles {
         let [a, b, c] = tri.map(|v| pos[v as usize]);
         let n = (b - a).cross(c - a);
         let plane = if n.length_squared() > 0.0 {
@@ -122,10 +120,104 @@ pub fn simplify(mesh: &mut TriMesh, epsilon: f64) -> SimplifyStats {
             Quadric::default()
         };
         for &v in tri {
-            vt[v as usize].push(t as u32);
             q[v as usize] = q[v as usize].add(&plane);
         }
     }
+    // Two rounds over a fixed grid of bins (the second shifted by half a bin, so the
+    // first's seams lie inside bins): each bin's triangles are simplified on their own, in
+    // parallel, with the vertices on triangles that leave the bin locked. A last round
+    // over the whole (much smaller) mesh takes what the seams held back. The bins depend
+    // only on the mesh, so the result does not depend on the thread count; the quadrics
+    // carry over, so the bound holds for the whole.
+    let (lo, hi) = pos.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(a, b), p| {
+        (a.min(*p), b.max(*p))
+    });
+    let bin = ((hi - lo).max_element() / BINS_PER_AXIS).max(f64::MIN_POSITIVE);
+    let mut tris = mesh.triangles.clone();
+    for (shift, whole) in [(0.0, false), (0.5, false), (0.0, true)] {
+        let key = |p: DVec3| {
+            if whole {
+                return (0, 0, 0);
+            }
+            let k = ((p - lo) / bin + shift).floor();
+            (k.z as i64, k.y as i64, k.x as i64)
+        };
+        let mut parts: std::collections::BTreeMap<(i64, i64, i64), Vec<[u32; 3]>> = Default::default();
+        let mut seams = Vec::new();
+        for t in &tris {
+            let [a, b, c] = t.map(|v| key(pos[v as usize]));
+            if a == b && b == c {
+                parts.entry(a).or_default().push(*t);
+            } else {
+                seams.push(*t);
+            }
+        }
+        let parts: Vec<Vec<[u32; 3]>> = parts.into_values().collect();
+        let results: Vec<Part> = parts
+            .into_par_iter()
+            .map(|p| simplify_part(&pos, &q, p, eps2))
+            .collect();
+        tris.clear();
+        for r in results {
+            stats.collapses += r.collapses;
+            for (v, p, qq) in r.moved {
+                pos[v as usize] = p;
+                q[v as usize] = qq;
+            }
+            tris.extend(r.triangles);
+        }
+        tris.extend(seams);
+    }
+    // Compact.
+    let mut new_id = vec![u32::MAX; nv];
+    let mut positions = Vec::new();
+    let mut triangles = Vec::with_capacity(tris.len());
+    for tri in &tris {
+        triangles.push(tri.map(|v| {
+            let vi = v as usize;
+            if new_id[vi] == u32::MAX {
+                new_id[vi] = positions.len() as u32;
+                positions.push(pos[vi]);
+            }
+            new_id[vi]
+        }));
+    }
+    mesh.positions = positions;
+    mesh.triangles = triangles;
+    stats.triangles_after = mesh.triangles.len() as u64;
+    stats
+}
+
+/// Bins along the longest side of the mesh's box.
+const BINS_PER_AXIS: f64 = 8.0;
+
+/// One bin's result: its triangles (global vertex ids), the survivors' new positions and
+/// quadrics, and the collapses made.
+struct Part {
+    triangles: Vec<[u32; 3]>,
+    moved: Vec<(u32, DVec3, Quadric)>,
+    collapses: u64,
+}
+
+/// Simplifies one bin's triangles (global vertex ids into `global_pos` and `global_q`).
+fn simplify_part(global_pos: &[DVec3], global_q: &[Quadric], part: Vec<[u32; 3]>, eps2: f64) -> Part {
+    // Local numbering, in order of the global ids.
+    let mut ids: Vec<u32> = part.iter().flatten().copied().collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let local = |g: u32| ids.binary_search(&g).expect("vertex of the part") as u32;
+    let mut tris: Vec<[u32; 3]> = part.iter().map(|t| t.map(local)).collect();
+    let nv = ids.len();
+    let mut pos: Vec<DVec3> = ids.iter().map(|&g| global_pos[g as usize]).collect();
+    let mut q: Vec<Quadric> = ids.iter().map(|&g| global_q[g as usize]).collect();
+    let mut alive = vec![true; tris.len()];
+    let mut vt: Vec<Vec<u32>> = vec![Vec::new(); nv];
+    for (t, tri) in tris.iter().enumerate() {
+        for &v in tri {
+            vt[v as usize].push(t as u32);
+        }
+    }
+    let mut collapses = 0u64;
     // Boundary (and non-manifold) vertices are locked.
     let mut locked = vec![false; nv];
     {
@@ -266,7 +358,7 @@ pub fn simplify(mesh: &mut TriMesh, epsilon: f64) -> SimplifyStats {
         pos[ui] = x;
         q[ui] = qq;
         stamp[ui] += 1;
-        stats.collapses += 1;
+        collapses += 1;
         // Only edges at u changed cost (the others' quadrics and end points did not;
         // whether they can still collapse is checked when they come off the heap).
         neighbours(&vt, &alive, &tris, ui, &mut nbr_u);
@@ -276,27 +368,27 @@ pub fn simplify(mesh: &mut TriMesh, epsilon: f64) -> SimplifyStats {
             }
         }
     }
-    // Compact.
-    let mut new_id = vec![u32::MAX; nv];
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    for (t, tri) in tris.iter().enumerate() {
-        if !alive[t] {
-            continue;
-        }
-        triangles.push(tri.map(|v| {
-            let vi = v as usize;
-            if new_id[vi] == u32::MAX {
-                new_id[vi] = positions.len() as u32;
-                positions.push(pos[vi]);
+    let mut moved = Vec::new();
+    let mut touched = vec![false; nv];
+    let triangles = tris
+        .iter()
+        .zip(&alive)
+        .filter(|(_, &a)| a)
+        .map(|(t, _)| {
+            for &v in t {
+                if !touched[v as usize] {
+                    touched[v as usize] = true;
+                    moved.push((ids[v as usize], pos[v as usize], q[v as usize]));
+                }
             }
-            new_id[vi]
-        }));
+            t.map(|v| ids[v as usize])
+        })
+        .collect();
+    Part {
+        triangles,
+        moved,
+        collapses,
     }
-    mesh.positions = positions;
-    mesh.triangles = triangles;
-    stats.triangles_after = mesh.triangles.len() as u64;
-    stats
 }
 
 /// The vertices sharing a live triangle with `w`, sorted.
