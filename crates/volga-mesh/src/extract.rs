@@ -447,6 +447,9 @@ impl BlockSamples {
     /// (`values_along`: a sampled field reads its bricks once per row).
     fn sample<F: Field + ?Sized>(field: &F, lattice: &Lattice, lo: IVec3, hi: IVec3) -> BlockSamples {
         let n = hi - lo + 1;
+        if let Some(values) = voxel_centre_values(field, lattice, lo, n) {
+            return BlockSamples { lo, n, values };
+        }
         let mut values = vec![0.0f64; (n.x * n.y * n.z) as usize];
         let step = DVec3::new(lattice.cell, 0.0, 0.0);
         for (k, row) in values.chunks_exact_mut(n.x as usize).enumerate() {
@@ -467,6 +470,36 @@ impl BlockSamples {
         }
         self
     }
+}
+
+/// The field's values on lattice points `lo .. lo + n` read straight from its voxels, when
+/// the field is a voxel grid reconstructed by an interpolating filter (nearest or
+/// trilinear, which equal the voxel's value at its centre) and the lattice points are its
+/// voxel centres (same spacing, origin on a centre): what a volume's own extraction lattice
+/// is. `None` otherwise (the points are then sampled through the field).
+fn voxel_centre_values<F: Field + ?Sized>(field: &F, lattice: &Lattice, lo: IVec3, n: IVec3) -> Option<Vec<f64>> {
+    let voxels = field.voxels()?;
+    if !matches!(
+        voxels.filter,
+        volga_core::Filter::Trilinear | volga_core::Filter::Nearest
+    ) {
+        return None;
+    }
+    let transform = voxels.source.block_grid().transform;
+    let cell = lattice.cell;
+    if (transform.spacing() - DVec3::splat(cell)).abs().max_element() > 1e-12 * cell {
+        return None;
+    }
+    let index_origin = transform.world_to_index(lattice.origin);
+    let rounded = index_origin.round();
+    if (index_origin - rounded).abs().max_element() > 1e-9 || !rounded.abs().cmplt(DVec3::splat(1e9)).all() {
+        return None;
+    }
+    let first = rounded.as_ivec3() + lo;
+    let index_box = volga_core::IndexBox::new(first, first + n);
+    let mut f32s = vec![0.0f32; (n.x * n.y * n.z) as usize];
+    voxels.source.read_block(&index_box, &mut f32s);
+    Some(f32s.into_iter().map(f64::from).collect())
 }
 
 /// The six Kuhn tetrahedra of a cube (corner `c` at `(c & 1, c >> 1 & 1, c >> 2 & 1)`):

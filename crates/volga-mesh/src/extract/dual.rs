@@ -51,12 +51,6 @@ impl<F: Field + ?Sized> Ctx<'_, F> {
             self.b.values[self.at(l + IVec3::new(k[0], k[1], k[2]))]
         })
     }
-    /// Case index (`mask·64 + decisions`) of the cube with global min corner `q`.
-    fn case_index(&self, q: IVec3) -> usize {
-        let vals = self.vals(q);
-        let mask = (0..8).fold(0u8, |m, c| m | ((vals[c] >= 0.0) as u8) << c);
-        mask as usize * 64 + decisions(mask, &vals) as usize
-    }
     /// The crossing on local edge `e` of the cube with global min corner `q`.
     fn crossing(&self, q: IVec3, e: usize, vals: &[f64; 8]) -> DVec3 {
         let (lo_c, hi_c) = (EDGE_LO[e], table::edge_hi(e));
@@ -105,31 +99,76 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
         })
     };
 
-    // Vertices of the owned cubes: one per loop, at its QEF minimizer.
-    let mut points = Vec::new();
-    let mut grads = Vec::new();
-    for z in owned_lo.z..owned_hi.z.min(lattice.points.z - 1) {
-        for y in owned_lo.y..owned_hi.y.min(lattice.points.y - 1) {
-            for x in owned_lo.x..owned_hi.x.min(lattice.points.x - 1) {
-                let q = IVec3::new(x, y, z);
+    // Case of every cube of the samples (u16::MAX: no surface), computed once.
+    let n = b.n;
+    let cube_at = |q_local: IVec3| (q_local.x + n.x * (q_local.y + n.y * q_local.z)) as usize;
+    let mut case_of = vec![u16::MAX; b.values.len()];
+    for z in 0..n.z - 1 {
+        for y in 0..n.y - 1 {
+            for x in 0..n.x - 1 {
+                let q = IVec3::new(x, y, z) + b.lo;
                 let vals = ctx.vals(q);
                 let mask = (0..8).fold(0u8, |m, c| m | ((vals[c] >= 0.0) as u8) << c);
-                if mask == 0 || mask == 0xff {
-                    continue;
-                }
-                let case = &cases[mask as usize * 64 + decisions(mask, &vals) as usize];
-                let cell = Aabb::new(lattice.world(q), lattice.world(q + 1));
-                for (l, code) in CENTRE_CODES.iter().enumerate().take(case.loops()) {
-                    let edges = case.loop_edges(l);
-                    points.clear();
-                    points.extend(edges.iter().map(|&e| ctx.crossing(q, e as usize, &vals)));
-                    grads.clear();
-                    grads.resize(points.len(), DVec3::ZERO);
-                    field.gradients_at(&points, &mut grads);
-                    let x = qef_vertex(&points, &grads, &cell);
-                    vertex(&mut out, lattice.linear(q) * 8 + code, x);
+                if mask != 0 && mask != 0xff {
+                    case_of[cube_at(q - b.lo)] = (mask as usize * 64 + decisions(mask, &vals) as usize) as u16;
                 }
             }
+        }
+    }
+
+    // Vertices of the owned cubes: one per loop, at its QEF minimizer. The crossings of
+    // all owned cubes first (each lattice edge once), their gradients in one batch.
+    let mut slot = vec![u32::MAX; b.values.len() * 3];
+    let mut points = Vec::new();
+    let mut loops: Vec<(IVec3, usize)> = Vec::new();
+    let owned_cells = |f: &mut dyn FnMut(IVec3)| {
+        for z in owned_lo.z..owned_hi.z.min(lattice.points.z - 1) {
+            for y in owned_lo.y..owned_hi.y.min(lattice.points.y - 1) {
+                for x in owned_lo.x..owned_hi.x.min(lattice.points.x - 1) {
+                    f(IVec3::new(x, y, z));
+                }
+            }
+        }
+    };
+    owned_cells(&mut |q: IVec3| {
+        let id = case_of[cube_at(q - b.lo)];
+        if id == u16::MAX {
+            return;
+        }
+        let case = &cases[id as usize];
+        let vals = ctx.vals(q);
+        for &e in &case.edges {
+            let e = e as usize;
+            let k = table::corner_bits(EDGE_LO[e]);
+            let s = ctx.at(q - b.lo + IVec3::new(k[0], k[1], k[2])) * 3 + table::edge_axis(e);
+            if slot[s] == u32::MAX {
+                slot[s] = points.len() as u32;
+                points.push(ctx.crossing(q, e, &vals));
+            }
+        }
+        loops.push((q, id as usize));
+    });
+    let mut grads = vec![DVec3::ZERO; points.len()];
+    field.gradients_at(&points, &mut grads);
+    // Output vertex of each cube's loop (cubes of the samples, four loops at most).
+    let mut cell_vertex = vec![u32::MAX; b.values.len() * 4];
+    let mut loop_points = Vec::new();
+    let mut loop_grads = Vec::new();
+    for &(q, id) in &loops {
+        let case = &cases[id];
+        let cell = Aabb::new(lattice.world(q), lattice.world(q + 1));
+        for (l, code) in CENTRE_CODES.iter().enumerate().take(case.loops()) {
+            loop_points.clear();
+            loop_grads.clear();
+            for &e in case.loop_edges(l) {
+                let e = e as usize;
+                let k = table::corner_bits(EDGE_LO[e]);
+                let s = slot[ctx.at(q - b.lo + IVec3::new(k[0], k[1], k[2])) * 3 + table::edge_axis(e)] as usize;
+                loop_points.push(points[s]);
+                loop_grads.push(grads[s]);
+            }
+            let x = qef_vertex(&loop_points, &loop_grads, &cell);
+            cell_vertex[cube_at(q - b.lo) * 4 + l] = vertex(&mut out, lattice.linear(q) * 8 + code, x);
         }
     }
 
@@ -159,7 +198,7 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
                     {
                         continue; // the surface leaves the lattice here
                     }
-                    let case_ids = cells.map(|c| ctx.case_index(c));
+                    let case_ids = cells.map(|c| case_of[cube_at(c - b.lo)] as usize);
                     ring.clear();
                     for i in 0..4 {
                         let (db, dc) = deltas[i];
@@ -167,8 +206,13 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
                         let case = &cases[case_ids[i]];
                         let l = case.edge_loop[e] as usize;
                         debug_assert!(l < 4, "crossing without a loop");
-                        let key = lattice.linear(cells[i]) * 8 + CENTRE_CODES[l];
-                        ring.push(vertex(&mut out, key, DVec3::NAN));
+                        let at = cube_at(cells[i] - b.lo) * 4 + l;
+                        if cell_vertex[at] == u32::MAX {
+                            // Another block's cube: its owner places the vertex.
+                            let key = lattice.linear(cells[i]) * 8 + CENTRE_CODES[l];
+                            cell_vertex[at] = vertex(&mut out, key, DVec3::NAN);
+                        }
+                        ring.push(cell_vertex[at]);
                         let j = (i + 1) % 4;
                         if let Some((key, pos)) =
                             split(&ctx, cases, p, axis, (cells[i], case_ids[i]), (cells[j], case_ids[j]))
