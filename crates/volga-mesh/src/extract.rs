@@ -1,17 +1,23 @@
 //! Iso-surface extraction from any [`Field`]: the one mesher that sculpts, ADFs and scene
 //! outputs share.
 //!
-//! **Algorithm.** Marching tetrahedra on the lattice `region.min + ijk·cell`: each lattice
-//! cube is split into the six Kuhn (Freudenthal) tetrahedra around its main diagonal, the
-//! same split in every cube, so neighbouring cubes agree on their shared faces. A vertex
-//! sits on every lattice edge whose end points lie on different sides of the iso value and
-//! is shared by every triangle that uses that edge. Unlike surface nets or marching cubes
-//! there is no ambiguous configuration: each tetrahedron face carries at most one segment
-//! of the surface, seen identically from its two tetrahedra, so the output for a closed
-//! iso-surface inside `region` is **watertight and manifold by index** (every edge in
-//! exactly two triangles, every vertex's link one disc) whatever the field, including
-//! surfaces that touch themselves. The survey's marching cubes discussion is §4.1; the
-//! tetrahedral split follows Doi & Koide (1991).
+//! **Methods** ([`ExtractMethod`], per call; `docs/EXTRACT.md` has the figures), all on the
+//! lattice `region.min + ijk·cell` and all **closed and manifold by index** wherever the
+//! surface lies inside `region` (every edge in exactly two triangles, once in each
+//! direction; every vertex's link one disc):
+//!
+//! - [`ExtractMethod::Cubes`] (the default): marching cubes whose case table is derived
+//!   from the asymptotic decider on faces (`table.rs`) and whose interiors are decided by
+//!   the trilinear interpolant's cross-sections (`cubes.rs`: tubes where it joins two
+//!   loops), the survey's §3;
+//! - [`ExtractMethod::Dual`]: one vertex per marching-cubes loop at its QEF minimizer, one
+//!   quad per crossing lattice edge (`dual.rs`), which keeps sharp edges and corners;
+//! - [`ExtractMethod::Tetrahedra`]: the six Kuhn (Freudenthal) tetrahedra around each
+//!   cube's main diagonal, the same split in every cube (Doi & Koide 1991): no ambiguous
+//!   configuration at all, about three times the triangles.
+//!
+//! [`Extraction::adaptivity`] then merges vertices within a stated bound ([`simplify`]), and
+//! [`IsoIndex`] keeps a lattice's samples for re-extraction at other iso-values.
 //!
 //! **Sides.** A lattice point is *inside* when `inward·(value − iso) ≥ 0`
 //! ([`FieldKind::inward_sign`](volga_core::FieldKind::inward_sign)): a half-open rule, so a value exactly at `iso` counts as
@@ -28,9 +34,10 @@
 //!
 //! **Speed.** The lattice is cut into blocks of 16³ cubes; a block whose conservative
 //! [`Field::value_range`] lies on one side of `iso` is skipped without sampling (an
-//! octree-backed field answers that per node), the others are sampled and meshed in
-//! parallel, and vertices are merged by lattice edge in block order, so the mesh is
-//! identical for any thread count.
+//! octree-backed field answers that per node), the others are sampled (straight from the
+//! voxels when the lattice is a volume's voxel centres) and meshed in parallel, and
+//! vertices are merged by key (lattice edge, cube loop, face) in block order, so the mesh
+//! is identical for any thread count.
 
 use rustc_hash::FxHashMap as HashMap;
 
@@ -185,7 +192,7 @@ pub struct Extraction {
     /// How the surface is drawn through the cubes.
     pub method: ExtractMethod,
     /// Largest distance (in lattice cells) a simplified vertex may lie from the plane of
-    /// any triangle it replaced; 0 keeps every triangle. See [`simplify`](crate::extract::simplify).
+    /// any triangle it replaced; 0 keeps every triangle. See [`simplify`].
     pub adaptivity: f64,
 }
 

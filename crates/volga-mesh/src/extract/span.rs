@@ -37,8 +37,7 @@ pub struct IsoIndex<'f, F: Field + ?Sized> {
 impl<'f, F: Field + ?Sized> IsoIndex<'f, F> {
     /// Samples every block of `job`'s lattice whose conservative value range
     /// ([`Field::value_range`]) meets `iso_range` (inclusive), keeping its samples: at most
-    /// `max_bytes` of them ([`ExtractError::TooManyTriangles`] is not used here; a larger
-    /// index is refused with [`ExtractError::IndexTooLarge`]). `job.iso` is ignored.
+    /// `max_bytes` of them, or [`ExtractError::IndexTooLarge`]. `job.iso` is ignored.
     pub fn build(field: &'f F, job: &Extraction, iso_range: (f64, f64), max_bytes: u64) -> Result<Self, ExtractError> {
         let (lattice, blocks) = super::checked_lattice(job)?;
         if !(iso_range.0.is_finite() && iso_range.1.is_finite() && iso_range.0 <= iso_range.1) {
