@@ -478,6 +478,17 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         outputs: Vec::new(),
     };
 
+    // The mesh first, in its own stage (so the report lists it and `write` times the
+    // files only).
+    let mesh = match &args.mesh_out {
+        Some(path) => {
+            let surface = stages.run("mesh", || {
+                volume_surface(&volume, &args.mesh_args, job_args.limit(), path)
+            })?;
+            Some((path.as_path(), crate::mesh_out::mesh_bytes(path, &surface)))
+        }
+        None => None,
+    };
     // The model and the report are staged together; the report's `write` stage times
     // the model's staging (the report itself is a few KiB).
     let write_start = std::time::Instant::now();
@@ -495,15 +506,6 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
             ..report.clone()
         };
         serde_json::to_vec_pretty(&r).expect("report serializes")
-    };
-    let mesh = match &args.mesh_out {
-        Some(path) => {
-            let surface = stages.run("mesh", || {
-                volume_surface(&volume, &args.mesh_args, job_args.limit(), path)
-            })?;
-            Some((path.as_path(), crate::mesh_out::mesh_bytes(path, &surface)))
-        }
-        None => None,
     };
     let outputs = stages.run("write", || {
         write_outputs_with(

@@ -74,9 +74,21 @@ fn voxelize_writes_a_mesh_by_each_method() {
         arg(&dir.path().join("band.nrrd")),
         "--mesh",
         arg(&mesh),
+        "--report",
+        arg(&dir.path().join("band.json")),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(std::fs::metadata(&mesh).unwrap().len() > 1000);
+    // The report times the mesh as a stage of its own.
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("band.json")).unwrap()).unwrap();
+    let stages: Vec<&str> = report["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(stages, ["read_mesh", "voxelize", "mesh", "write"]);
 }
 
 #[test]
