@@ -141,29 +141,7 @@ impl<'a> Reference<'a> {
                 samples.push(tri[0] + (tri[1] - tri[0]) * u + (tri[2] - tri[0]) * v);
             }
         }
-        // Sharp edges: pairs of triangles sharing an edge at more than SHARP_DEGREES.
-        let mut edges: std::collections::HashMap<(u32, u32), Vec<usize>> = Default::default();
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                edges.entry((a.min(b), a.max(b))).or_default().push(t);
-            }
-        }
-        let cos = SHARP_DEGREES.to_radians().cos();
-        let mut sharp = Vec::new();
-        let mut keys: Vec<_> = edges.iter().filter(|(_, ts)| ts.len() == 2).collect();
-        keys.sort_by_key(|(k, _)| **k);
-        for (&(a, b), ts) in keys {
-            let n = |t: usize| {
-                let [p, q, r] = mesh.triangle(t);
-                (q - p).cross(r - p).normalize_or_zero()
-            };
-            if n(ts[0]).dot(n(ts[1])) < cos {
-                let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
-                let steps = (pa.distance(pb) / (0.5 * voxel)).ceil().max(1.0) as usize;
-                sharp.extend((0..=steps).map(|i| pa.lerp(pb, i as f64 / steps as f64)));
-            }
-        }
+        let sharp = mesh.sharp_edge_points(SHARP_DEGREES, 0.5 * voxel);
         Reference {
             mesh,
             bvh,

@@ -146,6 +146,36 @@ impl TriMesh {
         }
     }
 
+    /// Points every `spacing` (or closer) along the edges whose two triangles meet at more
+    /// than `min_degrees` (edges by vertex index, in index order; edges in one triangle or in
+    /// more than two are skipped): where a mesher's chamfer is measured.
+    pub fn sharp_edge_points(&self, min_degrees: f64, spacing: f64) -> Vec<DVec3> {
+        let mut edges: Vec<((u32, u32), usize)> = Vec::with_capacity(self.triangles.len() * 3);
+        for (t, tri) in self.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                edges.push(((a.min(b), a.max(b)), t));
+            }
+        }
+        edges.sort_unstable();
+        let normal = |t: usize| {
+            let [p, q, r] = self.triangle(t);
+            (q - p).cross(r - p).normalize_or_zero()
+        };
+        let cos = min_degrees.to_radians().cos();
+        let mut out = Vec::new();
+        for run in edges.chunk_by(|x, y| x.0 == y.0) {
+            if let [(edge, t0), (_, t1)] = run {
+                if normal(*t0).dot(normal(*t1)) < cos {
+                    let (pa, pb) = (self.positions[edge.0 as usize], self.positions[edge.1 as usize]);
+                    let steps = (pa.distance(pb) / spacing).ceil().max(1.0) as usize;
+                    out.extend((0..=steps).map(|i| pa.lerp(pb, i as f64 / steps as f64)));
+                }
+            }
+        }
+        out
+    }
+
     /// Edges used by exactly one triangle (see [`TriMesh::edge_stats`]).
     pub fn boundary_edge_count(&self) -> usize {
         self.edge_stats().boundary_edges
@@ -245,6 +275,20 @@ fn edge_incidences(triangles: &[[u32; 3]], id: impl Fn(u32) -> u32) -> Incidence
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn sharp_edge_points_of_a_box_lie_on_its_twelve_edges() {
+        let b = volga_core::Aabb::new(glam::DVec3::new(-1.0, -0.5, 0.0), glam::DVec3::new(1.0, 0.5, 2.0));
+        let mesh = super::TriMesh::from_aabb(&b);
+        let points = mesh.sharp_edge_points(30.0, 0.1);
+        // 12 edges of lengths 2, 1 and 2 (four each): 20, 10 and 20 steps, +1 end each.
+        assert_eq!(points.len(), 4 * (21 + 11 + 21));
+        for p in &points {
+            let on = (0..3).filter(|&k| p[k] == b.min[k] || p[k] == b.max[k]).count();
+            assert!(on >= 2, "{p} is not on an edge");
+        }
+        assert!(mesh.sharp_edge_points(95.0, 0.1).is_empty());
+    }
+
     use super::*;
 
     fn unit_box() -> TriMesh {

@@ -6,6 +6,8 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 use volga_core::{Aabb, Field, FieldKind};
+mod common;
+use common::check_closed_manifold;
 use volga_mesh::{extract_surface, extract_surface_with, Extraction, Surface, TriMesh, VertexPlacement};
 
 /// An exact signed distance given as a closure (1-Lipschitz, so ranges are centre ± half-diagonal).
@@ -30,52 +32,6 @@ impl<F: Fn(DVec3) -> f64 + Sync> Field for Sdf<F> {
     }
 }
 
-/// Every undirected edge (by vertex index) is used by exactly two triangles, once in
-/// each direction (consistent orientation), and no triangle repeats a vertex.
-fn check_closed_manifold(mesh: &TriMesh) {
-    assert!(!mesh.triangles.is_empty());
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-    for t in &mesh.triangles {
-        assert!(
-            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
-            "triangle {t:?} repeats a vertex"
-        );
-        for k in 0..3 {
-            *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
-        }
-    }
-    for (&(a, b), &n) in &directed {
-        assert_eq!(n, 1, "directed edge {a}->{b} used {n} times");
-        assert_eq!(
-            directed.get(&(b, a)),
-            Some(&1),
-            "edge {a}-{b} is not in exactly two faces"
-        );
-    }
-    // Every vertex is used, and its link is one disc (a single cycle of neighbours).
-    let mut next: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
-    for t in &mesh.triangles {
-        for k in 0..3 {
-            next.entry(t[k]).or_default().push((t[(k + 1) % 3], t[(k + 2) % 3]));
-        }
-    }
-    assert_eq!(next.len(), mesh.positions.len(), "unused vertices");
-    for (v, fan) in &next {
-        let map: HashMap<u32, u32> = fan.iter().copied().collect();
-        let start = fan[0].0;
-        let (mut cur, mut steps) = (start, 0);
-        loop {
-            cur = map[&cur];
-            steps += 1;
-            if cur == start {
-                break;
-            }
-            assert!(steps <= fan.len(), "vertex {v}: link is not a cycle");
-        }
-        assert_eq!(steps, fan.len(), "vertex {v}: link is more than one disc");
-    }
-}
-
 fn euler_characteristic(mesh: &TriMesh) -> i64 {
     let edges = mesh.triangles.len() * 3 / 2;
     mesh.positions.len() as i64 - edges as i64 + mesh.triangles.len() as i64
@@ -93,7 +49,7 @@ fn sphere_vertices_lie_on_the_surface_within_1e_9() {
     let (c, r) = (DVec3::new(0.3, -0.2, 0.1), 5.0);
     let field = ball(c, r);
     let s = extract_surface(&field, Aabb::new(DVec3::splat(-7.0), DVec3::splat(7.0)), 0.37, 0.0).unwrap();
-    check_closed_manifold(&s.mesh);
+    check_closed_manifold(&s.mesh, "");
     assert_eq!(euler_characteristic(&s.mesh), 2);
     for (p, n) in s.mesh.positions.iter().zip(&s.normals) {
         // Stated tolerance: |distance| ≤ 1e-9 (the refinement's value tolerance).
@@ -131,7 +87,7 @@ fn torus_is_closed_manifold_with_genus_one() {
         Aabb::new(DVec3::splat(-6.0), DVec3::splat(6.0)),
     );
     let s = extract_surface(&torus, Aabb::new(DVec3::splat(-6.0), DVec3::splat(6.0)), 0.29, 0.0).unwrap();
-    check_closed_manifold(&s.mesh);
+    check_closed_manifold(&s.mesh, "");
     assert_eq!(euler_characteristic(&s.mesh), 0);
 }
 
@@ -152,7 +108,7 @@ fn two_touching_spheres_stay_manifold_by_index() {
             0.0,
         )
         .unwrap();
-        check_closed_manifold(&s.mesh);
+        check_closed_manifold(&s.mesh, "");
         // Two spheres (the half-open rule puts the touching point inside, so they join
         // through it as one component of genus 0, or stay two): χ is 2 or 4.
         let chi = euler_characteristic(&s.mesh);
@@ -174,7 +130,7 @@ fn far_from_the_origin_and_identical_for_1_and_2_threads() {
     };
     let (one, two) = (run(1), run(2));
     assert_eq!(one, two);
-    check_closed_manifold(&one.mesh);
+    check_closed_manifold(&one.mesh, "");
     for p in &one.mesh.positions {
         assert!(((*p - c).length() - 3.0).abs() < 1e-8);
     }

@@ -222,31 +222,6 @@ fn box_edges(c: DVec3, h: DVec3, cell: f64) -> Vec<DVec3> {
     out
 }
 
-/// Points every quarter cell along the mesh's edges sharper than 30°.
-fn sharp_edges(mesh: &TriMesh, cell: f64) -> Vec<DVec3> {
-    let mut edges: std::collections::BTreeMap<(u32, u32), Vec<usize>> = Default::default();
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            edges.entry((a.min(b), a.max(b))).or_default().push(t);
-        }
-    }
-    let normal = |t: usize| {
-        let [p, q, r] = mesh.triangle(t);
-        (q - p).cross(r - p).normalize_or_zero()
-    };
-    let cos = 30f64.to_radians().cos();
-    let mut out = Vec::new();
-    for ((a, b), ts) in edges {
-        if ts.len() == 2 && normal(ts[0]).dot(normal(ts[1])) < cos {
-            let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
-            let steps = (pa.distance(pb) / (0.25 * cell)).ceil().max(1.0) as usize;
-            out.extend((0..=steps).map(|i| pa.lerp(pb, i as f64 / steps as f64)));
-        }
-    }
-    out
-}
-
 fn run(ctx: &Context) -> KnobResult {
     let n = ctx.size.pick(20.0, 64.0);
     let region = crate::references::scene_box();
@@ -293,7 +268,7 @@ fn run(ctx: &Context) -> KnobResult {
             queries: MeshQueries::new(&mesh),
             bounds: region,
         };
-        let edges = sharp_edges(&mesh, cell);
+        let edges = mesh.sharp_edge_points(30.0, 0.25 * cell);
         out.push(series(
             "fandisk (exact mesh distance)",
             &exact,

@@ -1,0 +1,51 @@
+//! The independent manifold check the extraction tests share: counted from the triangles
+//! alone, never from the extractor's own bookkeeping.
+
+use std::collections::HashMap;
+
+use volga_mesh::TriMesh;
+
+/// Every undirected edge in exactly two triangles, once in each direction; no triangle
+/// repeats a vertex; every vertex used and its link one cycle.
+pub fn check_closed_manifold(mesh: &TriMesh, what: &str) {
+    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in &mesh.triangles {
+        assert!(
+            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
+            "{what}: triangle {t:?} repeats a vertex"
+        );
+        for k in 0..3 {
+            *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
+        }
+    }
+    for (&(a, b), &n) in &directed {
+        assert_eq!(n, 1, "{what}: directed edge {a}->{b} used {n} times");
+        assert_eq!(
+            directed.get(&(b, a)),
+            Some(&1),
+            "{what}: edge {a}-{b} not in exactly two faces"
+        );
+    }
+    let mut next: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            next.entry(t[k]).or_default().push((t[(k + 1) % 3], t[(k + 2) % 3]));
+        }
+    }
+    assert_eq!(next.len(), mesh.positions.len(), "{what}: unused vertices");
+    for (v, fan) in &next {
+        let map: HashMap<u32, u32> = fan.iter().copied().collect();
+        assert_eq!(map.len(), fan.len(), "{what}: vertex {v} fan repeats");
+        let start = fan[0].0;
+        let (mut cur, mut steps) = (start, 0);
+        loop {
+            cur = map[&cur];
+            steps += 1;
+            if cur == start {
+                break;
+            }
+            assert!(steps <= fan.len(), "{what}: vertex {v}: link is not a cycle");
+        }
+        assert_eq!(steps, fan.len(), "{what}: vertex {v}: link is more than one disc");
+    }
+}
