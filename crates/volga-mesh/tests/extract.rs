@@ -5,32 +5,10 @@
 use std::collections::HashMap;
 
 use glam::DVec3;
-use volga_core::{Aabb, Field, FieldKind};
+use volga_core::{Aabb, Field};
 mod common;
-use common::check_closed_manifold;
+use common::{check_closed_manifold, Sdf};
 use volga_mesh::{extract_surface, extract_surface_with, Extraction, Surface, TriMesh, VertexPlacement};
-
-/// An exact signed distance given as a closure (1-Lipschitz, so ranges are centre ± half-diagonal).
-struct Sdf<F>(F, Aabb);
-impl<F: Fn(DVec3) -> f64 + Sync> Field for Sdf<F> {
-    fn kind(&self) -> FieldKind {
-        FieldKind::SignedDistance
-    }
-    fn bounds(&self) -> Aabb {
-        self.1
-    }
-    fn value(&self, p: DVec3) -> f64 {
-        (self.0)(p)
-    }
-    fn gradient_step(&self) -> DVec3 {
-        DVec3::splat(1e-5)
-    }
-    fn value_range(&self, b: &Aabb) -> (f64, f64) {
-        let d = self.value(b.center());
-        let h = b.size().length() * 0.5;
-        (d - h, d + h)
-    }
-}
 
 fn euler_characteristic(mesh: &TriMesh) -> i64 {
     let edges = mesh.triangles.len() * 3 / 2;

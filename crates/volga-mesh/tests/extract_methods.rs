@@ -7,7 +7,7 @@
 use glam::{DVec3, IVec3};
 use volga_core::{Aabb, Field, FieldKind};
 mod common;
-use common::check_closed_manifold;
+use common::{check_closed_manifold, Sdf};
 use volga_mesh::{
     extract_surface_with, point_triangle_distance_squared, ExtractMethod, Extraction, IsoIndex, Surface, TriMesh,
 };
@@ -201,29 +201,17 @@ fn one_cube_topology_matches_the_trilinear_interpolant() {
     );
 }
 
-/// An exact signed distance given as a closure.
-struct Sdf<F>(F, Aabb);
-impl<F: Fn(DVec3) -> f64 + Sync> Field for Sdf<F> {
-    fn kind(&self) -> FieldKind {
-        FieldKind::SignedDistance
-    }
-    fn bounds(&self) -> Aabb {
-        self.1
-    }
-    fn value(&self, p: DVec3) -> f64 {
-        (self.0)(p)
-    }
-    fn gradient_step(&self) -> DVec3 {
-        DVec3::splat(1e-6)
-    }
-    fn value_range(&self, b: &Aabb) -> (f64, f64) {
-        let d = self.value(b.center());
-        let h = b.size().length() * 0.5;
-        (d - h, d + h)
-    }
+/// The exact distance of a box of half-sizes `h` rotated by `rot` about `c`.
+/// The box the sharp-edge tests use: centre, half-sizes and rotation (off every lattice
+/// plane and axis).
+fn rotated_box() -> (DVec3, DVec3, glam::DQuat) {
+    (
+        DVec3::new(0.13, -0.07, 0.21),
+        DVec3::new(2.0, 1.3, 1.7),
+        glam::DQuat::from_euler(glam::EulerRot::XYZ, 0.3, 0.5, 0.2),
+    )
 }
 
-/// The exact distance of a box of half-sizes `h` rotated by `rot` about `c`.
 fn box_sdf(c: DVec3, h: DVec3, rot: glam::DQuat) -> impl Fn(DVec3) -> f64 + Sync {
     move |p: DVec3| {
         let q = (rot.inverse() * (p - c)).abs() - h;
@@ -240,8 +228,7 @@ fn distance_to_mesh(p: DVec3, mesh: &TriMesh) -> f64 {
 
 #[test]
 fn dual_contouring_keeps_a_rotated_box_sharp_and_cubes_chamfer_it() {
-    let (c, h) = (DVec3::new(0.13, -0.07, 0.21), DVec3::new(2.0, 1.3, 1.7));
-    let rot = glam::DQuat::from_euler(glam::EulerRot::XYZ, 0.3, 0.5, 0.2);
+    let (c, h, rot) = rotated_box();
     let f = box_sdf(c, h, rot);
     let field = Sdf(&f, Aabb::new(DVec3::splat(-4.0), DVec3::splat(4.0)));
     let region = Aabb::new(DVec3::splat(-3.6), DVec3::splat(3.6));
@@ -289,8 +276,7 @@ fn dual_contouring_keeps_a_rotated_box_sharp_and_cubes_chamfer_it() {
 
 #[test]
 fn adaptivity_cuts_flat_regions_within_its_bound_and_stays_manifold() {
-    let (c, h) = (DVec3::new(0.13, -0.07, 0.21), DVec3::new(2.0, 1.3, 1.7));
-    let rot = glam::DQuat::from_euler(glam::EulerRot::XYZ, 0.3, 0.5, 0.2);
+    let (c, h, rot) = rotated_box();
     let f = box_sdf(c, h, rot);
     let field = Sdf(&f, Aabb::new(DVec3::splat(-4.0), DVec3::splat(4.0)));
     let region = Aabb::new(DVec3::splat(-3.6), DVec3::splat(3.6));

@@ -25,7 +25,7 @@ use glam::{DVec3, IVec3};
 use volga_core::Field;
 
 use super::table::{self, Case, CENTRE, EDGE_LO, SHARE_FACE};
-use super::{place, BlockMesh, BlockSamples, Extraction, Lattice, PRIVATE};
+use super::{corner, place, BlockMesh, BlockSamples, Extraction, Lattice, PRIVATE};
 
 /// Vertex key codes of a cube's loop centres (`linear(cell)·8 + code`); lattice edges use
 /// `1 << axis`.
@@ -295,10 +295,6 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
     let at = |p: IVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
     let mut out = BlockMesh::default();
     let mut local = vec![u32::MAX; s.len() * 3];
-    let corner = |c: usize| {
-        let k = table::corner_bits(c);
-        IVec3::new(k[0], k[1], k[2])
-    };
     let offsets: [usize; 8] = std::array::from_fn(|c| at(corner(c)));
     let mut ids = [0u32; MIDDLE as usize + 12];
     for z in 0..n.z - 1 {

@@ -1,8 +1,10 @@
-//! The independent manifold check the extraction tests share: counted from the triangles
-//! alone, never from the extractor's own bookkeeping.
+//! What the extraction tests share: the independent manifold check (counted from the
+//! triangles alone, never from the extractor's own bookkeeping) and exact distance fields.
 
 use std::collections::HashMap;
 
+use glam::DVec3;
+use volga_core::{Aabb, Field, FieldKind};
 use volga_mesh::TriMesh;
 
 /// Every undirected edge in exactly two triangles, once in each direction; no triangle
@@ -47,5 +49,29 @@ pub fn check_closed_manifold(mesh: &TriMesh, what: &str) {
             assert!(steps <= fan.len(), "{what}: vertex {v}: link is not a cycle");
         }
         assert_eq!(steps, fan.len(), "{what}: vertex {v}: link is more than one disc");
+    }
+}
+
+/// An exact signed distance given as a closure (1-Lipschitz, so ranges are centre ±
+/// half-diagonal).
+pub struct Sdf<F>(pub F, pub Aabb);
+
+impl<F: Fn(DVec3) -> f64 + Sync> Field for Sdf<F> {
+    fn kind(&self) -> FieldKind {
+        FieldKind::SignedDistance
+    }
+    fn bounds(&self) -> Aabb {
+        self.1
+    }
+    fn value(&self, p: DVec3) -> f64 {
+        (self.0)(p)
+    }
+    fn gradient_step(&self) -> DVec3 {
+        DVec3::splat(1e-6)
+    }
+    fn value_range(&self, b: &Aabb) -> (f64, f64) {
+        let d = self.value(b.center());
+        let h = b.size().length() * 0.5;
+        (d - h, d + h)
     }
 }
