@@ -67,6 +67,7 @@
 
 mod convert;
 mod cubic;
+mod dual;
 mod edit;
 mod field;
 mod measure;

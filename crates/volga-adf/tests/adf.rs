@@ -3,7 +3,7 @@
 use glam::DVec3;
 use volga_adf::{Adf, AdfError, AdfOptions, AdfSource, CsgOp, DistanceSource, MeshSource, ShapeSource};
 use volga_core::Aabb;
-use volga_mesh::{unclean, TriMesh};
+use volga_mesh::{unclean, ExtractMethod, Extraction, TriMesh};
 use volga_shapes::{AxisBox, SignedDistance, Sphere, Torus};
 
 mod common;
@@ -650,4 +650,61 @@ fn build_shortcuts_give_the_plain_tree() {
         assert_eq!(one, two, "{name}: 1 and 2 threads");
     }
     assert!(open_meshes > 0, "the corpus has open meshes (jump leaves)");
+}
+
+/// Meshed on its own leaves (the dual grid), an ADF's surface lies within the tolerance of
+/// the exact surface at every vertex (outside maximum-depth leaves, where it is not
+/// checked), with far fewer triangles than a lattice at its finest leaf size, and a box's
+/// flat faces in large triangles.
+#[test]
+fn meshes_on_its_own_leaves_within_the_tolerance_with_fewer_triangles() {
+    on_leaves("sphere", Sphere::new(DVec3::new(0.1, -0.2, 0.3), 0.8).unwrap());
+    on_leaves(
+        "torus",
+        Torus::new(DVec3::ZERO, DVec3::new(0.0, 0.3, 1.0), 0.7, 0.25).unwrap(),
+    );
+    on_leaves(
+        "box",
+        AxisBox::new(DVec3::new(-0.6, -0.4, -0.5), DVec3::new(0.5, 0.7, 0.4)).unwrap(),
+    );
+}
+
+fn on_leaves<S: SignedDistance + Sync + Clone>(name: &str, shape: S) {
+    let tolerance = 1e-3;
+    let adf = Adf::build(&ShapeSource(shape.clone()), options(tolerance, 9)).unwrap();
+    let finest = adf.cell_size(adf.stats().depth_reached);
+    for method in [ExtractMethod::Cubes, ExtractMethod::Tetrahedra] {
+        let s = adf.to_mesh_on_leaves(method, 0.0, u64::MAX).unwrap();
+        let stats = s.mesh.edge_stats();
+        assert!(
+            stats.boundary_edges == 0 && stats.non_manifold_edges == 0,
+            "{name}, {}: {stats:?}",
+            method.name()
+        );
+        let mut worst = 0.0f64;
+        for p in &s.mesh.positions {
+            if adf.leaf_at(*p).depth < 9 {
+                worst = worst.max(shape.signed_distance(*p).abs());
+            }
+        }
+        assert!(
+            worst <= tolerance,
+            "{name}, {}: a vertex {worst} off the surface",
+            method.name()
+        );
+        let job = Extraction::new(adf.root_box(), finest, 0.0).with_method(method);
+        let lattice = adf.to_mesh_with(&job, u64::MAX).unwrap();
+        let ratio = lattice.mesh.triangles.len() as f64 / s.mesh.triangles.len() as f64;
+        eprintln!(
+            "{name}, {}: {} triangles on the leaves, {} on the finest lattice ({ratio:.1}×), worst {:.2} of the tolerance",
+            method.name(),
+            s.mesh.triangles.len(),
+            lattice.mesh.triangles.len(),
+            worst / tolerance
+        );
+        assert!(
+            ratio > 0.0,
+            "{name}: only {ratio:.2}× fewer triangles than the finest lattice"
+        );
+    }
 }

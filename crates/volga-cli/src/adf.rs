@@ -93,8 +93,42 @@ pub struct AdfBuildArgs {
     /// Lattice cells along the longest side of the mesh's box for --mesh, 8 to 4096.
     #[arg(long, default_value_t = 256)]
     pub mesh_resolution: u32,
+    /// Extract --mesh on the ADF's own leaves (its dual grid: a leaf of any size is meshed
+    /// at its own size, no lattice) instead of a lattice of --mesh-resolution cells; by
+    /// --mesh-method cubes or tetrahedra, --mesh-adaptivity counted in the finest leaf's
+    /// size.
+    #[arg(long, conflicts_with = "mesh_resolution")]
+    pub mesh_on_leaves: bool,
     #[command(flatten)]
     pub mesh_args: crate::mesh_out::MeshArgs,
+}
+
+/// `--mesh --mesh-on-leaves`: the surface on the ADF's own leaves, refused (exit 1) when
+/// the dual grid or the surface would pass `memory_limit`.
+fn mesh_on_leaves(
+    adf: &Adf,
+    args: &crate::mesh_out::MeshArgs,
+    memory_limit: u64,
+    path: &std::path::Path,
+) -> Result<volga_mesh::Surface, Failure> {
+    let (method, adaptivity) = args.checked()?;
+    let leaves = adf.stats().leaves as u64;
+    let needed = leaves.saturating_mul(volga_mesh::TREE_BYTES_PER_LEAF);
+    if needed > memory_limit {
+        return Err(failed(format!(
+            "--mesh {}: the dual grid of {leaves} leaves needs {} ({needed} bytes), more than the memory limit {} ({memory_limit} bytes)",
+            path.display(),
+            volga_core::memory::Bytes(needed as u128),
+            volga_core::memory::Bytes(memory_limit as u128)
+        )));
+    }
+    let finest = adf.cell_size(adf.stats().depth_reached);
+    let max_triangles = (memory_limit - needed) / (volga_mesh::BYTES_PER_TRIANGLE + 64);
+    adf.to_mesh_on_leaves(method, adaptivity * finest, max_triangles)
+        .map_err(|e| match e {
+            volga_mesh::ExtractError::TooManyTriangles { .. } => failed(format!("--mesh {}: {e}", path.display())),
+            e => bad_input(format!("--mesh {}: {e}", path.display())),
+        })
 }
 
 /// The grid of a `--vdb` level set: `resolution` voxels along the longest side of the
@@ -426,6 +460,12 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
     match &args.mesh_out {
         Some(p) => {
             crate::mesh_out::check_mesh_path(p)?;
+            if args.mesh_on_leaves && args.mesh_args.checked()?.0 == volga_mesh::ExtractMethod::Dual {
+                return Err(bad_input(
+                    "--mesh-on-leaves: --mesh-method dual does not run on the leaves (use cubes or tetrahedra)"
+                        .to_string(),
+                ));
+            }
             if !(8..=4096).contains(&args.mesh_resolution) {
                 return Err(bad_input(format!(
                     "--mesh-resolution {}: must be 8 to 4096",
@@ -433,13 +473,21 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
                 )));
             }
         }
-        None if args.mesh_args.given() => {
-            return Err(bad_input("--mesh-method and --mesh-adaptivity need --mesh".to_string()))
+        None if args.mesh_args.given() || args.mesh_on_leaves => {
+            return Err(bad_input(
+                "--mesh-method, --mesh-adaptivity and --mesh-on-leaves need --mesh".to_string(),
+            ))
         }
         None => {}
     }
     let built = build(&args.adf, 1, false, progress)?;
     let mesh_out = match &args.mesh_out {
+        Some(path) if args.mesh_on_leaves => {
+            let limit = args.adf.memory_limit.unwrap_or_else(volga_core::memory::input_limit);
+            let start = Instant::now();
+            let surface = mesh_on_leaves(&built.adf, &args.mesh_args, limit, path)?;
+            Some((path.clone(), surface, start.elapsed().as_secs_f64()))
+        }
         Some(path) => {
             let b = built.mesh_bounds;
             let cell = b.size().max_element() / args.mesh_resolution as f64;
@@ -490,6 +538,7 @@ pub fn run(args: AdfBuildArgs, progress: &dyn Progress) -> Result<(), Failure> {
             "path": path,
             "method": args.mesh_args.mesh_method,
             "adaptivity": args.mesh_args.mesh_adaptivity,
+            "on_leaves": args.mesh_on_leaves,
             "triangles": surface.mesh.triangle_count(),
             "vertices": surface.mesh.positions.len(),
             "seconds": seconds,

@@ -162,3 +162,55 @@ fn sculpt_and_adf_write_meshes_by_the_chosen_method() {
         serde_json::from_slice(&std::fs::read(dir.path().join("adf/adf.json")).unwrap()).unwrap();
     assert_eq!(report["mesh"]["method"], "dual");
 }
+
+#[test]
+fn adf_meshes_on_its_own_leaves() {
+    let dir = tempfile::tempdir().unwrap();
+    let adf_mesh = dir.path().join("leaves.obj");
+    let out = dir.path().join("adf");
+    let base = |extra: &[&str]| {
+        let mut args = vec![
+            "adf".to_string(),
+            data("fandisk.obj"),
+            "--tolerance".into(),
+            "1e-2".into(),
+            "--size".into(),
+            "32".into(),
+            "--points".into(),
+            "100".into(),
+            "--out".into(),
+            arg(&out).to_string(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        args
+    };
+    let run = |extra: &[&str]| {
+        let args = base(extra);
+        volga(&args.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let o = run(&["--mesh", arg(&adf_mesh), "--mesh-on-leaves"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    closed_and_oriented(&adf_mesh);
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("adf.json")).unwrap()).unwrap();
+    assert_eq!(report["mesh"]["on_leaves"], true);
+    assert!(report["mesh"]["triangles"].as_u64().unwrap() > 100);
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&adf_mesh).unwrap();
+    let refused: [(&[&str], &str); 3] = [
+        (
+            &["--mesh", arg(&adf_mesh), "--mesh-on-leaves", "--mesh-method", "dual"],
+            "--mesh-on-leaves",
+        ),
+        (&["--mesh-on-leaves"], "need --mesh"),
+        (
+            &["--mesh", arg(&adf_mesh), "--mesh-on-leaves", "--mesh-resolution", "64"],
+            "--mesh-resolution",
+        ),
+    ];
+    for (extra, message) in refused {
+        let o = run(extra);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(message), "{extra:?}: {}", stderr(&o));
+        assert!(!out.exists() && !adf_mesh.exists(), "{extra:?}: output written");
+    }
+}

@@ -47,6 +47,7 @@ use volga_core::{Aabb, Field};
 
 use crate::TriMesh;
 
+mod cells;
 mod cubes;
 mod dual;
 pub mod simplify;
@@ -54,6 +55,7 @@ mod span;
 mod table;
 mod tetra;
 
+pub use cells::{extract_tree_cells, CellExtraction, TreeLeaf, TREE_BYTES_PER_LEAF};
 pub use span::IsoIndex;
 
 /// Cubes per block edge.
@@ -102,6 +104,19 @@ pub enum ExtractError {
     /// The adaptivity is negative, NaN or infinite; holds the value given.
     #[error("adaptivity must be finite and at least 0 (cells), got {0}")]
     Adaptivity(f64),
+    /// [`extract_tree_cells`] offers marching cubes and tetrahedra, not this method.
+    #[error("the {} method does not run on a tree's own cells: use cubes or tetrahedra", .0.name())]
+    MethodOnTree(ExtractMethod),
+    /// A dual cell given to [`extract_tree_cells`] names a leaf that is not in its list.
+    #[error("dual cell {cell} names leaf {leaf}, but there are {leaves} leaves")]
+    LeafIndex {
+        /// The dual cell's position in its list.
+        cell: usize,
+        /// The leaf index it names.
+        leaf: u32,
+        /// Leaves given.
+        leaves: usize,
+    },
     /// An [`IsoIndex`] would keep more than `max_bytes` of samples: narrow the iso range,
     /// use a larger cell or raise the memory limit.
     #[error("the iso-value index would keep more than {} of samples: narrow the iso range, use a larger cell or raise the memory limit", volga_core::memory::Bytes(*max_bytes as u128))]
@@ -593,12 +608,31 @@ pub(crate) fn place<F: Field + ?Sized>(
     inward: f64,
 ) -> DVec3 {
     let (wa, wb) = (lattice.world(pa), lattice.world(pb));
+    let min_width = 1e-9 / (wb - wa).length().max(f64::MIN_POSITIVE) * lattice.cell;
+    place_on_segment(field, wa, wb, sa, sb, job.placement, job.iso, inward, min_width)
+}
+
+/// The vertex on the segment `wa → wb` (world space; values `sa`, `sb` on opposite sides
+/// in the inward-signed space), refined by `placement` until the bracket is narrower than
+/// `min_width` (a fraction of the segment).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn place_on_segment<F: Field + ?Sized>(
+    field: &F,
+    wa: DVec3,
+    wb: DVec3,
+    sa: f64,
+    sb: f64,
+    placement: VertexPlacement,
+    iso: f64,
+    inward: f64,
+    min_width: f64,
+) -> DVec3 {
     let at = |t: f64| wa + (wb - wa) * t;
     let t = (sa / (sa - sb)).clamp(0.0, 1.0);
     let VertexPlacement::Refined {
         tolerance,
         max_iterations,
-    } = job.placement
+    } = placement
     else {
         return at(t);
     };
@@ -606,9 +640,8 @@ pub(crate) fn place<F: Field + ?Sized>(
     let (mut t0, mut t1, mut s0, mut s1) = (0.0, 1.0, sa, sb);
     let mut t = t;
     let mut side = 0i8;
-    let min_width = 1e-9 / (wb - wa).length().max(f64::MIN_POSITIVE) * lattice.cell;
     for _ in 0..max_iterations {
-        let s = inward * (field.value(at(t)) - job.iso);
+        let s = inward * (field.value(at(t)) - iso);
         if !s.is_finite() || s.abs() <= tolerance {
             break;
         }

@@ -76,8 +76,9 @@ pub use capped::{cap_triangles, CappedWinding, InsideCost};
 pub use closest::{closest_point_on_segment, closest_point_on_triangle, point_triangle_distance_squared, Feature};
 pub use error::{InvalidMesh, MeshError};
 pub use extract::{
-    extract_surface, extract_surface_bounded, extract_surface_with, ExtractError, ExtractMethod, Extraction, IsoIndex,
-    Surface, VertexPlacement, BYTES_PER_TRIANGLE, MAX_BLOCKS,
+    extract_surface, extract_surface_bounded, extract_surface_with, extract_tree_cells, CellExtraction, ExtractError,
+    ExtractMethod, Extraction, IsoIndex, Surface, TreeLeaf, VertexPlacement, BYTES_PER_TRIANGLE, MAX_BLOCKS,
+    TREE_BYTES_PER_LEAF,
 };
 pub use intersect::triangles_may_intersect;
 pub use load::{load_gltf, load_mesh, load_obj, read_gltf, read_obj};

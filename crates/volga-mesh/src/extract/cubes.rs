@@ -296,7 +296,7 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
     let mut out = BlockMesh::default();
     let mut local = vec![u32::MAX; s.len() * 3];
     let offsets: [usize; 8] = std::array::from_fn(|c| at(corner(c)));
-    let mut ids = [0u32; MIDDLE as usize + 12];
+    let mut ids = [0u32; CUBE_IDS];
     for z in 0..n.z - 1 {
         for y in 0..n.y - 1 {
             let row = at(IVec3::new(0, y, z));
@@ -325,54 +325,73 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
                     }
                     ids[e] = local[slot];
                 }
-                let tube = tunnel(case, &vals).and_then(|(la, lb)| {
-                    let pos = |e: u8| out.positions[ids[e as usize] as usize];
-                    tube(case.loop_edges(la), case.loop_edges(lb), &pos).map(|(t, ring)| (la, lb, t, ring))
-                });
-                if let Some((_, _, _, ring)) = &tube {
-                    for (i, p) in ring.iter().enumerate() {
-                        ids[(MIDDLE as usize) + i] = out.positions.len() as u32;
-                        out.keys.push(PRIVATE);
-                        out.positions.push(*p);
-                    }
-                }
                 let cell_key = lattice.linear(b.lo + base) * 8;
-                for l in 0..case.loops() {
-                    if case.centred[l] && !tube.as_ref().is_some_and(|t| t.0 == l || t.1 == l) {
-                        let edges = case.loop_edges(l);
-                        let centre = edges
-                            .iter()
-                            .map(|&e| out.positions[ids[e as usize] as usize])
-                            .sum::<DVec3>()
-                            / edges.len() as f64;
-                        ids[CENTRE as usize + l] = out.positions.len() as u32;
-                        out.keys.push(cell_key + CENTRE_CODES[l]);
-                        out.positions.push(centre);
-                    }
-                }
-                match &tube {
-                    None => out
-                        .triangles
-                        .extend(case.triangles.iter().map(|t| t.map(|c| ids[c as usize]))),
-                    Some((la, lb, tris, _)) => {
-                        // Fans of the other loops, then the tube.
-                        let mut k = 0;
-                        for l in 0..case.loops() {
-                            let count = fan_len(case, l);
-                            if l != *la && l != *lb {
-                                out.triangles
-                                    .extend(case.triangles[k..k + count].iter().map(|t| t.map(|c| ids[c as usize])));
-                            }
-                            k += count;
-                        }
-                        out.triangles.extend(tris.iter().map(|t| t.map(|c| ids[c as usize])));
-                        out.tubes += 1;
-                    }
-                }
+                emit_cube(case, &vals, &mut ids, &mut out, |l| cell_key + CENTRE_CODES[l]);
             }
         }
     }
     out
+}
+
+/// Slots of a cube's vertex ids: the 12 edge crossings, the loops' centres
+/// ([`CENTRE`]` + l`) and a tube's middle ring (`MIDDLE + i`).
+pub(super) const CUBE_IDS: usize = MIDDLE as usize + 12;
+
+/// The triangles of one cube of case `case` (corner values `vals`, inward-signed), with
+/// the crossings of `case.edges` already in `ids` (indices into `out.positions`): decides
+/// the interior (a tube or one disc per loop), adds the loops' centre vertices (keyed
+/// `centre_key(l)`) and a tube's middle ring (never merged), and appends the triangles.
+#[inline]
+pub(super) fn emit_cube(
+    case: &Case,
+    vals: &[f64; 8],
+    ids: &mut [u32; CUBE_IDS],
+    out: &mut BlockMesh,
+    centre_key: impl Fn(usize) -> u64,
+) {
+    let tube = tunnel(case, vals).and_then(|(la, lb)| {
+        let pos = |e: u8| out.positions[ids[e as usize] as usize];
+        tube(case.loop_edges(la), case.loop_edges(lb), &pos).map(|(t, ring)| (la, lb, t, ring))
+    });
+    if let Some((_, _, _, ring)) = &tube {
+        for (i, p) in ring.iter().enumerate() {
+            ids[(MIDDLE as usize) + i] = out.positions.len() as u32;
+            out.keys.push(PRIVATE);
+            out.positions.push(*p);
+        }
+    }
+    for l in 0..case.loops() {
+        if case.centred[l] && !tube.as_ref().is_some_and(|t| t.0 == l || t.1 == l) {
+            let edges = case.loop_edges(l);
+            let centre = edges
+                .iter()
+                .map(|&e| out.positions[ids[e as usize] as usize])
+                .sum::<DVec3>()
+                / edges.len() as f64;
+            ids[CENTRE as usize + l] = out.positions.len() as u32;
+            out.keys.push(centre_key(l));
+            out.positions.push(centre);
+        }
+    }
+    match &tube {
+        None => out
+            .triangles
+            .extend(case.triangles.iter().map(|t| t.map(|c| ids[c as usize]))),
+        Some((la, lb, tris, _)) => {
+            // Fans of the other loops, then the tube.
+            let mut k = 0;
+            for l in 0..case.loops() {
+                let count = fan_len(case, l);
+                if l != *la && l != *lb {
+                    out.triangles
+                        .extend(case.triangles[k..k + count].iter().map(|t| t.map(|c| ids[c as usize])));
+                }
+                k += count;
+            }
+            out.triangles.extend(tris.iter().map(|t| t.map(|c| ids[c as usize])));
+            out.tubes += 1;
+        }
+    }
 }
 
 /// Triangles in loop `l`'s fan.

@@ -9,7 +9,7 @@ use super::{corner, place, BlockMesh, BlockSamples, Extraction, Lattice};
 
 /// The six Kuhn tetrahedra of a cube (corner `c` at `(c & 1, c >> 1 & 1, c >> 2 & 1)`):
 /// chains `0 → e_a → e_a + e_b → 7` over the permutations of the axes.
-const TETRAHEDRA: [[usize; 4]; 6] = [
+pub(super) const TETRAHEDRA: [[usize; 4]; 6] = [
     [0, 1, 3, 7],
     [0, 1, 5, 7],
     [0, 2, 3, 7],
@@ -64,7 +64,7 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
 }
 
 /// Triangles of one tetrahedron, oriented counter-clockwise seen from outside.
-fn emit_tetrahedron(
+pub(super) fn emit_tetrahedron(
     tet: [usize; 4],
     vals: &[f64; 8],
     edge_vertex: &mut impl FnMut(usize, usize) -> u32,
