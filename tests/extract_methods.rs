@@ -80,6 +80,17 @@ fn each_method_on(volume: &SparseVolume, iso: f64, what: &str) {
             } else {
                 check_closed_manifold(&s.mesh, &what);
             }
+            // Normals are the field's gradient, outward and unit, however they were
+            // found (from the block's voxels or by asking the field).
+            let mut g = vec![DVec3::ZERO; s.mesh.positions.len()];
+            field.gradients_at(&s.mesh.positions, &mut g);
+            for (n, g) in s.normals.iter().zip(&g) {
+                let expected = field.kind().outward(*g).normalize_or_zero();
+                assert!(
+                    (*n - expected).length() <= 1e-9,
+                    "{what}: normal {n} against the gradient's {expected}"
+                );
+            }
         }
     }
 }

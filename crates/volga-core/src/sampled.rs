@@ -51,18 +51,7 @@ impl<S: VoxelSource> VoxelBlock for SourceBlock<'_, S> {
         self.0.density_range(index_box)
     }
     fn read_block(&self, index_box: &IndexBox, out: &mut [f32]) {
-        let size = (index_box.max - index_box.min).max(IVec3::ZERO);
-        let (nx, ny) = (size.x as usize, size.y as usize);
-        assert_eq!(
-            out.len() as u64,
-            index_box.volume(),
-            "read_block: `out` must hold the box"
-        );
-        let mut reader = self.0.reader();
-        for (o, d) in out.iter_mut().enumerate() {
-            let local = IVec3::new((o % nx) as i32, ((o / nx) % ny) as i32, (o / (nx * ny)) as i32);
-            *d = reader.density(index_box.min + local);
-        }
+        self.0.read_box(index_box, out);
     }
 }
 
@@ -81,6 +70,23 @@ pub trait VoxelSource: Sync {
     }
     /// `(min, max)` density over the voxels of `index_box`, already clipped to the grid.
     fn density_range(&self, index_box: &IndexBox) -> (f32, f32);
+    /// The densities of every voxel of `index_box` (x fastest; the background outside the
+    /// grid) into `out`, which must hold exactly the box: what [`VoxelSource::density`]
+    /// gives voxel by voxel (the default), bricked sources by whole rows.
+    fn read_box(&self, index_box: &IndexBox, out: &mut [f32]) {
+        let size = (index_box.max - index_box.min).max(IVec3::ZERO);
+        let (nx, ny) = (size.x as usize, size.y as usize);
+        assert_eq!(
+            out.len() as u64,
+            index_box.volume(),
+            "read_box: `out` must hold the box"
+        );
+        let mut reader = self.reader();
+        for (o, d) in out.iter_mut().enumerate() {
+            let local = IVec3::new((o % nx) as i32, ((o / nx) % ny) as i32, (o / (nx * ny)) as i32);
+            *d = reader.density(index_box.min + local);
+        }
+    }
     /// Whether the source carries a colour channel.
     fn has_colour(&self) -> bool;
     /// Linear RGB of voxel `ijk`, each component in \[0, 1\]; black outside the grid and
@@ -322,6 +328,46 @@ impl VoxelSource for SparseVolume {
     }
     fn density_range(&self, index_box: &IndexBox) -> (f32, f32) {
         self.density.range_in(index_box)
+    }
+    /// Brick by brick: each brick's part of the box copied (or filled) row by row.
+    fn read_box(&self, index_box: &IndexBox, out: &mut [f32]) {
+        let size = (index_box.max - index_box.min).max(IVec3::ZERO);
+        assert_eq!(
+            out.len() as u64,
+            index_box.volume(),
+            "read_box: `out` must hold the box"
+        );
+        out.fill(self.density.background());
+        let inner = index_box.intersection(&self.grid.index_box());
+        if inner.is_empty() {
+            return;
+        }
+        let (nx, ny) = (size.x as usize, size.y as usize);
+        let (b_lo, b_hi) = (brick_of(inner.min), brick_of(inner.max - IVec3::ONE));
+        for bz in b_lo.z..=b_hi.z {
+            for by in b_lo.y..=b_hi.y {
+                for bx in b_lo.x..=b_hi.x {
+                    let brick = IVec3::new(bx, by, bz);
+                    let voxels = self.density.brick_voxels(brick);
+                    let lo = inner.min.max(brick * BRICK_DIM);
+                    let hi = inner.max.min((brick + IVec3::ONE) * BRICK_DIM);
+                    let len = (hi.x - lo.x) as usize;
+                    for z in lo.z..hi.z {
+                        for y in lo.y..hi.y {
+                            let rel = IVec3::new(lo.x, y, z) - index_box.min;
+                            let dst = rel.x as usize + nx * (rel.y as usize + ny * rel.z as usize);
+                            let row = &mut out[dst..dst + len];
+                            if voxels.len() == 1 {
+                                row.fill(voxels[0]);
+                            } else {
+                                let src = Brick::<f32>::local_offset(IVec3::new(lo.x, y, z));
+                                row.copy_from_slice(&voxels[src..src + len]);
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
     fn has_colour(&self) -> bool {
         self.colour.is_some()
@@ -660,6 +706,9 @@ impl<S: VoxelSource + ?Sized> VoxelSource for &S {
     }
     fn density_range(&self, index_box: &IndexBox) -> (f32, f32) {
         (**self).density_range(index_box)
+    }
+    fn read_box(&self, index_box: &IndexBox, out: &mut [f32]) {
+        (**self).read_box(index_box, out)
     }
     fn has_colour(&self) -> bool {
         (**self).has_colour()

@@ -118,3 +118,41 @@ fn sparse_reader_reads_what_the_volume_holds() {
         }
     }
 }
+
+proptest! {
+    /// `read_box` (whole rows per brick for a sparse volume) equals `density` voxel by
+    /// voxel, for boxes inside, across and beyond the grid's end.
+    #[test]
+    fn read_box_equals_density_voxel_by_voxel(
+        seed in any::<u64>(),
+        min in (-10i32..20, -10i32..18, -10i32..12),
+        size in (0i32..14, 0i32..14, 0i32..14),
+    ) {
+        let (dense, sparse) = volumes(seed);
+        let index_box = volga_core::IndexBox::new(
+            IVec3::new(min.0, min.1, min.2),
+            IVec3::new(min.0 + size.0, min.1 + size.1, min.2 + size.2),
+        );
+        for source in [&dense as &dyn ReadBoth, &sparse] {
+            let mut out = vec![f32::NAN; index_box.volume() as usize];
+            source.read(&index_box, &mut out);
+            for (k, ijk) in index_box.iter().enumerate() {
+                prop_assert_eq!(out[k].to_bits(), source.one(ijk).to_bits(), "{:?}", ijk);
+            }
+        }
+    }
+}
+
+/// `read_box` and `density` of either volume, object safe.
+trait ReadBoth {
+    fn read(&self, index_box: &volga_core::IndexBox, out: &mut [f32]);
+    fn one(&self, ijk: IVec3) -> f32;
+}
+impl<S: VoxelSource> ReadBoth for S {
+    fn read(&self, index_box: &volga_core::IndexBox, out: &mut [f32]) {
+        self.read_box(index_box, out)
+    }
+    fn one(&self, ijk: IVec3) -> f32 {
+        self.density(ijk)
+    }
+}

@@ -401,6 +401,23 @@ fn finish<F: Field + ?Sized>(field: &F, job: &Extraction, outs: Vec<BlockMesh>, 
     };
     let mut index: HashMap<u64, u32> = HashMap::default();
     let mut remap = Vec::new();
+    // Gradients known from the blocks' voxels (NaN: ask the field), unless the
+    // simplification moves the vertices.
+    let keep_known = job.adaptivity == 0.0;
+    let mut known: Vec<DVec3> = Vec::new();
+    index.reserve(
+        outs.iter()
+            .map(|o| o.keys.iter().filter(|&&k| k != PRIVATE).count())
+            .sum(),
+    );
+    surface
+        .mesh
+        .positions
+        .reserve(outs.iter().map(|o| o.positions.len()).sum());
+    surface
+        .mesh
+        .triangles
+        .reserve(outs.iter().map(|o| o.triangles.len()).sum());
     for out in outs {
         remap.clear();
         surface.tubes += out.tubes;
@@ -426,19 +443,51 @@ fn finish<F: Field + ?Sized>(field: &F, job: &Extraction, outs: Vec<BlockMesh>, 
             .mesh
             .triangles
             .extend(out.triangles.iter().map(|t| t.map(|v| remap[v as usize])));
+        if keep_known && !out.gradients.is_empty() {
+            known.resize(surface.mesh.positions.len(), DVec3::NAN);
+            for (v, g) in &out.gradients {
+                // A shared vertex keeps its first block's position, and gradient.
+                let slot = &mut known[remap[*v as usize] as usize];
+                if slot.is_nan() {
+                    *slot = *g;
+                }
+            }
+        }
     }
+    known.resize(surface.mesh.positions.len(), DVec3::NAN);
     debug_assert!(surface.mesh.positions.iter().all(|p| p.is_finite()));
     if job.adaptivity > 0.0 {
         let stats = simplify::simplify(&mut surface.mesh, job.adaptivity * job.cell);
         surface.collapses = stats.collapses;
     }
+    if !keep_known {
+        known = vec![DVec3::NAN; surface.mesh.positions.len()];
+    }
     let positions = &surface.mesh.positions;
     surface.normals = positions
         .par_chunks(1024)
-        .flat_map_iter(|chunk| {
-            let mut grads = vec![DVec3::ZERO; chunk.len()];
-            field.gradients_at(chunk, &mut grads);
-            grads.into_iter().map(|g| field.kind().outward(g).normalize_or_zero())
+        .zip(known.par_chunks(1024))
+        .flat_map_iter(|(chunk, known)| {
+            let ask: Vec<DVec3> = chunk
+                .iter()
+                .zip(known)
+                .filter(|(_, g)| g.is_nan())
+                .map(|(p, _)| *p)
+                .collect();
+            let mut asked = vec![DVec3::ZERO; ask.len()];
+            field.gradients_at(&ask, &mut asked);
+            let mut asked = asked.into_iter();
+            known
+                .iter()
+                .map(|g| {
+                    let g = if g.is_nan() {
+                        asked.next().unwrap_or(DVec3::ZERO)
+                    } else {
+                        *g
+                    };
+                    field.kind().outward(g).normalize_or_zero()
+                })
+                .collect::<Vec<_>>()
         })
         .collect();
     surface
@@ -453,6 +502,8 @@ struct BlockMesh {
     triangles: Vec<[u32; 3]>,
     /// Cubes whose two loops were joined into a tube.
     tubes: u64,
+    /// Field gradients already known from the block's voxels: (vertex, gradient).
+    gradients: Vec<(u32, DVec3)>,
 }
 
 /// The key of a vertex that belongs to one cube alone (never merged).
@@ -463,6 +514,18 @@ struct BlockSamples {
     lo: IVec3,
     n: IVec3,
     values: Vec<f64>,
+    /// When the lattice points are the voxel centres of a trilinear field whose gradient is
+    /// central differences: the voxels of points `lo − 1 ..= lo + n` (one more on every
+    /// side, x fastest), which give that gradient at any point of the block's cubes.
+    shell: Option<VoxelShell>,
+}
+
+/// The voxels around a block, for its gradients (see [`BlockSamples::shell`]).
+#[derive(Clone)]
+struct VoxelShell {
+    voxels: std::sync::Arc<[f32]>,
+    /// The voxel spacing (world units per index step).
+    spacing: DVec3,
 }
 
 impl BlockSamples {
@@ -470,8 +533,8 @@ impl BlockSamples {
     /// (`values_along`: a sampled field reads its bricks once per row).
     fn sample<F: Field + ?Sized>(field: &F, lattice: &Lattice, lo: IVec3, hi: IVec3) -> BlockSamples {
         let n = hi - lo + 1;
-        if let Some(values) = voxel_centre_values(field, lattice, lo, n) {
-            return BlockSamples { lo, n, values };
+        if let Some((values, shell)) = voxel_centre_values(field, lattice, lo, n) {
+            return BlockSamples { lo, n, values, shell };
         }
         let mut values = vec![0.0f64; (n.x * n.y * n.z) as usize];
         let step = DVec3::new(lattice.cell, 0.0, 0.0);
@@ -483,7 +546,44 @@ impl BlockSamples {
             };
             field.values_along(&line, lo.x as u64, row);
         }
-        BlockSamples { lo, n, values }
+        BlockSamples {
+            lo,
+            n,
+            values,
+            shell: None,
+        }
+    }
+
+    /// The field's gradient (central differences of the trilinear reconstruction, as
+    /// `Sampled` computes it) at `local + f` (the block's lattice coordinates, `f` in
+    /// `[0, 1]³`), from the shell; `None` without one.
+    fn gradient(&self, local: IVec3, f: DVec3) -> Option<DVec3> {
+        let shell = self.shell.as_ref()?;
+        let m = self.n + 2;
+        let at = |p: IVec3| shell.voxels[((p.x + 1) + m.x * ((p.y + 1) + m.y * (p.z + 1))) as usize] as f64;
+        let mut g = DVec3::ZERO;
+        for c in 0..8 {
+            let k = corner(c);
+            let w = (if k.x == 1 { f.x } else { 1.0 - f.x })
+                * (if k.y == 1 { f.y } else { 1.0 - f.y })
+                * (if k.z == 1 { f.z } else { 1.0 - f.z });
+            if w == 0.0 {
+                continue;
+            }
+            let p = local + k;
+            let d = DVec3::new(
+                at(p + IVec3::X) - at(p - IVec3::X),
+                at(p + IVec3::Y) - at(p - IVec3::Y),
+                at(p + IVec3::Z) - at(p - IVec3::Z),
+            );
+            g += w * d;
+        }
+        Some(g / (2.0 * shell.spacing))
+    }
+
+    /// Bytes held (values, shell and bookkeeping).
+    fn bytes(&self) -> u64 {
+        self.values.len() as u64 * 8 + self.shell.as_ref().map_or(0, |s| s.voxels.len() as u64 * 4) + 64
     }
 
     /// The values turned to the inward-signed space of `iso` (inside `≥ 0`).
@@ -500,7 +600,12 @@ impl BlockSamples {
 /// trilinear, which equal the voxel's value at its centre) and the lattice points are its
 /// voxel centres (same spacing, origin on a centre): what a volume's own extraction lattice
 /// is. `None` otherwise (the points are then sampled through the field).
-fn voxel_centre_values<F: Field + ?Sized>(field: &F, lattice: &Lattice, lo: IVec3, n: IVec3) -> Option<Vec<f64>> {
+fn voxel_centre_values<F: Field + ?Sized>(
+    field: &F,
+    lattice: &Lattice,
+    lo: IVec3,
+    n: IVec3,
+) -> Option<(Vec<f64>, Option<VoxelShell>)> {
     let voxels = field.voxels()?;
     if !matches!(
         voxels.filter,
@@ -519,10 +624,50 @@ fn voxel_centre_values<F: Field + ?Sized>(field: &F, lattice: &Lattice, lo: IVec
         return None;
     }
     let first = rounded.as_ivec3() + lo;
-    let index_box = volga_core::IndexBox::new(first, first + n);
-    let mut f32s = vec![0.0f32; (n.x * n.y * n.z) as usize];
+    // Gradients from the voxels too when they are central differences of the trilinear
+    // reconstruction: one more voxel on every side.
+    let with_shell = voxels.filter == volga_core::Filter::Trilinear
+        && voxels.gradient == volga_core::GradientMethod::CentralDifference;
+    if !with_shell {
+        let index_box = volga_core::IndexBox::new(first, first + n);
+        let mut f32s = vec![0.0f32; (n.x * n.y * n.z) as usize];
+        voxels.source.read_block(&index_box, &mut f32s);
+        return Some((f32s.into_iter().map(f64::from).collect(), None));
+    }
+    let m = n + 2;
+    let index_box = volga_core::IndexBox::new(first - 1, first + n + 1);
+    let mut f32s = vec![0.0f32; (m.x * m.y * m.z) as usize];
     voxels.source.read_block(&index_box, &mut f32s);
-    Some(f32s.into_iter().map(f64::from).collect())
+    let mut values = Vec::with_capacity((n.x * n.y * n.z) as usize);
+    for z in 1..=n.z {
+        for y in 1..=n.y {
+            let row = (m.x * (y + m.y * z)) as usize;
+            values.extend(f32s[row + 1..row + 1 + n.x as usize].iter().map(|&v| f64::from(v)));
+        }
+    }
+    let shell = VoxelShell {
+        voxels: f32s.into(),
+        spacing: transform.spacing(),
+    };
+    Some((values, Some(shell)))
+}
+
+/// Where world point `p` lies on the lattice edge `pa → pb` (`pb − pa` in `{0, 1}³`): the
+/// fractions along each axis from `pa`, for [`BlockSamples::gradient`].
+#[inline]
+fn edge_fraction(lattice: &Lattice, pa: IVec3, pb: IVec3, p: DVec3) -> DVec3 {
+    let (wa, wb) = (lattice.world(pa), lattice.world(pb));
+    let d = wb - wa;
+    let t = ((p - wa).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+    (pb - pa).as_dvec3() * t
+}
+
+/// Whether the lattice edge between a block's points `la` and `lb` (block coordinates, the
+/// block spanning `0 ..= n − 1`) lies in one of the block's faces: only such an edge's
+/// vertex can be met by a neighbouring block, so only it is keyed for merging.
+#[inline]
+fn on_block_face(n: IVec3, la: IVec3, lb: IVec3) -> bool {
+    (0..3).any(|k| la[k] == lb[k] && (la[k] == 0 || la[k] == n[k] - 1))
 }
 
 /// Corner `c` of a cube as an offset: `(c & 1, c >> 1 & 1, c >> 2 & 1)`.

@@ -25,7 +25,7 @@ use glam::{DVec3, IVec3};
 use volga_core::Field;
 
 use super::table::{self, Case, CENTRE, EDGE_LO, SHARE_FACE};
-use super::{corner, place, BlockMesh, BlockSamples, Extraction, Lattice, PRIVATE};
+use super::{corner, edge_fraction, on_block_face, place, BlockMesh, BlockSamples, Extraction, Lattice, PRIVATE};
 
 /// Vertex key codes of a cube's loop centres (`linear(cell)·8 + code`); lattice edges use
 /// `1 << axis`.
@@ -317,11 +317,19 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
                     if local[slot] == u32::MAX {
                         local[slot] = out.positions.len() as u32;
                         let pa = b.lo + base + corner(lo_c);
-                        out.keys.push(lattice.linear(pa) * 8 + (1u64 << axis));
                         let hi_c = table::edge_hi(e);
                         let pb = b.lo + base + corner(hi_c);
-                        out.positions
-                            .push(place(field, lattice, pa, pb, vals[lo_c], vals[hi_c], job, inward));
+                        // Only an edge on the block's faces can be another block's too.
+                        out.keys.push(if on_block_face(n, pa - b.lo, pb - b.lo) {
+                            lattice.linear(pa) * 8 + (1u64 << axis)
+                        } else {
+                            PRIVATE
+                        });
+                        let p = place(field, lattice, pa, pb, vals[lo_c], vals[hi_c], job, inward);
+                        out.positions.push(p);
+                        if let Some(g) = b.gradient(pa - b.lo, edge_fraction(lattice, pa, pb, p)) {
+                            out.gradients.push((local[slot], g));
+                        }
                     }
                     ids[e] = local[slot];
                 }

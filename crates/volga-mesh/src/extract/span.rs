@@ -73,7 +73,7 @@ impl<'f, F: Field + ?Sized> IsoIndex<'f, F> {
                 if max < iso_range.0 || min > iso_range.1 {
                     return None;
                 }
-                let size = samples.values.len() as u64 * 8 + 64;
+                let size = samples.bytes();
                 if bytes.fetch_add(size, std::sync::atomic::Ordering::Relaxed) + size > max_bytes {
                     over.store(true, std::sync::atomic::Ordering::Relaxed);
                     return None;
@@ -108,7 +108,7 @@ impl<'f, F: Field + ?Sized> IsoIndex<'f, F> {
 
     /// Bytes of samples kept.
     pub fn bytes(&self) -> u64 {
-        self.kept.iter().map(|k| k.samples.values.len() as u64 * 8 + 64).sum()
+        self.kept.iter().map(|k| k.samples.bytes()).sum()
     }
 
     /// Blocks whose samples span `iso` (the candidates an extraction at `iso` meshes).
@@ -139,6 +139,7 @@ impl<'f, F: Field + ?Sized> IsoIndex<'f, F> {
                     lo: k.samples.lo,
                     n: k.samples.n,
                     values: k.samples.values.iter().map(|v| self.inward * (v - iso)).collect(),
+                    shell: k.samples.shell.clone(),
                 };
                 // Blocks with no sign change mesh to nothing; keep them out of the count.
                 let (s_min, s_max) = signed

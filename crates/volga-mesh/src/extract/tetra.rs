@@ -5,7 +5,7 @@
 use glam::{DVec3, IVec3};
 use volga_core::Field;
 
-use super::{corner, place, BlockMesh, BlockSamples, Extraction, Lattice};
+use super::{corner, edge_fraction, on_block_face, place, BlockMesh, BlockSamples, Extraction, Lattice, PRIVATE};
 
 /// The six Kuhn tetrahedra of a cube (corner `c` at `(c & 1, c >> 1 & 1, c >> 2 & 1)`):
 /// chains `0 → e_a → e_a + e_b → 7` over the permutations of the axes.
@@ -22,11 +22,11 @@ pub(super) const TETRAHEDRA: [[usize; 4]; 6] = [
 pub(super) fn mesh_block<F: Field + ?Sized>(
     field: &F,
     lattice: &Lattice,
-    b: &BlockSamples,
+    b_samples: &BlockSamples,
     job: &Extraction,
     inward: f64,
 ) -> BlockMesh {
-    let (lo, n, s) = (b.lo, b.n, &b.values);
+    let (lo, n, s) = (b_samples.lo, b_samples.n, &b_samples.values);
     let at = |p: IVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
     let mut out = BlockMesh::default();
     // Local vertex of (lattice point, direction bits 1..7), u32::MAX if none yet.
@@ -48,10 +48,18 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
                         let slot = at(pa) * 8 + (a ^ b);
                         if local[slot] == u32::MAX {
                             local[slot] = out.positions.len() as u32;
-                            out.keys.push(lattice.linear(lo + pa) * 8 + (a ^ b) as u64);
                             let pb = base + corner(b);
-                            out.positions
-                                .push(place(field, lattice, lo + pa, lo + pb, vals[a], vals[b], job, inward));
+                            // Only an edge on the block's faces can be another block's too.
+                            out.keys.push(if on_block_face(n, pa, pb) {
+                                lattice.linear(lo + pa) * 8 + (a ^ b) as u64
+                            } else {
+                                PRIVATE
+                            });
+                            let p = place(field, lattice, lo + pa, lo + pb, vals[a], vals[b], job, inward);
+                            out.positions.push(p);
+                            if let Some(g) = b_samples.gradient(pa, edge_fraction(lattice, lo + pa, lo + pb, p)) {
+                                out.gradients.push((local[slot], g));
+                            }
                         }
                         local[slot]
                     };
