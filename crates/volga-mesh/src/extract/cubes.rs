@@ -297,8 +297,20 @@ pub(super) fn mesh_block<F: Field + ?Sized>(
     let mut local = vec![u32::MAX; s.len() * 3];
     let offsets: [usize; 8] = std::array::from_fn(|c| at(corner(c)));
     let mut ids = [0u32; CUBE_IDS];
+    // Per row of points along x: 1 all outside, 2 all inside, 3 both; a row of cubes
+    // between four rows all outside or all inside is skipped whole.
+    let sides: Vec<u8> = s
+        .chunks_exact(n.x as usize)
+        .map(|r| r.iter().fold(0u8, |m, &v| m | if v >= 0.0 { 2 } else { 1 }))
+        .collect();
     for z in 0..n.z - 1 {
         for y in 0..n.y - 1 {
+            let r = (y + n.y * z) as usize;
+            let (r_y, r_z) = (r + 1, r + n.y as usize);
+            let rows = sides[r] | sides[r_y] | sides[r_z] | sides[r_z + 1];
+            if rows != 3 {
+                continue;
+            }
             let row = at(IVec3::new(0, y, z));
             for x in 0..n.x - 1 {
                 let i0 = row + x as usize;
