@@ -5,7 +5,7 @@ for block in re.split(r'^## ', txt, flags=re.M)[1:]:
     peers_line=[l for l in block.split('\n') if l.startswith('peers:')][0]
     peers=[json.loads(x) for x in re.findall(r'\{[^{}]*\}', peers_line)]
     j=block[block.index('\n{')+1:]
-    try: d=json.loads(j)
+    try: d=json.JSONDecoder().raw_decode(j)[0]  # stderr lines may follow the object
     except Exception as e: print(head,'incomplete',e); continue
     print('##',head, 'dims',d['dims'], 'load', d['loadavg'])
     for m in d['methods']:

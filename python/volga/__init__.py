@@ -307,8 +307,9 @@ def extract_mesh(
     adaptivity: float = 0.0,
 ) -> Tuple[np.ndarray, np.ndarray]:
     """The iso-surface of a grid's trilinear field as ``(vertices (N, 3) float64,
-    faces (M, 3) int64)``: closed and manifold wherever the surface lies inside the grid,
-    oriented outward, vertices refined onto the surface. ``iso`` defaults to 0.5 for
+    faces (M, 3) int64)`` on the lattice of voxel centres grown by one voxel (where the
+    grid reads its background): closed and manifold even where the surface touches the
+    grid's last voxels, oriented outward, vertices refined onto the surface. ``iso`` defaults to 0.5 for
     binary and density grids and 0 for distances. ``method``: ``"cubes"`` (marching cubes
     with the asymptotic decider), ``"dual"`` (dual contouring: sharp edges kept) or
     ``"tetrahedra"``; ``adaptivity`` (voxels, 0 to 10) merges vertices while each stays

@@ -611,8 +611,10 @@ pub fn voxelize(
     Ok(VoxelGrid::new(volume, job.mode_name(), stats))
 }
 
-/// The iso-surface of a grid as `(vertices (N, 3) float64, faces (M, 3) int64)`: closed and
-/// manifold wherever the surface lies inside the grid, vertices refined onto the surface.
+/// The iso-surface of a grid as `(vertices (N, 3) float64, faces (M, 3) int64)`, on the
+/// lattice of voxel centres grown by one voxel (where the grid reads its background), so
+/// closed and manifold even where the surface touches the grid's last voxels; vertices
+/// refined onto the surface.
 #[pyfunction]
 #[pyo3(signature = (grid, iso=None, threads=None, method="cubes", adaptivity=0.0))]
 pub fn extract_mesh<'py>(
@@ -638,7 +640,13 @@ pub fn extract_mesh<'py>(
     let volume = grid.volume.clone();
     let surface = threads::run(py, threads, move || {
         let field = Sampled::new(&*volume, Filter::Trilinear);
-        let job = volga_mesh::Extraction::new(volume.grid.world_bounds(), volume.grid.transform.min_spacing(), iso)
+        // The voxel-centre lattice grown by one voxel, where the grid reads its
+        // background: a surface touching the grid's last voxels still closes, and the
+        // samples are the voxels themselves (what `volga voxelize --mesh` extracts on).
+        let h = volume.grid.transform.min_spacing();
+        let centres = volume.grid.center_bounds();
+        let region = volga_core::Aabb::new(centres.min - h, centres.max + h);
+        let job = volga_mesh::Extraction::new(region, h, iso)
             .with_method(method)
             .with_adaptivity(adaptivity);
         volga_mesh::extract_surface_with(&field, &job)
