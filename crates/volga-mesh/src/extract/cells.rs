@@ -161,7 +161,8 @@ pub fn extract_tree_cells<F: Field + ?Sized>(
     Ok(surface)
 }
 
-/// Marching tetrahedra over one chunk of dual cells; also the number the surface crosses.
+/// Marching cubes or tetrahedra over one chunk of dual cells; also the number the surface
+/// crosses.
 fn mesh_chunk<F: Field + ?Sized>(
     field: &F,
     leaves: &[TreeLeaf],
@@ -261,4 +262,102 @@ fn onto_surface<F: Field + ?Sized>(field: &F, mut p: DVec3, iso: f64) -> DVec3 {
         (p, v) = (q, w);
     }
     p
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use volga_core::FieldKind;
+
+    /// `|p| − 1`.
+    struct Ball;
+    impl Field for Ball {
+        fn kind(&self) -> FieldKind {
+            FieldKind::SignedDistance
+        }
+        fn bounds(&self) -> Aabb {
+            Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0))
+        }
+        fn value(&self, p: DVec3) -> f64 {
+            p.length() - 1.0
+        }
+        fn gradient_step(&self) -> DVec3 {
+            DVec3::splat(1e-6)
+        }
+        fn value_range(&self, _: &Aabb) -> (f64, f64) {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        }
+    }
+
+    /// A uniform tree: leaves of size 0.25 over [−1.5, 1.5]³, dual cells its lattice cubes.
+    fn uniform() -> (Vec<TreeLeaf>, Vec<[u32; 8]>) {
+        let n = 12;
+        let at = |x: i32, y: i32, z: i32| (x + n * (y + n * z)) as u32;
+        let mut leaves = Vec::new();
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let c = DVec3::new(x as f64, y as f64, z as f64) * 0.25 - 1.375;
+                    leaves.push(TreeLeaf {
+                        world_centre: c,
+                        value: Ball.value(c),
+                    });
+                }
+            }
+        }
+        let mut cells = Vec::new();
+        for z in 0..n - 1 {
+            for y in 0..n - 1 {
+                for x in 0..n - 1 {
+                    cells.push(std::array::from_fn(|b| {
+                        at(x + (b & 1) as i32, y + (b >> 1 & 1) as i32, z + (b >> 2 & 1) as i32)
+                    }));
+                }
+            }
+        }
+        (leaves, cells)
+    }
+
+    #[test]
+    fn a_uniform_tree_meshes_like_its_lattice_and_bad_input_is_refused() {
+        let (leaves, cells) = uniform();
+        for method in [ExtractMethod::Cubes, ExtractMethod::Tetrahedra] {
+            let job = CellExtraction {
+                method,
+                ..CellExtraction::new(0.0)
+            };
+            let s = extract_tree_cells(&Ball, &leaves, &cells, &job, u64::MAX).unwrap();
+            let stats = s.mesh.edge_stats();
+            assert_eq!((stats.boundary_edges, stats.non_manifold_edges), (0, 0), "{method:?}");
+            assert!(s.mesh.positions.iter().all(|p| (p.length() - 1.0).abs() < 1e-6));
+            let lattice =
+                Extraction::new(Aabb::new(DVec3::splat(-1.375), DVec3::splat(1.375)), 0.25, 0.0).with_method(method);
+            let l = super::super::extract_surface_with(&Ball, &lattice).unwrap();
+            assert_eq!(s.mesh.triangles.len(), l.mesh.triangles.len(), "{method:?}");
+        }
+        let job = CellExtraction::new(0.0);
+        let mut bad = cells.clone();
+        bad[5][3] = leaves.len() as u32;
+        assert!(matches!(
+            extract_tree_cells(&Ball, &leaves, &bad, &job, u64::MAX),
+            Err(ExtractError::LeafIndex { cell: 5, .. })
+        ));
+        let dual = CellExtraction {
+            method: ExtractMethod::Dual,
+            ..job
+        };
+        assert!(matches!(
+            extract_tree_cells(&Ball, &leaves, &cells, &dual, u64::MAX),
+            Err(ExtractError::MethodOnTree(ExtractMethod::Dual))
+        ));
+        let nan = CellExtraction { iso: f64::NAN, ..job };
+        assert!(matches!(
+            extract_tree_cells(&Ball, &leaves, &cells, &nan, u64::MAX),
+            Err(ExtractError::Iso(_))
+        ));
+        assert!(matches!(
+            extract_tree_cells(&Ball, &leaves, &cells, &job, 10),
+            Err(ExtractError::TooManyTriangles { max: 10 })
+        ));
+    }
 }
