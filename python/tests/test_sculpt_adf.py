@@ -168,6 +168,15 @@ def test_adf_of_a_sphere_is_within_tolerance():
     assert np.abs(np.linalg.norm(c - (0.1, 0, 0), axis=1) - 1.0).max() < 1e-2
     V, F = a.to_mesh()
     assert edge_face_check(F) == (True, True)
+    # On its own leaves: closed, every vertex within the tolerance of the sphere.
+    for method in ("cubes", "tetrahedra"):
+        V, F = a.to_mesh(on_leaves=True, method=method)
+        assert edge_face_check(F) == (True, True)
+        assert np.abs(np.linalg.norm(V - (0.1, 0, 0), axis=1) - 1.0).max() <= tol
+    with pytest.raises(ValueError, match="dual"):
+        a.to_mesh(on_leaves=True, method="dual")
+    with pytest.raises(ValueError, match="cell"):
+        a.to_mesh(cell=0.1, on_leaves=True)
 
 
 def test_adf_of_an_open_mesh_signs_match_the_mesh_and_pickles():

@@ -545,10 +545,22 @@ class Adf:
         """This ADF minus ``other``."""
         return Adf(self._inner.combine(other._inner, "difference", threads))
 
-    def to_mesh(self, cell: Optional[float] = None, threads: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
-        """The zero iso-surface as ``(vertices, faces)`` on a lattice of ``cell`` world
-        units (default: 1/256 of the source's longest side)."""
-        return self._inner.to_mesh(cell, threads)
+    def to_mesh(
+        self,
+        cell: Optional[float] = None,
+        threads: Optional[int] = None,
+        on_leaves: bool = False,
+        method: str = "cubes",
+        adaptivity: float = 0.0,
+    ) -> Tuple[np.ndarray, np.ndarray]:
+        """The zero iso-surface as ``(vertices, faces)``, closed and manifold: on a lattice
+        of ``cell`` world units (default: 1/256 of the source's longest side), or with
+        ``on_leaves=True`` on the ADF's own leaves (its dual grid: large triangles where the
+        leaves are large; ``cell`` must then be left out). ``method``: ``"cubes"``,
+        ``"dual"`` (lattice only) or ``"tetrahedra"``; ``adaptivity`` (0 to 10, in cells,
+        or in the finest leaf's size on the leaves) merges vertices within that distance
+        of the planes of the triangles they replace (docs/EXTRACT.md)."""
+        return self._inner.to_mesh(cell, threads, on_leaves, method, adaptivity)
 
     @property
     def stats(self) -> Dict[str, Any]:

@@ -267,14 +267,46 @@ impl Adf {
     }
 
     /// The zero iso-surface as `(vertices, faces)` on a lattice of `cell` world units
-    /// (default: 1/256 of the source's longest side).
-    #[pyo3(signature = (cell=None, threads=None))]
+    /// (default: 1/256 of the source's longest side), or with `on_leaves` on the ADF's own
+    /// leaves (its dual grid, no lattice; `cell` must then be left out). `method`: cubes,
+    /// dual (lattice only) or tetrahedra; `adaptivity` (0 to 10, in cells, or in the finest
+    /// leaf's size on the leaves) merges vertices within that distance of the planes of
+    /// the triangles they replace.
+    #[pyo3(signature = (cell=None, threads=None, on_leaves=false, method="cubes", adaptivity=0.0))]
+    #[allow(clippy::too_many_arguments)]
     fn to_mesh<'py>(
         &self,
         py: Python<'py>,
         cell: Option<f64>,
         threads: Option<usize>,
+        on_leaves: bool,
+        method: &str,
+        adaptivity: f64,
     ) -> PyResult<arrays::MeshArrays<'py>> {
+        let method = volga_mesh::ExtractMethod::from_name(method)
+            .ok_or_else(|| value_error(format!("method `{method}`: expected cubes, dual or tetrahedra")))?;
+        if !(adaptivity.is_finite() && (0.0..=10.0).contains(&adaptivity)) {
+            return Err(value_error(format!("adaptivity {adaptivity}: must be 0 to 10")));
+        }
+        let adf = self.inner.clone();
+        if on_leaves {
+            if cell.is_some() {
+                return Err(value_error(
+                    "cell: not used with on_leaves=True (the leaves are the cells)".to_string(),
+                ));
+            }
+            if method == volga_mesh::ExtractMethod::Dual {
+                return Err(value_error(
+                    "method `dual` does not run on the leaves: use cubes or tetrahedra".to_string(),
+                ));
+            }
+            let finest = adf.cell_size(adf.stats().depth_reached);
+            let surface = threads::run(py, threads, move || {
+                adf.to_mesh_on_leaves(method, adaptivity * finest, u64::MAX)
+            })?
+            .map_err(|e| value_error(e.to_string()))?;
+            return arrays::mesh_arrays(py, surface.mesh);
+        }
         let cell = cell.unwrap_or(self.bounds.size().max_element() / 256.0);
         if !(cell.is_finite() && cell > 0.0) {
             return Err(value_error(format!("cell must be finite and > 0, got {cell}")));
@@ -285,8 +317,11 @@ impl Adf {
                 "cell {cell}: more than 4096 cells along the root cube's side {side}"
             )));
         }
-        let adf = self.inner.clone();
-        let surface = threads::run(py, threads, move || adf.to_mesh(cell))?.map_err(|e| value_error(e.to_string()))?;
+        let job = volga_mesh::Extraction::new(adf.root_box(), cell, 0.0)
+            .with_method(method)
+            .with_adaptivity(adaptivity);
+        let surface = threads::run(py, threads, move || adf.to_mesh_with(&job, u64::MAX))?
+            .map_err(|e| value_error(e.to_string()))?;
         arrays::mesh_arrays(py, surface.mesh)
     }
 
