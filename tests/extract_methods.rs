@@ -5,54 +5,20 @@
 //! and manifold from its triangles alone (edge–face incidence, one direction per side, every
 //! vertex's link one cycle).
 
-use std::collections::HashMap;
-
 use glam::{DVec3, IVec3, UVec3};
 use volga::core::{Aabb, Field, Filter, Grid, Sampled, SparseVolume, Transform};
 use volga::mesh::{unclean, ExtractMethod, Extraction, TriMesh};
 use volga::voxelize::{MeshJob, MeshJobMode};
 
+/// volga-mesh's independent manifold check (`crates/volga-mesh/tests/common`), shared.
+#[path = "../crates/volga-mesh/tests/common/mod.rs"]
+#[allow(dead_code)]
+mod mesh_common;
+
+/// Not empty, and closed and manifold by [`mesh_common::check_closed_manifold`].
 fn check_closed_manifold(mesh: &TriMesh, what: &str) {
     assert!(!mesh.triangles.is_empty(), "{what}: no triangles");
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-    for t in &mesh.triangles {
-        assert!(
-            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
-            "{what}: triangle {t:?} repeats a vertex"
-        );
-        for k in 0..3 {
-            *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
-        }
-    }
-    for (&(a, b), &n) in &directed {
-        assert_eq!(n, 1, "{what}: directed edge {a}->{b} used {n} times");
-        assert_eq!(
-            directed.get(&(b, a)),
-            Some(&1),
-            "{what}: edge {a}-{b} not in exactly two faces"
-        );
-    }
-    let mut next: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
-    for t in &mesh.triangles {
-        for k in 0..3 {
-            next.entry(t[k]).or_default().push((t[(k + 1) % 3], t[(k + 2) % 3]));
-        }
-    }
-    assert_eq!(next.len(), mesh.positions.len(), "{what}: unused vertices");
-    for (v, fan) in &next {
-        let map: HashMap<u32, u32> = fan.iter().copied().collect();
-        let start = fan[0].0;
-        let (mut cur, mut steps) = (start, 0);
-        loop {
-            cur = map[&cur];
-            steps += 1;
-            if cur == start {
-                break;
-            }
-            assert!(steps <= fan.len(), "{what}: vertex {v}: link is not a cycle");
-        }
-        assert_eq!(steps, fan.len(), "{what}: vertex {v}: link is more than one disc");
-    }
+    mesh_common::check_closed_manifold(mesh, what);
 }
 
 /// Every method on a voxel volume: iso ½ of a density (0 of a distance) on the voxel-centre
