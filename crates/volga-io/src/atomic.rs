@@ -15,6 +15,9 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 /// can delete them ([`remove_temp_files`]).
 static LIVE_TEMPS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
 
+/// Set by [`remove_temp_files`]: no temp file may be created after it ran.
+static TEMPS_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 fn live_temps() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     LIVE_TEMPS.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
@@ -22,9 +25,15 @@ fn live_temps() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
 /// Deletes every temp file this process's staged and atomic writes hold now, and
 /// returns how many. For a program's SIGINT/SIGTERM handler (the `volga` CLI installs
 /// one) before it exits: an interrupted run then leaves no `.{name}.tmp-*` behind, and
-/// its outputs as they were.
+/// its outputs as they were. After it, no staged or atomic write of this process creates a
+/// temp file any more: a thread that tries waits for the process to end, so it can
+/// neither leave a temp file behind nor report an error before the handler exits. Call it
+/// only from a handler that ends the process right after.
 pub fn remove_temp_files() -> usize {
     let mut live = live_temps();
+    // From now on no temp file is created: a thread still writing cannot leave one
+    // behind after this cleanup (creation and this flag are both under the lock).
+    TEMPS_CLOSED.store(true, Ordering::SeqCst);
     let n = live.len();
     for temp in live.drain(..) {
         let _ = fs::remove_file(temp);
@@ -63,20 +72,26 @@ impl TempOutput {
             temp_name.push(name);
             temp_name.push(format!(".tmp-{}-{n}", std::process::id()));
             let temp = dir.join(temp_name);
-            // Registered before it exists, so a handler that runs between the two
-            // deletes it too.
-            live_temps().push(temp.clone());
+            // Created and registered under the lock [`remove_temp_files`] takes, so a
+            // signal handler's cleanup either sees this file or runs before it exists
+            // and stops it from being created.
+            let mut live = live_temps();
+            if TEMPS_CLOSED.load(Ordering::SeqCst) {
+                // The process is ending (the handler exits right after its cleanup): wait
+                // for it rather than report an error that could race the handler's exit.
+                drop(live);
+                loop {
+                    std::thread::park();
+                }
+            }
             match OpenOptions::new().write(true).create_new(true).open(&temp) {
-                Ok(file) => break (file, temp),
+                Ok(file) => {
+                    live.push(temp.clone());
+                    break (file, temp);
+                }
                 // A stale temp of an earlier process with the same pid: pick another.
-                Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempts < 64 => {
-                    forget_temp(&temp);
-                    attempts += 1
-                }
-                Err(e) => {
-                    forget_temp(&temp);
-                    return Err(IoError::io(target, e));
-                }
+                Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempts < 64 => attempts += 1,
+                Err(e) => return Err(IoError::io(target, e)),
             }
         };
         // Declared before the writer so that on an early return the writer (and its
