@@ -457,15 +457,13 @@ fn finish<F: Field + ?Sized>(field: &F, job: &Extraction, outs: Vec<BlockMesh>, 
             }
         }
     }
-    known.resize(surface.mesh.positions.len(), DVec3::NAN);
     debug_assert!(surface.mesh.positions.iter().all(|p| p.is_finite()));
     if job.adaptivity > 0.0 {
         let stats = simplify::simplify(&mut surface.mesh, job.adaptivity * job.cell);
         surface.collapses = stats.collapses;
     }
-    if !keep_known {
-        known = vec![DVec3::NAN; surface.mesh.positions.len()];
-    }
+    // (Empty when the simplification ran: every vertex then asks the field.)
+    known.resize(surface.mesh.positions.len(), DVec3::NAN);
     let positions = &surface.mesh.positions;
     surface.normals = positions
         .par_chunks(1024)

@@ -49,9 +49,10 @@ pub struct TreeLeaf {
     pub value: f64,
 }
 
-/// Working bytes of [`extract_tree_cells`] per leaf of the tree, before the surface itself
-/// (the callers' vertex list and dual cells: at most 8 dual cells of 32 bytes and a
-/// 32-byte [`TreeLeaf`]), for callers with a memory limit.
+/// A bound on the working bytes per leaf of a tree's dual grid and its extraction, before
+/// the surface itself (a 32-byte [`TreeLeaf`], at most 8 dual cells of 32 bytes, and the
+/// caller's per-leaf bookkeeping while it builds them, up to 128 bytes), for callers with
+/// a memory limit.
 pub const TREE_BYTES_PER_LEAF: u64 = 8 * 32 + 32 + 8 * 16;
 
 /// The level and the vertex placement of an [`extract_tree_cells`] call.
