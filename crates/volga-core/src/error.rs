@@ -29,4 +29,15 @@ pub enum CoreError {
         /// The voxel count `dims.x · dims.y · dims.z`.
         voxels: u128,
     },
+    /// A region (a half-open box of voxel indices) that is empty or not inside the grid;
+    /// the message names both.
+    #[error("region {min:?}..{max:?} is empty or not inside the grid of {dims:?} voxels (need 0 ≤ min < max ≤ dims)")]
+    BadRegion {
+        /// The region's first voxel.
+        min: [i32; 3],
+        /// One past the region's last voxel.
+        max: [i32; 3],
+        /// The grid's dims.
+        dims: [u32; 3],
+    },
 }

@@ -155,6 +155,21 @@ impl Grid {
         IndexBox::new(IVec3::ZERO, self.dims.as_ivec3())
     }
 
+    /// The sub-grid of the voxels in `region` (index space): the same spacing, voxel
+    /// (0, 0, 0) at this grid's voxel `region.min`. Errors with
+    /// [`CoreError::BadRegion`] unless `0 ≤ min < max ≤ dims` on every axis.
+    pub fn window(&self, region: &IndexBox) -> Result<Grid, CoreError> {
+        if region.is_empty() || region.min.cmplt(IVec3::ZERO).any() || region.max.cmpgt(self.dims.as_ivec3()).any() {
+            return Err(CoreError::BadRegion {
+                min: region.min.to_array(),
+                max: region.max.to_array(),
+                dims: self.dims.to_array(),
+            });
+        }
+        let transform = Transform::new(self.transform.voxel_center(region.min), self.transform.spacing())?;
+        Grid::new(transform, (region.max - region.min).as_uvec3())
+    }
+
     /// Whether voxel `ijk` is inside the grid (`0 ≤ ijk < dims`).
     pub fn contains(&self, ijk: IVec3) -> bool {
         self.index_box().contains(ijk)

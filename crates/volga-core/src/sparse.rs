@@ -417,6 +417,22 @@ impl SparseVolume {
         out
     }
 
+    /// The voxels of `region` (index space) as a volume of their own, on
+    /// [`Grid::window`]: voxel `ijk` of the result is voxel `region.min + ijk` of this
+    /// one, bit for bit, in both channels. Bricks are shared (copy-on-write) when
+    /// `region.min` is a multiple of the brick size, except those cut by `region.max`;
+    /// otherwise copied voxel by voxel. Errors like [`Grid::window`].
+    pub fn window(&self, region: &IndexBox) -> Result<SparseVolume, CoreError> {
+        let grid = self.grid.window(region)?;
+        let mut out = SparseVolume::new(grid, self.density.background(), self.colour.is_some())
+            .with_density_kind(self.density_kind);
+        out.density = window_channel(&self.density, region);
+        if let (Some(dst), Some(src)) = (out.colour.as_mut(), self.colour.as_ref()) {
+            *dst = window_channel(src, region);
+        }
+        Ok(out)
+    }
+
     /// Densifies the volume; fails if the grid is too large to address.
     pub fn to_dense(&self) -> Result<DenseVolume, CoreError> {
         let mut out = DenseVolume::new(self.grid, self.density.background(), self.colour.is_some())?;
@@ -468,6 +484,52 @@ impl SparseVolume {
         }
         out
     }
+}
+
+/// The bricks of `src` over `region`, moved to start at voxel 0; voxels beyond
+/// `region.max` are the background.
+fn window_channel<T: Copy + PartialEq + Send + Sync>(src: &SparseGrid<T>, region: &IndexBox) -> SparseGrid<T> {
+    let background = src.background();
+    let size = region.max - region.min;
+    let out_box = IndexBox::new(IVec3::ZERO, size);
+    let aligned = region.min % BRICK_DIM == IVec3::ZERO;
+    let shift = region.min.div_euclid(IVec3::splat(BRICK_DIM));
+    let coords: Vec<IVec3> = IndexBox::new(IVec3::ZERO, brick_extent(size.as_uvec3()))
+        .iter()
+        .collect();
+    let bricks: Vec<(IVec3, Brick<T>)> = coords
+        .par_iter()
+        .filter_map(|&b| {
+            let own = brick_index_box(b);
+            let whole = own.intersection(&out_box) == own;
+            if aligned {
+                let source = src.brick(b + shift)?;
+                if whole {
+                    return Some((b, source.clone()));
+                }
+            } else {
+                // No source brick under this one: all background.
+                let lo = (own.min + region.min).div_euclid(IVec3::splat(BRICK_DIM));
+                let hi = (own.max - 1 + region.min).div_euclid(IVec3::splat(BRICK_DIM));
+                if IndexBox::new(lo, hi + 1).iter().all(|s| src.brick(s).is_none()) {
+                    return None;
+                }
+            }
+            let brick = gather_brick(b, |ijk| {
+                if out_box.contains(ijk) {
+                    src.get(ijk + region.min)
+                } else {
+                    background
+                }
+            });
+            (brick != Brick::Uniform(background)).then_some((b, brick))
+        })
+        .collect();
+    let mut out = SparseGrid::new(background);
+    for (b, brick) in bricks {
+        out.insert_brick(b, brick);
+    }
+    out
 }
 
 /// Number of bricks along each axis needed to cover `dims` voxels.

@@ -18,7 +18,7 @@
 use std::fmt;
 
 use glam::{DVec3, IVec3, UVec3};
-use volga_core::{Aabb, Grid, Progress, SparseVolume, Transform, BRICK_DIM};
+use volga_core::{Aabb, Grid, IndexBox, Progress, SparseVolume, Transform, BRICK_DIM};
 use volga_mesh::TriMesh;
 
 use crate::{merge_max, voxelize_mesh_surface, MeshVoxelizer, Separability, SignStats, SurfaceMode};
@@ -227,10 +227,31 @@ impl MeshJob {
     /// more than a few bricks, only the bricks within the band of its plane), so bricks
     /// shared by neighbouring triangles count once.
     pub fn estimate(&self, mesh: &TriMesh, grid: &Grid) -> JobEstimate {
+        self.estimate_in(mesh, grid, None)
+    }
+
+    /// An upper bound on the peak resident memory of [`MeshJob::run_region`] for
+    /// `region` (index space): the estimate's bricks counted only where they meet the
+    /// region, plus the region's copy on its own grid (no write stage: `write_bytes` is
+    /// the voxelization's result held once more).
+    pub fn estimate_region(&self, mesh: &TriMesh, grid: &Grid, region: &IndexBox) -> JobEstimate {
+        self.estimate_in(mesh, grid, Some(region))
+    }
+
+    fn estimate_in(&self, mesh: &TriMesh, grid: &Grid, region: Option<&IndexBox>) -> JobEstimate {
         let band = self.band_voxels();
-        let grid_bricks = volga_core::brick_extent(grid.dims()).as_u64vec3().element_product();
+        let extent = volga_core::brick_extent(grid.dims());
+        let grid_bricks = extent.as_u64vec3().element_product();
         let fills_inside = self.needs_inside() && !matches!(self.mode, MeshJobMode::Distance { signed: false, .. });
-        let (band_bricks, inside_bricks) = count_bricks(mesh, grid, band, fills_inside);
+        let region_bricks = match region {
+            None => IndexBox::new(IVec3::ZERO, extent),
+            Some(r) => IndexBox::new(
+                r.min.div_euclid(IVec3::splat(BRICK_DIM)),
+                (r.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM)),
+            )
+            .intersection(&IndexBox::new(IVec3::ZERO, extent)),
+        };
+        let (band_bricks, inside_bricks) = count_bricks(mesh, grid, band, fills_inside, &region_bricks);
         let t = mesh.triangles.len() as u64;
         let v = mesh.positions.len() as u64;
         // Vectors grown by doubling hold up to twice their length.
@@ -260,8 +281,11 @@ impl MeshJob {
             ),
         };
         let voxelize_bytes = BASE_BYTES + mesh_bytes + marks + result + working;
-        let write_bytes =
-            BASE_BYTES + mesh_bytes + result + band_bricks.max(inside_bricks) * 16 + write_slab_bytes(grid);
+        let write_bytes = match region {
+            None => BASE_BYTES + mesh_bytes + result + band_bricks.max(inside_bricks) * 16 + write_slab_bytes(grid),
+            // The region moved onto its own grid: a second copy of the result at most.
+            Some(_) => voxelize_bytes + result,
+        };
         JobEstimate {
             band_bricks,
             inside_bricks,
@@ -301,20 +325,79 @@ impl MeshJob {
     /// were proven when the job used them.
     pub fn run(&self, mesh: &TriMesh, grid: &Grid, progress: &dyn Progress) -> MeshRun {
         let voxelizer = self.uses_voxelizer().then(|| MeshVoxelizer::new(mesh));
+        self.run_with(mesh, voxelizer.as_ref(), grid, None, progress)
+    }
+
+    /// The voxels of `region` (index space, `0 ≤ min < max ≤ dims`) of [`MeshJob::run`]
+    /// on `grid`, bit for bit, as a volume on [`Grid::window`]`(region)`, without
+    /// voxelizing the rest of the grid (see [`MeshVoxelizer::voxelize_region`]). With
+    /// `voxelizer`, the mesh's prepared voxelizer is reused (build it once with
+    /// [`MeshJob::voxelizer`] to compute many regions of one mesh); without, one is built
+    /// when the mode needs it.
+    ///
+    /// Errors with [`volga_core::CoreError::BadRegion`] for a region that is empty or
+    /// not inside the grid.
+    pub fn run_region(
+        &self,
+        mesh: &TriMesh,
+        voxelizer: Option<&MeshVoxelizer>,
+        grid: &Grid,
+        region: &IndexBox,
+        progress: &dyn Progress,
+    ) -> Result<MeshRun, volga_core::CoreError> {
+        grid.window(region)?;
+        let built = match (voxelizer, self.uses_voxelizer()) {
+            (None, true) => Some(MeshVoxelizer::new(mesh)),
+            _ => None,
+        };
+        let voxelizer = voxelizer.filter(|_| self.uses_voxelizer()).or(built.as_ref());
+        let bricks = IndexBox::new(
+            region.min.div_euclid(IVec3::splat(BRICK_DIM)),
+            (region.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM)),
+        );
+        let clip = IndexBox::new(bricks.min * BRICK_DIM, bricks.max * BRICK_DIM).intersection(&grid.index_box());
+        let mut run = self.run_with(mesh, voxelizer, grid, Some(&clip), progress);
+        run.volume = run.volume.window(region)?;
+        Ok(run)
+    }
+
+    /// The mesh prepared for this job's mode, when the mode uses it (every mode but the
+    /// binary surface): to share between [`MeshJob::run_region`] calls.
+    pub fn voxelizer(&self, mesh: &TriMesh) -> Option<MeshVoxelizer> {
+        self.uses_voxelizer().then(|| MeshVoxelizer::new(mesh))
+    }
+
+    /// [`MeshJob::run`] with the voxelizer given, on the bricks of `clip` (whole bricks
+    /// clipped to the grid) or the whole grid.
+    fn run_with(
+        &self,
+        mesh: &TriMesh,
+        voxelizer: Option<&MeshVoxelizer>,
+        grid: &Grid,
+        clip: Option<&IndexBox>,
+        progress: &dyn Progress,
+    ) -> MeshRun {
+        let whole = grid.index_box();
+        let clip = clip.unwrap_or(&whole);
+        let surface = |separability| {
+            if *clip == whole {
+                voxelize_mesh_surface(grid, mesh, separability, progress)
+            } else {
+                crate::binary::voxelize_mesh_surface_in(grid, mesh, separability, clip, progress)
+            }
+        };
         let boundary_edges = voxelizer.as_ref().map(|v| v.boundary_edge_count());
         let mut sign = None;
         let mut signed = |voxelizer: &MeshVoxelizer, mode: SurfaceMode| {
-            let (volume, stats) = voxelizer.voxelize_with_stats(grid, mode, progress);
+            let (volume, stats) = voxelizer.voxelize_clipped(grid, mode, clip, progress);
             sign = Some(stats);
             volume
         };
         let volume = match (self.mode, voxelizer) {
-            (MeshJobMode::Binary { separability, .. }, None) => {
-                voxelize_mesh_surface(grid, mesh, separability, progress)
-            }
+            (MeshJobMode::Binary { separability, .. }, None) => surface(separability),
             (MeshJobMode::Binary { separability, .. }, Some(voxelizer)) => {
-                let mut surface = voxelize_mesh_surface(grid, mesh, separability, progress);
-                let inside = signed(&voxelizer, SurfaceMode::Inside);
+                let mut surface = surface(separability);
+                let inside = signed(voxelizer, SurfaceMode::Inside);
                 merge_max(&mut surface, &inside, [1.0; 3]);
                 surface
             }
@@ -330,9 +413,9 @@ impl MeshJob {
                     signed: is_signed,
                 };
                 if is_signed {
-                    signed(&voxelizer, mode)
+                    signed(voxelizer, mode)
                 } else {
-                    voxelizer.voxelize(grid, mode, progress)
+                    voxelizer.voxelize_clipped(grid, mode, clip, progress).0
                 }
             }
             (
@@ -343,14 +426,20 @@ impl MeshJob {
                 Some(voxelizer),
             ) => {
                 if solid {
-                    signed(&voxelizer, SurfaceMode::Solid)
+                    signed(voxelizer, SurfaceMode::Solid)
                 } else {
                     let thickness = thickness_voxels * grid.transform.spacing().x;
-                    voxelizer.voxelize(grid, SurfaceMode::Shell { thickness }, progress)
+                    voxelizer
+                        .voxelize_clipped(grid, SurfaceMode::Shell { thickness }, clip, progress)
+                        .0
                 }
             }
             // `uses_voxelizer` holds for every non-binary mode.
-            (_, None) => MeshVoxelizer::new(mesh).voxelize(grid, SurfaceMode::Solid, progress),
+            (_, None) => {
+                MeshVoxelizer::new(mesh)
+                    .voxelize_clipped(grid, SurfaceMode::Solid, clip, progress)
+                    .0
+            }
         };
         MeshRun {
             volume,
@@ -421,14 +510,17 @@ fn mark_bytes(e: glam::U64Vec3, inside: bool) -> u64 {
 /// number ≥ ½, and where a ray leaves through a hole the other axes still meet the
 /// surface on both sides unless the hole is as large as the body (then use a closed
 /// mesh). Beyond [`MAX_MARKED_BRICKS`] the inside is bounded by the grid.
-fn count_bricks(mesh: &TriMesh, grid: &Grid, band: f64, inside: bool) -> (u64, u64) {
+///
+/// Only bricks inside `within` (brick coordinates) are counted.
+fn count_bricks(mesh: &TriMesh, grid: &Grid, band: f64, inside: bool, within: &IndexBox) -> (u64, u64) {
     let e = volga_core::brick_extent(grid.dims()).as_i64vec3();
-    let total = (e.x * e.y * e.z) as u64;
+    let total = within.volume();
     let t = &grid.transform;
     let brick = BRICK_DIM as f64;
     // Half the diagonal of a brick, in voxels.
     let brick_radius = 0.5 * brick * 3f64.sqrt();
-    let mut marks = (total <= MAX_MARKED_BRICKS).then(|| vec![0u64; total.div_ceil(64) as usize]);
+    let all = (e.x * e.y * e.z) as u64;
+    let mut marks = (all <= MAX_MARKED_BRICKS).then(|| vec![0u64; all.div_ceil(64) as usize]);
     let mut sum = 0u64;
     for tri in &mesh.triangles {
         let p = tri.map(|v| t.world_to_index(mesh.positions[v as usize]));
@@ -441,7 +533,7 @@ fn count_bricks(mesh: &TriMesh, grid: &Grid, band: f64, inside: bool) -> (u64, u
         let (b0, b1) = (to_brick(lo), to_brick(hi));
         let span = (b1 - b0 + IVec3::ONE).as_i64vec3();
         let Some(marks) = marks.as_mut() else {
-            sum = sum.saturating_add((span.x * span.y * span.z) as u64);
+            sum = sum.saturating_add(IndexBox::new(b0, b1 + IVec3::ONE).intersection(within).volume());
             continue;
         };
         let normal = (p[1] - p[0]).cross(p[2] - p[0]);
@@ -466,18 +558,26 @@ fn count_bricks(mesh: &TriMesh, grid: &Grid, band: f64, inside: bool) -> (u64, u
     let Some(marks) = marks else {
         return (sum.min(total), if inside { total } else { 0 });
     };
-    let band_bricks = marks.iter().map(|w| w.count_ones() as u64).sum();
+    let (nx, ny, nz) = (e.x as usize, e.y as usize, e.z as usize);
+    let marked = |x: usize, y: usize, z: usize| {
+        let i = x + nx * (y + ny * z);
+        marks[i / 64] >> (i % 64) & 1 == 1
+    };
+    let band_bricks = if within.volume() == all {
+        marks.iter().map(|w| w.count_ones() as u64).sum()
+    } else {
+        within
+            .iter()
+            .filter(|b| marked(b.x as usize, b.y as usize, b.z as usize))
+            .count() as u64
+    };
     if !inside {
         return (band_bricks, 0);
     }
     if columns(e.as_u64vec3()) > MAX_SPAN_COLUMNS {
         return (band_bricks, total);
     }
-    let (nx, ny, nz) = (e.x as usize, e.y as usize, e.z as usize);
-    let marked = |x: usize, y: usize, z: usize| {
-        let i = x + nx * (y + ny * z);
-        marks[i / 64] >> (i % 64) & 1 == 1
-    };
+    let within_box = *within;
     // Span (first, last marked) of every column along each axis; empty = (MAX, 0).
     let empty = (u32::MAX, 0u32);
     let mut span_x = vec![empty; ny * nz];
@@ -500,13 +600,10 @@ fn count_bricks(mesh: &TriMesh, grid: &Grid, band: f64, inside: bool) -> (u64, u
     }
     let within = |s: (u32, u32), k: usize| s.0 <= k as u32 && k as u32 <= s.1;
     let mut inside_bricks = 0u64;
-    for z in 0..nz {
-        for y in 0..ny {
-            for x in 0..nx {
-                if within(span_x[y + ny * z], x) || within(span_y[x + nx * z], y) || within(span_z[x + nx * y], z) {
-                    inside_bricks += 1;
-                }
-            }
+    for b in within_box.iter() {
+        let (x, y, z) = (b.x as usize, b.y as usize, b.z as usize);
+        if within(span_x[y + ny * z], x) || within(span_y[x + nx * z], y) || within(span_z[x + nx * y], z) {
+            inside_bricks += 1;
         }
     }
     (band_bricks, inside_bricks)

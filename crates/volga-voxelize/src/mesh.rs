@@ -288,6 +288,42 @@ impl MeshVoxelizer {
         mode: SurfaceMode,
         progress: &dyn Progress,
     ) -> (SparseVolume, SignStats) {
+        self.voxelize_clipped(grid, mode, &grid.index_box(), progress)
+    }
+
+    /// The voxels of `region` (index space, `0 ≤ min < max ≤ dims`) of
+    /// [`MeshVoxelizer::voxelize_with_stats`] on `grid`, **bit for bit**, as a volume on
+    /// [`Grid::window`]`(region)`, computed without the rest of the grid: only the bricks
+    /// of `grid` that meet `region` are voxelized, each exactly as in the whole run (the
+    /// same triangles in the same order, the same band, the same sign proofs; a sign is a
+    /// proven fact about the winding number, so the bricks far from the surface get the
+    /// same signs whichever queries prove them). The [`SignStats`] count this region's
+    /// work only. This is what chunked and out-of-core grids are built from.
+    ///
+    /// Errors with [`volga_core::CoreError::BadRegion`] for a region that is empty or
+    /// not inside the grid.
+    pub fn voxelize_region(
+        &self,
+        grid: &Grid,
+        mode: SurfaceMode,
+        region: &IndexBox,
+        progress: &dyn Progress,
+    ) -> Result<(SparseVolume, SignStats), volga_core::CoreError> {
+        grid.window(region)?;
+        let clip = brick_cover(region).intersection(&grid.index_box());
+        let (volume, stats) = self.voxelize_clipped(grid, mode, &clip, progress);
+        Ok((volume.window(region)?, stats))
+    }
+
+    /// [`MeshVoxelizer::voxelize_with_stats`] on the bricks of `grid` inside `clip` (a
+    /// union of whole bricks clipped to the grid); no brick outside it is stored.
+    pub(crate) fn voxelize_clipped(
+        &self,
+        grid: &Grid,
+        mode: SurfaceMode,
+        clip: &IndexBox,
+        progress: &dyn Progress,
+    ) -> (SparseVolume, SignStats) {
         let spacing = grid.transform.spacing();
         let filter = OrientedBoxFilter::for_spacing(spacing);
         let (band, signed) = match mode {
@@ -302,10 +338,12 @@ impl MeshVoxelizer {
             // A union of per-triangle voxel sets: the triangles' (Morton) order does not
             // change it.
             SurfaceMode::Binary(separability) => {
-                return (
-                    crate::voxelize_triangles(grid, &self.triangles, separability, progress),
-                    SignStats::default(),
-                );
+                let surface = if *clip == grid.index_box() {
+                    crate::voxelize_triangles(grid, &self.triangles, separability, progress)
+                } else {
+                    crate::binary::voxelize_triangles_in(grid, &self.triangles, separability, clip, progress)
+                };
+                return (surface, SignStats::default());
             }
         };
         // Signs flow from the band to the voxels beyond it by 6-steps, which must be
@@ -340,8 +378,8 @@ impl MeshVoxelizer {
             .map(|tri| {
                 let lo = t.world_to_index(tri[0].min(tri[1]).min(tri[2]) - band).ceil();
                 let hi = t.world_to_index(tri[0].max(tri[1]).max(tri[2]) + band).floor() + 1.0;
-                let clip = |v: DVec3| v.clamp(DVec3::splat(-1.0), grid.dims().as_dvec3() + 1.0).as_ivec3();
-                IndexBox::new(clip(lo), clip(hi)).intersection(&grid_box)
+                let clip_to = |v: DVec3| v.clamp(DVec3::splat(-1.0), grid.dims().as_dvec3() + 1.0).as_ivec3();
+                IndexBox::new(clip_to(lo), clip_to(hi)).intersection(clip)
             })
             .collect();
         let bins = crate::pairs::bin_by_brick(&ranges, volga_core::brick_extent(grid.dims()));
@@ -468,7 +506,9 @@ impl MeshVoxelizer {
                     .div_euclid(IVec3::splat(BRICK_DIM))
                     + 1;
                 let ext = volume.brick_extent();
+                let clip_bricks = brick_range(clip);
                 let candidates: Vec<IVec3> = IndexBox::new(lo.max(IVec3::ZERO), hi.min(ext))
+                    .intersection(&clip_bricks)
                     .iter()
                     .filter(|b| !touched.contains(b))
                     .collect();
@@ -477,7 +517,7 @@ impl MeshVoxelizer {
                     Vec::new(),
                 )
             } else {
-                self.inside_by_octree(&touched, grid, &mut stats)
+                self.inside_by_octree(&touched, grid, clip, &mut stats)
             };
             for b in inside {
                 let region = IndexBox::new(b * BRICK_DIM, (b + 1) * BRICK_DIM);
@@ -508,4 +548,18 @@ impl MeshVoxelizer {
         }
         (volume, stats)
     }
+}
+
+/// The bricks (brick coordinates) holding the voxels of `voxels`.
+fn brick_range(voxels: &IndexBox) -> IndexBox {
+    IndexBox::new(
+        voxels.min.div_euclid(IVec3::splat(BRICK_DIM)),
+        (voxels.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM)),
+    )
+}
+
+/// The voxels of the whole bricks that hold the voxels of `region`.
+fn brick_cover(region: &IndexBox) -> IndexBox {
+    let bricks = brick_range(region);
+    IndexBox::new(bricks.min * BRICK_DIM, bricks.max * BRICK_DIM)
 }

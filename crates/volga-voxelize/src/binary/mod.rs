@@ -64,7 +64,7 @@ mod box26;
 mod raster;
 mod separating;
 
-pub use raster::{voxelize_mesh_surface, voxelize_triangles};
+pub use raster::{voxelize_mesh_surface, voxelize_mesh_surface_in, voxelize_triangles, voxelize_triangles_in};
 use separating::PreparedTriangle;
 
 /// Which white paths a voxelized surface must block (survey §17.2): the one

@@ -64,6 +64,90 @@ pub fn voxelize_mesh_surface(
     )
 }
 
+/// [`voxelize_triangles`] on the bricks of `clip` only (whole bricks of the grid, clipped
+/// to it): the triangles whose voxel range meets `clip`, rasterized as in the whole run;
+/// bricks outside `clip` are dropped. Each voxel is black iff some triangle covers it,
+/// a test of that voxel and triangle alone, so `clip`'s bricks are those of the whole
+/// run bit for bit.
+pub fn voxelize_triangles_in(
+    grid: &Grid,
+    triangles: &[[DVec3; 3]],
+    separability: Separability,
+    clip: &IndexBox,
+    progress: &dyn Progress,
+) -> SparseVolume {
+    let t = &grid.transform;
+    clipped(
+        grid,
+        triangles.len(),
+        |i| triangles[i].map(|p| t.world_to_index(p)),
+        separability,
+        clip,
+        progress,
+    )
+}
+
+/// [`voxelize_mesh_surface`] on the bricks of `clip` only (see
+/// [`voxelize_triangles_in`]).
+pub fn voxelize_mesh_surface_in(
+    grid: &Grid,
+    mesh: &volga_mesh::TriMesh,
+    separability: Separability,
+    clip: &IndexBox,
+    progress: &dyn Progress,
+) -> SparseVolume {
+    let t = &grid.transform;
+    let index_positions: Vec<DVec3> = mesh.positions.par_iter().map(|&p| t.world_to_index(p)).collect();
+    clipped(
+        grid,
+        mesh.triangles.len(),
+        |i| mesh.triangles[i].map(|v| index_positions[v as usize]),
+        separability,
+        clip,
+        progress,
+    )
+}
+
+/// The triangles whose voxel range meets `clip`, voxelized; bricks outside `clip` dropped.
+fn clipped(
+    grid: &Grid,
+    count: usize,
+    index_triangle: impl Fn(usize) -> [DVec3; 3] + Sync,
+    separability: Separability,
+    clip: &IndexBox,
+    progress: &dyn Progress,
+) -> SparseVolume {
+    let kept: Vec<u32> = (0..count)
+        .into_par_iter()
+        .filter(|&i| {
+            let [a, b, c] = index_triangle(i);
+            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+                return false;
+            }
+            let (lo, hi) = voxel_range(a, b, c);
+            !IndexBox::new(lo, hi + IVec3::ONE).intersection(clip).is_empty()
+        })
+        .map(|i| i as u32)
+        .collect();
+    let mut volume = voxelize_indexed(
+        grid,
+        kept.len(),
+        |k| index_triangle(kept[k] as usize),
+        separability,
+        progress,
+    );
+    let bricks = IndexBox::new(
+        clip.min.div_euclid(IVec3::splat(BRICK_DIM)),
+        (clip.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM)),
+    );
+    for b in volume.density.sorted_bricks() {
+        if !bricks.contains(b) {
+            volume.density.remove_brick(b);
+        }
+    }
+    volume
+}
+
 /// The union over `count` triangles, given in index space by `index_triangle`.
 /// Triangles with a non-finite coordinate are skipped.
 fn voxelize_indexed(

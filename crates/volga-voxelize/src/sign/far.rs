@@ -61,6 +61,7 @@ impl MeshVoxelizer {
         &self,
         touched: &rustc_hash::FxHashSet<IVec3>,
         grid: &Grid,
+        clip: &IndexBox,
         stats: &mut SignStats,
     ) -> (Vec<IVec3>, Vec<(IVec3, BrickMask)>) {
         let extent = volga_core::brick_extent(grid.dims());
@@ -97,7 +98,9 @@ impl MeshVoxelizer {
                 - prefix[at(l.0, l.1, l.2)]
                 > 0
         };
-        let grid_box = grid.index_box();
+        // Only the voxels of `clip` (whole bricks, or the grid): a box's sign is proven,
+        // so clipping changes which queries prove it, never the answer.
+        let grid_box = grid.index_box().intersection(clip);
         let mut size = BRICK_DIM;
         while size < grid.dims().max_element() as i32 {
             size *= 2;
