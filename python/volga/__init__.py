@@ -38,11 +38,12 @@ from typing import Any, Dict, Iterable, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import _volga
-from ._volga import Mesh, VoxelGrid, __version__
+from ._volga import Mesh, VoxelGrid, VoxelJob, __version__
 
 __all__ = [
     "Mesh",
     "VoxelGrid",
+    "VoxelJob",
     "Sculpt",
     "Adf",
     "load_mesh",
@@ -199,6 +200,7 @@ def voxelize(
     signed: Optional[bool] = None,
     memory_limit: Optional[int] = None,
     threads: Optional[int] = None,
+    region: Any = None,
 ) -> VoxelGrid:
     """Voxelize a mesh into a sparse :class:`VoxelGrid`.
 
@@ -242,6 +244,7 @@ def voxelize(
         signed,
         memory_limit,
         threads,
+        region,
     )
 
 

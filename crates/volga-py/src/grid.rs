@@ -2,15 +2,18 @@
 //! `load_volume`.
 
 use std::path::PathBuf;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use glam::{DVec3, IVec3, UVec3};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyTuple};
 use serde_json::{json, Value};
-use volga_core::{Brick, ChannelKind, Field, Filter, Grid, NoProgress, Sampled, SparseVolume, Transform, BRICK_VOXELS};
-use volga_voxelize::{MeshJob, MeshJobMode, Separability};
+use volga_core::{
+    Brick, ChannelKind, Field, Filter, Grid, IndexBox, NoProgress, Sampled, SparseVolume, Transform, BRICK_VOXELS,
+};
+use volga_mesh::TriMesh;
+use volga_voxelize::{MeshJob, MeshJobMode, MeshVoxelizer, Separability, SurfaceMode};
 
 use crate::arrays;
 use crate::errors::{check_memory, io_error, value_error};
@@ -469,12 +472,10 @@ fn layout(
     }
 }
 
-/// Voxelizes a mesh (see the Python docstring in `volga/__init__.py`).
-#[pyfunction]
-#[pyo3(signature = (mesh, resolution=None, pitch=None, bounds=None, mode="surface", separability=None, band=None, thickness=None, solid=None, signed=None, memory_limit=None, threads=None))]
+/// A mesh voxelization's options, checked: the job and its grid (`volga voxelize`'s
+/// layout, or exactly `bounds`).
 #[allow(clippy::too_many_arguments)]
-pub fn voxelize(
-    py: Python<'_>,
+fn plan_job(
     mesh: &Mesh,
     resolution: Option<i64>,
     pitch: Option<f64>,
@@ -485,10 +486,7 @@ pub fn voxelize(
     thickness: Option<f64>,
     solid: Option<bool>,
     signed: Option<bool>,
-    memory_limit: Option<u64>,
-    threads: Option<usize>,
-) -> PyResult<VoxelGrid> {
-    threads::check(threads)?;
+) -> PyResult<(MeshJob, Grid)> {
     let resolution = match resolution {
         None => None,
         Some(n) if (1..=65536).contains(&n) => Some(n as u32),
@@ -586,29 +584,260 @@ pub fn voxelize(
         mode: job_mode,
     };
     let grid = layout(&job, &mesh_bounds, resolution, pitch, bounds)?;
-    let estimate = job.estimate(&mesh.inner, &grid);
-    let d = grid.dims();
-    check_memory(
-        &format!("voxelizing on a {}×{}×{} grid", d.x, d.y, d.z),
-        estimate.peak_bytes,
-        memory_limit,
-    )?;
-    let tri_mesh = mesh.inner.clone();
-    let run = threads::run(py, threads, move || job.run(&tri_mesh, &grid, &NoProgress))?;
-    let volume = run.volume;
-    let boundary_edges = run.boundary_edges.unwrap_or_else(|| mesh.inner.boundary_edge_count());
-    let stats = json!({
+    Ok((job, grid))
+}
+
+/// `(lo, hi)` voxel indices as a region of `grid` (`0 ≤ lo < hi ≤ shape`).
+fn parse_region(grid: &Grid, region: &Bound<'_, PyAny>) -> PyResult<IndexBox> {
+    let bad = || {
+        let d = grid.dims();
+        value_error(format!(
+            "region: expected ((i0, j0, k0), (i1, j1, k1)) voxel indices with 0 ≤ lo < hi ≤ shape ({}, {}, {})",
+            d.x, d.y, d.z
+        ))
+    };
+    let (lo, hi): (Vec<i64>, Vec<i64>) = region.extract().map_err(|_| bad())?;
+    if lo.len() != 3 || hi.len() != 3 {
+        return Err(bad());
+    }
+    let fits = |v: i64| i32::try_from(v).map_err(|_| bad());
+    let b = IndexBox::new(
+        IVec3::new(fits(lo[0])?, fits(lo[1])?, fits(lo[2])?),
+        IVec3::new(fits(hi[0])?, fits(hi[1])?, fits(hi[2])?),
+    );
+    grid.window(&b).map_err(|e| value_error(format!("region: {e}")))?;
+    Ok(b)
+}
+
+/// The statistics of a run, as `VoxelGrid.stats`.
+fn run_stats(job: &MeshJob, mesh: &TriMesh, volume: &SparseVolume, run_boundary: Option<usize>, peak: u64, sign: Option<volga_voxelize::SignStats>) -> Value {
+    let boundary_edges = run_boundary.unwrap_or_else(|| mesh.boundary_edge_count());
+    json!({
         "mode": job.mode_name(),
-        "triangles": mesh.inner.triangles.len(),
+        "triangles": mesh.triangles.len(),
         "boundary_edges": boundary_edges,
         "closed": boundary_edges == 0,
         "active_voxels": volume.active_voxel_count(),
         "bricks": volume.density.brick_count(),
         "dense_bricks": volume.density.dense_brick_count(),
-        "estimated_memory_bytes": estimate.peak_bytes,
-        "sign": run.sign.map(|s| serde_json::to_value(s).unwrap_or(Value::Null)),
-    });
-    Ok(VoxelGrid::new(volume, job.mode_name(), stats))
+        "estimated_memory_bytes": peak,
+        "sign": sign.map(|s| serde_json::to_value(s).unwrap_or(Value::Null)),
+    })
+}
+
+/// Voxelizes a mesh (see the Python docstring in `volga/__init__.py`).
+#[pyfunction]
+#[pyo3(signature = (mesh, resolution=None, pitch=None, bounds=None, mode="surface", separability=None, band=None, thickness=None, solid=None, signed=None, memory_limit=None, threads=None, region=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn voxelize(
+    py: Python<'_>,
+    mesh: &Mesh,
+    resolution: Option<i64>,
+    pitch: Option<f64>,
+    bounds: Option<&Bound<'_, PyAny>>,
+    mode: &str,
+    separability: Option<u32>,
+    band: Option<f64>,
+    thickness: Option<f64>,
+    solid: Option<bool>,
+    signed: Option<bool>,
+    memory_limit: Option<u64>,
+    threads: Option<usize>,
+    region: Option<&Bound<'_, PyAny>>,
+) -> PyResult<VoxelGrid> {
+    threads::check(threads)?;
+    let (job, grid) = plan_job(mesh, resolution, pitch, bounds, mode, separability, band, thickness, solid, signed)?;
+    let region = region.map(|r| parse_region(&grid, r)).transpose()?;
+    let job_handle = VoxelJob::with(mesh.inner.clone(), job, grid);
+    job_handle.run(py, region, memory_limit, threads)
+}
+
+/// A mesh voxelization planned once and run region by region (`volga.VoxelJob`): the
+/// grid is fixed at construction, the mesh is prepared (BVH, feature regions, sign
+/// oracle) on first use and kept, and every region is bit for bit the same voxels of the
+/// whole-grid result.
+#[pyclass(module = "volga._volga", frozen)]
+pub struct VoxelJob {
+    mesh: Arc<TriMesh>,
+    job: MeshJob,
+    grid: Grid,
+    voxelizer: OnceLock<Option<Arc<MeshVoxelizer>>>,
+}
+
+impl VoxelJob {
+    fn with(mesh: Arc<TriMesh>, job: MeshJob, grid: Grid) -> VoxelJob {
+        VoxelJob {
+            mesh,
+            job,
+            grid,
+            voxelizer: OnceLock::new(),
+        }
+    }
+
+    fn surface_mode(&self) -> SurfaceMode {
+        match self.job.mode {
+            MeshJobMode::Distance {
+                half_width_voxels,
+                signed,
+            } => SurfaceMode::Distance {
+                half_width_voxels,
+                signed,
+            },
+            MeshJobMode::Binary { separability, .. } => SurfaceMode::Binary(separability),
+            MeshJobMode::AntiAliased { solid: true, .. } => SurfaceMode::Solid,
+            MeshJobMode::AntiAliased { thickness_voxels, .. } => SurfaceMode::Shell {
+                thickness: thickness_voxels * self.grid.transform.spacing().x,
+            },
+        }
+    }
+
+    /// The prepared mesh, built once (on the pool for `threads`, without the GIL).
+    fn prepared(&self, py: Python<'_>, threads: Option<usize>) -> PyResult<Option<Arc<MeshVoxelizer>>> {
+        if let Some(v) = self.voxelizer.get() {
+            return Ok(v.clone());
+        }
+        let (job, mesh) = (self.job, self.mesh.clone());
+        let built = threads::run(py, threads, move || job.voxelizer(&mesh).map(Arc::new))?;
+        Ok(self.voxelizer.get_or_init(|| built).clone())
+    }
+
+    fn run(&self, py: Python<'_>, region: Option<IndexBox>, memory_limit: Option<u64>, threads: Option<usize>) -> PyResult<VoxelGrid> {
+        let d = self.grid.dims();
+        let estimate = match &region {
+            None => self.job.estimate(&self.mesh, &self.grid),
+            Some(r) => self.job.estimate_region(&self.mesh, &self.grid, r),
+        };
+        let what = match &region {
+            None => format!("voxelizing on a {}×{}×{} grid", d.x, d.y, d.z),
+            Some(r) => {
+                let s = r.max - r.min;
+                format!("voxelizing a {}×{}×{} region of a {}×{}×{} grid", s.x, s.y, s.z, d.x, d.y, d.z)
+            }
+        };
+        check_memory(&what, estimate.peak_bytes, memory_limit)?;
+        let voxelizer = self.prepared(py, threads)?;
+        let (job, grid, mesh) = (self.job, self.grid, self.mesh.clone());
+        let run = threads::run(py, threads, move || match region {
+            None => Ok(job.run_with_voxelizer(&mesh, voxelizer.as_deref(), &grid, &NoProgress)),
+            Some(r) => job.run_region(&mesh, voxelizer.as_deref(), &grid, &r, &NoProgress),
+        })?
+        .map_err(|e| value_error(format!("region: {e}")))?;
+        let stats = run_stats(&self.job, &self.mesh, &run.volume, run.boundary_edges, estimate.peak_bytes, run.sign);
+        Ok(VoxelGrid::new(run.volume, self.job.mode_name(), stats))
+    }
+}
+
+#[pymethods]
+impl VoxelJob {
+    /// `VoxelJob(mesh, resolution=None, pitch=None, bounds=None, mode="surface", ...)`:
+    /// the options of `volga.voxelize`, checked; the grid is laid out at once.
+    #[new]
+    #[pyo3(signature = (mesh, resolution=None, pitch=None, bounds=None, mode="surface", separability=None, band=None, thickness=None, solid=None, signed=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        mesh: &Mesh,
+        resolution: Option<i64>,
+        pitch: Option<f64>,
+        bounds: Option<&Bound<'_, PyAny>>,
+        mode: &str,
+        separability: Option<u32>,
+        band: Option<f64>,
+        thickness: Option<f64>,
+        solid: Option<bool>,
+        signed: Option<bool>,
+    ) -> PyResult<VoxelJob> {
+        let (job, grid) = plan_job(mesh, resolution, pitch, bounds, mode, separability, band, thickness, solid, signed)?;
+        Ok(VoxelJob::with(mesh.inner.clone(), job, grid))
+    }
+
+    /// (nx, ny, nz): the whole grid's voxels along x, y, z.
+    #[getter]
+    fn shape(&self) -> (u32, u32, u32) {
+        let d = self.grid.dims();
+        (d.x, d.y, d.z)
+    }
+
+    /// (4, 4) float64 transform from the whole grid's index space to world (voxel centres).
+    #[getter]
+    fn transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let t = &self.grid.transform;
+        let (o, s) = (t.origin(), t.spacing());
+        let m = vec![
+            s.x, 0.0, 0.0, o.x, 0.0, s.y, 0.0, o.y, 0.0, 0.0, s.z, o.z, 0.0, 0.0, 0.0, 1.0,
+        ];
+        PyArray1::from_vec(py, m).reshape([4, 4])
+    }
+
+    /// Voxel edge length (world units).
+    #[getter]
+    fn pitch(&self) -> f64 {
+        self.grid.transform.spacing().x
+    }
+
+    /// The job's description, as `VoxelGrid.mode`.
+    #[getter]
+    fn mode(&self) -> String {
+        self.job.mode_name()
+    }
+
+    /// `"binary"`, `"density"` or `"distance"`: what every region's values are.
+    #[getter]
+    fn kind(&self) -> &'static str {
+        match self.job.mode {
+            MeshJobMode::Binary { .. } => Kind::Binary.name(),
+            MeshJobMode::AntiAliased { .. } => Kind::Density.name(),
+            MeshJobMode::Distance { .. } => Kind::Distance.name(),
+        }
+    }
+
+    /// The value of voxels no surface reaches outside the mesh (0, or the band for
+    /// distances).
+    #[getter]
+    fn background(&self) -> f32 {
+        self.surface_mode().background(&self.grid)
+    }
+
+    /// Triangles of the mesh.
+    #[getter]
+    fn triangles(&self) -> usize {
+        self.mesh.triangles.len()
+    }
+
+    /// An upper bound (bytes) on the peak memory of voxelizing `region` (default: the
+    /// whole grid), as `volga voxelize` checks it; the mesh's prepared data included.
+    #[pyo3(signature = (region=None))]
+    fn estimate(&self, region: Option<&Bound<'_, PyAny>>) -> PyResult<u64> {
+        Ok(match region {
+            None => self.job.estimate(&self.mesh, &self.grid).peak_bytes,
+            Some(r) => {
+                let r = parse_region(&self.grid, r)?;
+                self.job.estimate_region(&self.mesh, &self.grid, &r).peak_bytes
+            }
+        })
+    }
+
+    /// Prepares the mesh now (otherwise the first `run` does).
+    #[pyo3(signature = (threads=None))]
+    fn prepare(&self, py: Python<'_>, threads: Option<usize>) -> PyResult<()> {
+        self.prepared(py, threads).map(|_| ())
+    }
+
+    /// The voxels of `region` = `((i0, j0, k0), (i1, j1, k1))` (default: the whole grid)
+    /// as a `VoxelGrid` of their own (its transform places voxel [0, 0, 0] at the
+    /// region's first voxel), bit for bit as in the whole grid. Refused with
+    /// `MemoryError` over `memory_limit`.
+    #[pyo3(signature = (region=None, memory_limit=None, threads=None))]
+    fn run_region(
+        &self,
+        py: Python<'_>,
+        region: Option<&Bound<'_, PyAny>>,
+        memory_limit: Option<u64>,
+        threads: Option<usize>,
+    ) -> PyResult<VoxelGrid> {
+        threads::check(threads)?;
+        let region = region.map(|r| parse_region(&self.grid, r)).transpose()?;
+        self.run(py, region, memory_limit, threads)
+    }
 }
 
 /// The iso-surface of a grid as `(vertices (N, 3) float64, faces (M, 3) int64)`, on the

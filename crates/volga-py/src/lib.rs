@@ -36,6 +36,7 @@ fn _volga(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<mesh::Mesh>()?;
     m.add_class::<grid::VoxelGrid>()?;
+    m.add_class::<grid::VoxelJob>()?;
     m.add_class::<sculpt::Sculpt>()?;
     m.add_class::<adf::Adf>()?;
     m.add_function(wrap_pyfunction!(mesh::load_mesh, m)?)?;

@@ -361,6 +361,23 @@ impl MeshJob {
         Ok(run)
     }
 
+    /// [`MeshJob::run`] with the mesh's prepared voxelizer given (from
+    /// [`MeshJob::voxelizer`]); without, one is built when the mode needs it.
+    pub fn run_with_voxelizer(
+        &self,
+        mesh: &TriMesh,
+        voxelizer: Option<&MeshVoxelizer>,
+        grid: &Grid,
+        progress: &dyn Progress,
+    ) -> MeshRun {
+        let built = match (voxelizer, self.uses_voxelizer()) {
+            (None, true) => Some(MeshVoxelizer::new(mesh)),
+            _ => None,
+        };
+        let voxelizer = voxelizer.filter(|_| self.uses_voxelizer()).or(built.as_ref());
+        self.run_with(mesh, voxelizer, grid, None, progress)
+    }
+
     /// The mesh prepared for this job's mode, when the mode uses it (every mode but the
     /// binary surface): to share between [`MeshJob::run_region`] calls.
     pub fn voxelizer(&self, mesh: &TriMesh) -> Option<MeshVoxelizer> {

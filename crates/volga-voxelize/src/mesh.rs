@@ -399,6 +399,10 @@ impl MeshVoxelizer {
             (0..self.triangles.len())
                 .into_par_iter()
                 .map(|i| {
+                    // Unused by a triangle whose band misses the bricks computed.
+                    if ranges[i].is_empty() {
+                        return 0.0;
+                    }
                     let tri = &self.triangles[i];
                     let b = volga_core::Aabb::new(tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]));
                     let g = self.sign.boundary.gradient_bound(&b.expanded(DVec3::splat(band)));

@@ -64,7 +64,12 @@ impl MeshVoxelizer {
         clip: &IndexBox,
         stats: &mut SignStats,
     ) -> (Vec<IVec3>, Vec<(IVec3, BrickMask)>) {
-        let extent = volga_core::brick_extent(grid.dims());
+        // Only the voxels of `clip` (whole bricks, or the grid): a box's sign is proven,
+        // so clipping changes which queries prove it, never the answer.
+        let grid_box = grid.index_box().intersection(clip);
+        // The bricks of `clip`: `base + [0, extent)`.
+        let base = grid_box.min.div_euclid(IVec3::splat(BRICK_DIM));
+        let extent = (grid_box.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM)) - base;
         // Prefix sums of touched bricks: "does this box hold band" in O(1).
         let (ex, ey, ez) = (extent.x as usize + 1, extent.y as usize + 1, extent.z as usize + 1);
         let mut prefix = vec![0u32; ex * ey * ez];
@@ -72,7 +77,7 @@ impl MeshVoxelizer {
         for z in 1..ez {
             for y in 1..ey {
                 for x in 1..ex {
-                    let own = touched.contains(&IVec3::new(x as i32 - 1, y as i32 - 1, z as i32 - 1)) as u32;
+                    let own = touched.contains(&(base + IVec3::new(x as i32 - 1, y as i32 - 1, z as i32 - 1))) as u32;
                     prefix[at(x, y, z)] =
                         own + prefix[at(x - 1, y, z)] + prefix[at(x, y - 1, z)] + prefix[at(x, y, z - 1)]
                             - prefix[at(x - 1, y - 1, z)]
@@ -83,7 +88,7 @@ impl MeshVoxelizer {
             }
         }
         let band_in = |lo: IVec3, hi: IVec3| {
-            let (l, h) = (lo.as_uvec3(), hi.as_uvec3());
+            let (l, h) = ((lo - base).as_uvec3(), (hi - base).as_uvec3());
             let (l, h) = (
                 (l.x as usize, l.y as usize, l.z as usize),
                 (h.x as usize, h.y as usize, h.z as usize),
@@ -98,9 +103,6 @@ impl MeshVoxelizer {
                 - prefix[at(l.0, l.1, l.2)]
                 > 0
         };
-        // Only the voxels of `clip` (whole bricks, or the grid): a box's sign is proven,
-        // so clipping changes which queries prove it, never the answer.
-        let grid_box = grid.index_box().intersection(clip);
         let mut size = BRICK_DIM;
         while size < grid.dims().max_element() as i32 {
             size *= 2;
