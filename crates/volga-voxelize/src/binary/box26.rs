@@ -76,9 +76,9 @@ pub(super) struct Prepared26 {
     /// [`PreparedTriangle::new`](super::separating::PreparedTriangle::new)).
     unit: f64,
     plane: Axis,
-    /// Voxel range, which decides the cube's three face axes: a voxel `v` of
-    /// `min..=max` has `v ≥ ⌈fl(lo − ½)⌉ ≥ fl(fl(lo − ½) − ε)`, the general path's face
-    /// bound, by the monotonicity of rounding (and likewise above). The clamp of
+    /// Voxel range, which decides the cube's three face axes: an integer `v` has
+    /// `v ≥ ⌈fl(fl(lo − ½) − ε)⌉` exactly when `v ≥ fl(fl(lo − ½) − ε)`, the general
+    /// path's face bound (and likewise above); [`voxel_range`] computes that bound. The clamp of
     /// [`round_clamped`](super::round_clamped) at ±2²⁹ only moves bounds outside every
     /// region rasterized here (this path's grids are at most 2²⁴ voxels a side).
     min: IVec3,

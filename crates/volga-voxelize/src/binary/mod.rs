@@ -80,11 +80,18 @@ pub fn triangle_covers_voxel(tri_index: [DVec3; 3], separability: Separability, 
 }
 
 /// Inclusive voxel range a triangle's neighbourhood test can pass: its bounding box grown
-/// by ½ (every `K_N` fits in the cube `[−½, ½]³`).
+/// by ½ (every `K_N` fits in the cube `[−½, ½]³`) and by the rounding guard ε of the
+/// face axes ([`separating::PreparedTriangle::new`]), computed as they compute it
+/// (`fl(fl(lo − ½) − ε)`, `fl(fl(hi + ½) + ε)`), so the range holds exactly the voxels
+/// that pass the cube's face axes. Without ε, a triangle in an axis plane a few ulp past
+/// a voxel face (a flat mesh laid out on a grid whose faces it should lie on) passed the
+/// normal window on one layer and the range on the other, and got no voxel at all.
 fn voxel_range(a: DVec3, b: DVec3, c: DVec3) -> (IVec3, IVec3) {
+    let m = upper(upper(a.abs(), b.abs()), c.abs());
+    let eps = 64.0 * f64::EPSILON * (upper_f(upper_f(m.x, m.y), m.z) + 1.0);
     (
-        round_clamped(lower(lower(a, b), c) - 0.5, ceil_i32),
-        round_clamped(upper(upper(a, b), c) + 0.5, floor_i32),
+        round_clamped(lower(lower(a, b), c) - 0.5 - eps, ceil_i32),
+        round_clamped(upper(upper(a, b), c) + 0.5 + eps, floor_i32),
     )
 }
 
