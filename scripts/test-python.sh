@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The Python package's suite: the wheel built by maturin and installed into a fresh virtual
-# environment, then pytest (python/tests). The `volga` binary the suite compares against
+# environment with the `dask` extra's packages, then pytest (python/tests; VOLGA_TEST_DASK=1
+# makes the Dask tests fail, not skip, when those packages are missing). The `volga` binary the suite compares against
 # bit for bit is built with the same profile (`ci`, as the Rust tests of scripts/test.sh),
 # so the kernel crates are compiled once.
 set -euo pipefail
@@ -12,9 +13,10 @@ export VOLGA_BIN="$PWD/target/ci/volga"
 venv="$(mktemp -d)/venv"
 trap 'rm -rf "$(dirname "$venv")"' EXIT
 python3 -m venv "$venv"
-"$venv/bin/pip" install --quiet --disable-pip-version-check "maturin>=1.9,<2" "pytest>=7" numpy
+"$venv/bin/pip" install --quiet --disable-pip-version-check "maturin>=1.9,<2" "pytest>=7" numpy \
+    "dask[array]>=2024.8" "distributed>=2024.8" "zarr>=2.18" "fsspec>=2024.6"
 rm -rf target/wheels-test
 "$venv/bin/maturin" build --profile ci --interpreter "$venv/bin/python" -o target/wheels-test
 "$venv/bin/pip" install --quiet --disable-pip-version-check target/wheels-test/volga-*.whl
 cd python/tests
-"$venv/bin/python" -m pytest -q -p no:cacheprovider
+VOLGA_TEST_DASK=1 "$venv/bin/python" -m pytest -q -p no:cacheprovider

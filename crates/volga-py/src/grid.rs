@@ -610,7 +610,14 @@ fn parse_region(grid: &Grid, region: &Bound<'_, PyAny>) -> PyResult<IndexBox> {
 }
 
 /// The statistics of a run, as `VoxelGrid.stats`.
-fn run_stats(job: &MeshJob, mesh: &TriMesh, volume: &SparseVolume, run_boundary: Option<usize>, peak: u64, sign: Option<volga_voxelize::SignStats>) -> Value {
+fn run_stats(
+    job: &MeshJob,
+    mesh: &TriMesh,
+    volume: &SparseVolume,
+    run_boundary: Option<usize>,
+    peak: u64,
+    sign: Option<volga_voxelize::SignStats>,
+) -> Value {
     let boundary_edges = run_boundary.unwrap_or_else(|| mesh.boundary_edge_count());
     json!({
         "mode": job.mode_name(),
@@ -646,7 +653,18 @@ pub fn voxelize(
     region: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<VoxelGrid> {
     threads::check(threads)?;
-    let (job, grid) = plan_job(mesh, resolution, pitch, bounds, mode, separability, band, thickness, solid, signed)?;
+    let (job, grid) = plan_job(
+        mesh,
+        resolution,
+        pitch,
+        bounds,
+        mode,
+        separability,
+        band,
+        thickness,
+        solid,
+        signed,
+    )?;
     let region = region.map(|r| parse_region(&grid, r)).transpose()?;
     let job_handle = VoxelJob::with(mesh.inner.clone(), job, grid);
     job_handle.run(py, region, memory_limit, threads)
@@ -701,7 +719,13 @@ impl VoxelJob {
         Ok(self.voxelizer.get_or_init(|| built).clone())
     }
 
-    fn run(&self, py: Python<'_>, region: Option<IndexBox>, memory_limit: Option<u64>, threads: Option<usize>) -> PyResult<VoxelGrid> {
+    fn run(
+        &self,
+        py: Python<'_>,
+        region: Option<IndexBox>,
+        memory_limit: Option<u64>,
+        threads: Option<usize>,
+    ) -> PyResult<VoxelGrid> {
         let d = self.grid.dims();
         let estimate = match &region {
             None => self.job.estimate(&self.mesh, &self.grid),
@@ -711,7 +735,10 @@ impl VoxelJob {
             None => format!("voxelizing on a {}×{}×{} grid", d.x, d.y, d.z),
             Some(r) => {
                 let s = r.max - r.min;
-                format!("voxelizing a {}×{}×{} region of a {}×{}×{} grid", s.x, s.y, s.z, d.x, d.y, d.z)
+                format!(
+                    "voxelizing a {}×{}×{} region of a {}×{}×{} grid",
+                    s.x, s.y, s.z, d.x, d.y, d.z
+                )
             }
         };
         check_memory(&what, estimate.peak_bytes, memory_limit)?;
@@ -722,7 +749,14 @@ impl VoxelJob {
             Some(r) => job.run_region(&mesh, voxelizer.as_deref(), &grid, &r, &NoProgress),
         })?
         .map_err(|e| value_error(format!("region: {e}")))?;
-        let stats = run_stats(&self.job, &self.mesh, &run.volume, run.boundary_edges, estimate.peak_bytes, run.sign);
+        let stats = run_stats(
+            &self.job,
+            &self.mesh,
+            &run.volume,
+            run.boundary_edges,
+            estimate.peak_bytes,
+            run.sign,
+        );
         Ok(VoxelGrid::new(run.volume, self.job.mode_name(), stats))
     }
 }
@@ -746,7 +780,18 @@ impl VoxelJob {
         solid: Option<bool>,
         signed: Option<bool>,
     ) -> PyResult<VoxelJob> {
-        let (job, grid) = plan_job(mesh, resolution, pitch, bounds, mode, separability, band, thickness, solid, signed)?;
+        let (job, grid) = plan_job(
+            mesh,
+            resolution,
+            pitch,
+            bounds,
+            mode,
+            separability,
+            band,
+            thickness,
+            solid,
+            signed,
+        )?;
         Ok(VoxelJob::with(mesh.inner.clone(), job, grid))
     }
 
