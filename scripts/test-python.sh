@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The Python package's suite: the wheel built by maturin and installed into a fresh virtual
 # environment with the `dask` extra's packages, then pytest (python/tests; VOLGA_TEST_DASK=1
-# makes the Dask tests fail, not skip, when those packages are missing). The `volga` binary the suite compares against
-# bit for bit is built with the same profile (`ci`, as the Rust tests of scripts/test.sh),
-# so the kernel crates are compiled once.
+# makes the Dask tests fail, not skip, when those packages are missing). The `volga` binary
+# the suite compares against bit for bit is built with the same profile (`ci`, as the Rust
+# tests of scripts/test.sh), so the kernel crates are compiled once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
