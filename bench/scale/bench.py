@@ -57,7 +57,7 @@ def throughput(args):
     work = tempfile.mkdtemp(prefix="volga-scale-")
     kinds = make_dataset(os.path.join(work, "meshes"), count=args.meshes)
     meshes = kinds["good"]
-    for mode, resolution in [("solid", 64), ("distance", 128)]:
+    for mode, resolution in [("solid", 32), ("distance", 64)]:
         for n in (1, 2):
             c, client = cluster(n, "4GiB", {"MEMORY": 3 << 30})
             walls, task_s = [], []

@@ -113,7 +113,9 @@ def test_every_good_mesh_is_produced_and_every_bad_one_recorded(dataset, referen
         assert np.array_equal(z["transform"], grid.transform)
 
 
-def test_a_worker_killed_mid_run_changes_no_byte(dataset, reference, client, tmp_path):
+def test_a_worker_killed_mid_run_changes_no_byte(dataset, reference, client, tmp_path, monkeypatch):
+    # A window of 16 tasks in flight: meshes are fed as earlier ones finish.
+    monkeypatch.setattr(batch, "_MIN_WINDOW", 16)
     out = str(tmp_path / "killed")
     pids = client.run(os.getpid)
     killed = []
@@ -315,3 +317,22 @@ def test_bad_arguments_are_refused_before_any_work(dataset, tmp_path):
     assert r.returncode == 2 and "resolution" in r.stderr
     with pytest.raises(MemoryError, match="smaller chunks"):
         vdask.voxelize_array(volga.Mesh(np.eye(3), [[0, 1, 2]]), 64, chunks=64, memory_limit=1000)
+
+
+def test_sdf_samples_are_exact_and_reproducible(dataset, client, tmp_path):
+    kinds, _ = dataset
+    few = kinds["good"][:5]  # closed, open, self-intersecting, flat, flipped
+    runs = []
+    for name in ("a", "b"):
+        out = str(tmp_path / name)
+        s = batch.run(few, out, mode="samples", samples=2200, client=client, progress=False)
+        assert s["done"] == 5, s
+        runs.append(out)
+    assert outputs(runs[0]) == outputs(runs[1])
+    for m in few:
+        z = np.load(batch.read_status(runs[0])[m]["outputs"][0]["path"])
+        points, sdf = z["points"], z["sdf"]
+        assert points.shape == (2200, 3) and sdf.shape == (2200,)
+        exact = volga.signed_distance(m, points.astype(np.float64))
+        assert np.array_equal(sdf, exact.astype(np.float32)), m
+        assert (sdf < 0).any() or "m003" in m  # the flat square has no inside

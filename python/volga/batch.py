@@ -34,6 +34,7 @@ import argparse
 import glob as _glob
 import hashlib
 import io
+import itertools
 import json
 import os
 import sys
@@ -55,6 +56,8 @@ STATUS = "status.jsonl"
 WORK = ".volga-batch"
 MESH_SUFFIXES = (".obj", ".gltf", ".glb")
 DEFAULT_RESERVE = 256 << 20
+# Fewest tasks a run keeps in flight (see `run`).
+_MIN_WINDOW = 256
 
 
 # ----------------------------------------------------------------------------- paths
@@ -339,9 +342,9 @@ def _load(mesh: str, data: bytes) -> Any:
 
 
 def _samples(mesh: Any, count: int, seed: int, data_hash: str) -> Dict[str, np.ndarray]:
-    """DeepSDF-style samples: half on the surface jittered by two Gaussian widths (1/100
-    and 1/1000 of the box's diagonal), half uniform in the box grown by a tenth; signed
-    distances with proven signs."""
+    """DeepSDF-style samples (as examples/python/dataset.py): 10 of every 11 on the surface
+    (uniform by area) moved by a Gaussian of 0.005 or 0.0005 of the box's diagonal, the rest
+    uniform in the box padded by 5 %; signed distances with proven signs."""
     from . import signed_distance
 
     rng = np.random.default_rng([seed, int(data_hash[:15], 16)])
@@ -351,21 +354,22 @@ def _samples(mesh: Any, count: int, seed: int, data_hash: str) -> Dict[str, np.n
     diag = float(np.linalg.norm(hi - lo)) or 1.0
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
-    near = count // 2
+    near = count * 10 // 11
     if area.sum() > 0:
         tri = rng.choice(len(f), size=near, p=area / area.sum())
         r1, r2 = rng.random(near), rng.random(near)
         s = np.sqrt(r1)
         p = (1 - s)[:, None] * a[tri] + (s * (1 - r2))[:, None] * b[tri] + (s * r2)[:, None] * c[tri]
-        sigma = np.where(rng.random(near) < 0.5, 1e-2, 1e-3) * diag
+        sigma = np.where(rng.random(near) < 0.5, 5e-3, 5e-4) * diag
         p = p + rng.normal(size=(near, 3)) * sigma[:, None]
     else:
         p = np.empty((0, 3))
-    pad = 0.1 * (hi - lo) + 1e-9
+    pad = 0.05 * (hi - lo) + 1e-9
     u = lo - pad + rng.random((count - len(p), 3)) * (hi - lo + 2 * pad)
-    points = np.concatenate([p, u]).astype(np.float64)
-    d = signed_distance(mesh, points, threads=1)
-    return {"points": points.astype(np.float32), "sdf": d.astype(np.float32)}
+    # The distances are those of the stored (float32) points.
+    points = np.concatenate([p, u]).astype(np.float32)
+    d = signed_distance(mesh, points.astype(np.float64), threads=1)
+    return {"points": points, "sdf": d.astype(np.float32)}
 
 
 def _process(mesh: str, out_name: str, out_root: str, params: Dict[str, Any], phash: str,
@@ -585,8 +589,12 @@ def run(
             return fut
 
         first = min(reserve, budget) if budget else reserve
-        futures = [submit(m, first) for m in todo]
-        pending = as_completed(futures)
+        # At most `window` tasks in flight: the scheduler holds a few KB per task, so a
+        # million meshes are fed as the earlier ones finish, not submitted at once.
+        threads = sum(w.get("nthreads", 1) for w in client.scheduler_info(n_workers=-1).get("workers", {}).values())
+        window = max(_MIN_WINDOW, 8 * threads)
+        queue = iter(todo)
+        pending = as_completed([submit(m, first) for m in itertools.islice(queue, window)])
         status_fs, status_local = _fs(status_path)
         if status_fs is None:
             os.makedirs(os.path.dirname(status_local), exist_ok=True)
@@ -602,6 +610,9 @@ def run(
             if rec.get("status") == "needs":
                 pending.add(submit(mesh, int(rec["bytes"])))
                 continue
+            following = next(queue, None)
+            if following is not None:
+                pending.add(submit(following, first))
             line = json.dumps(rec, sort_keys=True) + "\n"
             if status_fs is None:
                 with open(status_local, "a") as f:

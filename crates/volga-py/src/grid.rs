@@ -605,7 +605,7 @@ fn parse_region(grid: &Grid, region: &Bound<'_, PyAny>) -> PyResult<IndexBox> {
         IVec3::new(fits(lo[0])?, fits(lo[1])?, fits(lo[2])?),
         IVec3::new(fits(hi[0])?, fits(hi[1])?, fits(hi[2])?),
     );
-    grid.window(&b).map_err(|e| value_error(format!("region: {e}")))?;
+    grid.window(&b).map_err(|e| value_error(e.to_string()))?;
     Ok(b)
 }
 
@@ -748,7 +748,7 @@ impl VoxelJob {
             None => Ok(job.run_with_voxelizer(&mesh, voxelizer.as_deref(), &grid, &NoProgress)),
             Some(r) => job.run_region(&mesh, voxelizer.as_deref(), &grid, &r, &NoProgress),
         })?
-        .map_err(|e| value_error(format!("region: {e}")))?;
+        .map_err(|e| value_error(e.to_string()))?;
         let stats = run_stats(
             &self.job,
             &self.mesh,
