@@ -69,6 +69,8 @@ def throughput(args):
                     walls.append(s["time_s"])
                     recs = batch.read_status(out).values()
                     task_s.append(sum(x["time_s"] for x in recs))
+                    out_bytes = [o["bytes"] for x in recs for o in x["outputs"]]
+                    task_times = sorted(x["time_s"] for x in recs)
                     shutil.rmtree(out)
             finally:
                 client.close()
@@ -80,6 +82,8 @@ def throughput(args):
                 "meshes_per_s": len(meshes) / wall, "task_s_sum_median": statistics.median(task_s),
                 # Wall time the workers spent outside the tasks' own work, per mesh.
                 "overhead_ms_per_mesh": 1e3 * (n * wall - statistics.median(task_s)) / len(meshes),
+                "task_s_median": task_times[len(task_times) // 2], "task_s_max": task_times[-1],
+                "output_bytes_mean": sum(out_bytes) / len(out_bytes),
             })
     # The scheduler alone: no-op tasks.
     for n in (1, 2):
@@ -137,6 +141,8 @@ def zarr_grid(args):
         "bench": "zarr_dense_sdf", "mesh": "stanford-bunny", "resolution": args.resolution, "shape": list(job.shape),
         "voxels": int(np.prod(job.shape)), "chunks": args.chunks, "workers": 2, "threads_per_worker": 1,
         "worker_memory_cap": mem, "wall_s": wall, "voxels_per_s": float(np.prod(job.shape)) / wall,
+        "chunk_count": int(np.prod([-(-s // args.chunks) for s in job.shape])),
+        "core_s_per_chunk": 2 * wall / float(np.prod([-(-s // args.chunks) for s in job.shape])),
         "worker_peak_rss_bytes": sorted(peaks.values()), "workers_restarted": restarted,
         "dense_float32_bytes": int(np.prod(job.shape)) * 4, "zarr_bytes_on_disk": disk,
         "spot_check_chunk": [lo, hi], "spot_check_equal": bool(np.array_equal(stored.view(np.uint32), part.view(np.uint32))),

@@ -336,3 +336,19 @@ def test_sdf_samples_are_exact_and_reproducible(dataset, client, tmp_path):
         exact = volga.signed_distance(m, points.astype(np.float64))
         assert np.array_equal(sdf, exact.astype(np.float32)), m
         assert (sdf < 0).any() or "m003" in m  # the flat square has no inside
+
+
+def test_a_scene_baked_in_chunks_equals_the_whole_bake():
+    scene = os.path.join(os.path.dirname(__file__), "..", "..", "scenes", "hello.ron")
+    job = volga.SceneJob(scene)
+    whole = job.bake().matrix
+    assert whole.shape == job.shape and whole.max() > 0.5
+    for chunks in [(32, 32, 32), (45, 17, 60)]:
+        got = vdask.bake_array(scene, chunks=chunks).compute(scheduler="threads")
+        assert np.array_equal(got.view(np.uint32), whole.view(np.uint32)), chunks
+    part = job.bake(((10, 20, 30), (50, 41, 77)))
+    assert np.array_equal(part.matrix, whole[10:50, 20:41, 30:77])
+    with pytest.raises(ValueError, match="region"):
+        job.bake(((0, 0, 0), (1, 1, 10_000)))
+    with pytest.raises(MemoryError):
+        job.bake(memory_limit=1000)

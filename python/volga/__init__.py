@@ -54,6 +54,7 @@ __all__ = [
     "voxelize",
     "validate",
     "build",
+    "SceneJob",
     "extract_mesh",
     "render",
     "default_threads",
@@ -300,6 +301,46 @@ def build(
             name, os.fspath(out), _json(scene, "scene"), memory_limit, threads, allow_outside_paths
         )
     return _volga.build(os.fspath(scene), os.fspath(out), None, memory_limit, threads, allow_outside_paths)
+
+
+class SceneJob:
+    """A scene validated and its files loaded once, baked region by region.
+
+    ``scene`` is a scene file or a dict, as for :func:`build`. ``shape`` and ``transform``
+    describe the scene's grid; ``bake(region=None, memory_limit=None, threads=None)``
+    returns the baked density over ``region = ((i0, j0, k0), (i1, j1, k1))`` (default: the
+    whole grid) as a :class:`VoxelGrid` of its own, **bit for bit** the whole bake's voxels
+    (meshes with proven signs, ADFs, sculpts, CVG trees, textures), computing only the 8³
+    bricks that meet the region; its memory is checked for the region first
+    (``MemoryError``). :func:`volga.dask.bake_array` makes a lazy array of chunks of it.
+    """
+
+    def __init__(
+        self,
+        scene: Union[PathLike, Dict[str, Any]],
+        base_dir: Optional[PathLike] = None,
+        memory_limit: Optional[int] = None,
+        allow_outside_paths: bool = False,
+    ) -> None:
+        if isinstance(scene, dict):
+            base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
+            self._inner = _volga.SceneJob(
+                os.path.join(base, "<scene dict>"), _json(scene, "scene"), memory_limit, allow_outside_paths
+            )
+        else:
+            self._inner = _volga.SceneJob(os.fspath(scene), None, memory_limit, allow_outside_paths)
+
+    @property
+    def shape(self) -> Tuple[int, int, int]:
+        return self._inner.shape
+
+    @property
+    def transform(self) -> np.ndarray:
+        return self._inner.transform
+
+    def bake(self, region: Any = None, memory_limit: Optional[int] = None,
+             threads: Optional[int] = None) -> VoxelGrid:
+        return self._inner.bake(region, memory_limit, threads)
 
 
 def extract_mesh(

@@ -33,7 +33,7 @@ import numpy as np
 
 from . import Mesh, VoxelJob, __version__, load_mesh
 
-__all__ = ["voxelize_array", "write_zarr", "grid_attributes"]
+__all__ = ["voxelize_array", "bake_array", "write_zarr", "grid_attributes"]
 
 # Meshes prepared in this process, by token (most recently used last).
 _JOBS: "OrderedDict[str, VoxelJob]" = OrderedDict()
@@ -183,6 +183,78 @@ def voxelize_array(
                 lo = (int(starts[0][i]), int(starts[1][j]), int(starts[2][k]))
                 hi = (int(starts[0][i + 1]), int(starts[1][j + 1]), int(starts[2][k + 1]))
                 layer[(name, i, j, k)] = (_chunk, spec_key, options, threads, memory_limit, lo, hi)
+    graph = HighLevelGraph.from_collections(name, layer, dependencies=[])
+    return da.Array(graph, name, chunks, dtype=dtype, meta=np.empty((0, 0, 0), dtype=dtype))
+
+
+_SCENES: "OrderedDict[str, Any]" = OrderedDict()
+
+
+def _scene_job(spec: Dict[str, Any]) -> Any:
+    """This process's resolved scene for ``spec`` (made on first use)."""
+    from . import SceneJob
+
+    key = spec["token"]
+    with _JOBS_LOCK:
+        job = _SCENES.get(key)
+        if job is not None:
+            _SCENES.move_to_end(key)
+            return job
+    job = SceneJob(spec["scene"], base_dir=spec.get("base_dir"), allow_outside_paths=spec["allow_outside_paths"])
+    with _JOBS_LOCK:
+        _SCENES[key] = job
+        while len(_SCENES) > _MAX_JOBS:
+            _SCENES.popitem(last=False)
+    return job
+
+
+def _scene_chunk(spec: Dict[str, Any], threads: Optional[int], memory_limit: Optional[int],
+                 lo: Tuple[int, int, int], hi: Tuple[int, int, int]) -> np.ndarray:
+    grid = _scene_job(spec).bake((lo, hi), memory_limit=memory_limit, threads=threads)
+    return np.ascontiguousarray(grid.dense(memory_limit=memory_limit))
+
+
+def bake_array(
+    scene: Any,
+    *,
+    chunks: Union[int, Sequence[int]] = 128,
+    base_dir: Any = None,
+    allow_outside_paths: bool = False,
+    threads: Optional[int] = 1,
+    memory_limit: Optional[int] = None,
+) -> Any:
+    """A lazy ``dask.array`` (float32, ``[i, j, k]``) of a scene's baked density, one task
+    per chunk, each chunk bit for bit the whole bake's voxels (``volga.SceneJob.bake``).
+    ``scene`` is a scene file (each worker reads it and the files it names, which must be
+    readable there) or a dict; each worker process resolves it once and keeps it."""
+    da = _require_dask()
+    from dask.highlevelgraph import HighLevelGraph
+    from dask.base import tokenize
+    from . import SceneJob
+
+    job = SceneJob(scene, base_dir=base_dir, allow_outside_paths=allow_outside_paths)
+    if isinstance(scene, dict):
+        token = "dict:" + hashlib.sha256(repr(sorted(scene.items())).encode()).hexdigest()
+    else:
+        path = os.path.abspath(os.fspath(scene))
+        st = os.stat(path)
+        scene = path
+        token = f"path:{path}:{st.st_size}:{st.st_mtime_ns}"
+    spec = {"scene": scene, "base_dir": None if base_dir is None else os.fspath(base_dir),
+            "allow_outside_paths": allow_outside_paths, "token": token}
+    shape = job.shape
+    dtype = np.dtype(np.float32)
+    chunks = da.core.normalize_chunks(chunks, shape=shape, dtype=dtype)
+    name = "volga-bake-" + tokenize(token, chunks, threads, memory_limit)
+    spec_key = "volga-scene-" + tokenize(token)
+    layer: Dict[Any, Any] = {spec_key: spec}
+    starts = [np.concatenate([[0], np.cumsum(c)]).astype(int) for c in chunks]
+    for i in range(len(chunks[0])):
+        for j in range(len(chunks[1])):
+            for k in range(len(chunks[2])):
+                lo = (int(starts[0][i]), int(starts[1][j]), int(starts[2][k]))
+                hi = (int(starts[0][i + 1]), int(starts[1][j + 1]), int(starts[2][k + 1]))
+                layer[(name, i, j, k)] = (_scene_chunk, spec_key, threads, memory_limit, lo, hi)
     graph = HighLevelGraph.from_collections(name, layer, dependencies=[])
     return da.Array(graph, name, chunks, dtype=dtype, meta=np.empty((0, 0, 0), dtype=dtype))
 

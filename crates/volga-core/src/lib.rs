@@ -77,8 +77,8 @@ pub use layout::Shape3;
 pub use progress::{NoProgress, Progress};
 pub use sampled::{DenseReader, Sampled, SampledVoxels, SparseReader, VoxelBlock, VoxelReader, VoxelSource};
 pub use sparse::{
-    brick_extent, brick_index_box, brick_of, gather_brick, Brick, SparseGrid, SparseVolume, BRICK_DIM, BRICK_LOG2,
-    BRICK_SHAPE, BRICK_VOXELS,
+    brick_extent, brick_index_box, brick_of, bricks_meeting, gather_brick, Brick, SparseGrid, SparseVolume, BRICK_DIM,
+    BRICK_LOG2, BRICK_SHAPE, BRICK_VOXELS,
 };
 
 /// Linear RGB colour payload, each component in \[0, 1\].

@@ -537,6 +537,18 @@ pub fn brick_extent(dims: UVec3) -> IVec3 {
     ((dims + UVec3::splat(BRICK_DIM as u32 - 1)) / BRICK_DIM as u32).as_ivec3()
 }
 
+/// The bricks (brick coordinates) holding some voxel of `voxels` (index space); empty for
+/// an empty box.
+pub fn bricks_meeting(voxels: &IndexBox) -> IndexBox {
+    if voxels.is_empty() {
+        return IndexBox::new(IVec3::ZERO, IVec3::ZERO);
+    }
+    IndexBox::new(
+        voxels.min.div_euclid(IVec3::splat(BRICK_DIM)),
+        (voxels.max - 1).div_euclid(IVec3::splat(BRICK_DIM)) + 1,
+    )
+}
+
 /// A collapsed brick holding `f(ijk)` for each voxel of brick `brick`.
 pub fn gather_brick<T: Copy + PartialEq>(brick: IVec3, f: impl Fn(IVec3) -> T) -> Brick<T> {
     let base = brick * BRICK_DIM;

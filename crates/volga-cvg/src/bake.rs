@@ -22,6 +22,13 @@ pub struct BakeStats {
 /// when `colour`); the volume's background is the field's. Deterministic: bricks are
 /// computed independently and inserted in sorted order.
 pub fn bake(field: &dyn Field, grid: &Grid, colour: bool) -> (SparseVolume, BakeStats) {
+    bake_in(field, grid, colour, &grid.index_box())
+}
+
+/// [`bake`] on the bricks of `grid` that meet `clip` (voxel indices) only, each computed
+/// exactly as in the whole bake (so they are the whole bake's bricks, bit for bit); no
+/// other brick is stored or sampled. Chunked and out-of-core bakes are made of these.
+pub fn bake_in(field: &dyn Field, grid: &Grid, colour: bool, clip: &IndexBox) -> (SparseVolume, BakeStats) {
     let background = field.background() as f32;
     let mut volume = SparseVolume::new(*grid, background, colour);
     let region = field.bounds().intersection(&grid.world_bounds());
@@ -33,7 +40,13 @@ pub fn bake(field: &dyn Field, grid: &Grid, colour: bool) -> (SparseVolume, Bake
     if voxels.is_empty() {
         return (volume, stats);
     }
-    let (lo, hi): (IVec3, IVec3) = (voxels.min >> 3, (voxels.max - 1) >> 3);
+    // The bricks that meet both the field's voxels and `clip`; `voxels` itself stays the
+    // whole bake's (each brick's sampling depends on it).
+    let wanted = voxels.intersection(clip);
+    if wanted.is_empty() {
+        return (volume, stats);
+    }
+    let (lo, hi): (IVec3, IVec3) = (wanted.min >> 3, (wanted.max - 1) >> 3);
     let mut bricks = Vec::new();
     for z in lo.z..=hi.z {
         for y in lo.y..=hi.y {

@@ -41,7 +41,7 @@ mod radial;
 mod tree;
 mod voxblt;
 
-pub use bake::{bake, BakeStats};
+pub use bake::{bake, bake_in, BakeStats};
 pub use error::CvgError;
 pub use op::{complement, Attributes, Op};
 pub use radial::{Core, Radial};

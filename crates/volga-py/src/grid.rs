@@ -588,7 +588,7 @@ fn plan_job(
 }
 
 /// `(lo, hi)` voxel indices as a region of `grid` (`0 ≤ lo < hi ≤ shape`).
-fn parse_region(grid: &Grid, region: &Bound<'_, PyAny>) -> PyResult<IndexBox> {
+pub fn parse_region(grid: &Grid, region: &Bound<'_, PyAny>) -> PyResult<IndexBox> {
     let bad = || {
         let d = grid.dims();
         value_error(format!(

@@ -37,6 +37,7 @@ fn _volga(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<mesh::Mesh>()?;
     m.add_class::<grid::VoxelGrid>()?;
     m.add_class::<grid::VoxelJob>()?;
+    m.add_class::<scene::SceneJob>()?;
     m.add_class::<sculpt::Sculpt>()?;
     m.add_class::<adf::Adf>()?;
     m.add_function(wrap_pyfunction!(mesh::load_mesh, m)?)?;

@@ -41,6 +41,6 @@ pub use build::{
 };
 pub use error::{BuildError, SceneError};
 pub use load::{parse_file, parse_json, parse_ron};
-pub use plan::{Decision, MemoryEstimate, Plan};
+pub use plan::{bake_region, Decision, MemoryEstimate, Plan};
 pub use stages::{peak_rss_bytes, reset_peak_rss, StageReport, Stages};
 pub use validate::{content_bounds, validate, ImageJob, RenderSource, Scene};

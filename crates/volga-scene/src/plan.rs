@@ -275,3 +275,62 @@ fn estimate(scene: &Scene, colour: bool, bake: bool) -> MemoryEstimate {
             .saturating_add(output_slab_bytes),
     }
 }
+
+/// The scene's baked volume (the node tree voxelized on its grid: density, and colour
+/// with `colour`) over `region` (voxel indices of the grid) only, as a volume on
+/// [`Grid::window`](volga_core::Grid::window)`(region)`: **bit for bit** the same voxels
+/// as the whole bake ([`Node::bake`]), without baking the rest of the grid. `scene` must
+/// be resolved ([`Scene::resolve`]).
+///
+/// Memory is checked for the region before anything is allocated, against `memory_limit`
+/// (default: the machine's available memory): at most every node's bricks within the
+/// region (each node holds at most the region's bricks, and a union holds its children's
+/// one after another), the region's copy, and the nodes' own data (meshes, ADF builds).
+/// Errors: [`SceneError::TooLarge`] over the limit, [`SceneError::Invalid`] for a region
+/// that is empty or not inside the grid, and whatever a node's bake reports.
+pub fn bake_region(
+    scene: &Scene,
+    region: &volga_core::IndexBox,
+    colour: bool,
+    memory_limit: Option<u64>,
+    progress: &dyn volga_core::Progress,
+) -> Result<volga_core::SparseVolume, SceneError> {
+    let bad_region = |e: volga_core::CoreError| SceneError::Invalid {
+        path: scene.source.clone(),
+        field: "region".into(),
+        message: e.to_string(),
+    };
+    scene.grid.window(region).map_err(bad_region)?;
+    let nodes = scene.root.estimate(&scene.grid);
+    let region_bricks = volga_core::bricks_meeting(region).volume();
+    let node_count = count_nodes(&scene.root);
+    let bricks = nodes
+        .bricks
+        .min(region_bricks.saturating_mul(node_count))
+        .saturating_add(region_bricks);
+    let per_brick = BRICK_VOXELS as u64 * (4 + if colour { 12 } else { 0 }) + BRICK_OVERHEAD_BYTES + 12;
+    let needed = bricks.saturating_mul(per_brick).saturating_add(nodes.extra_bytes);
+    let limit = memory_limit.or_else(memory::available_bytes).unwrap_or(u64::MAX);
+    if needed > limit {
+        let s = region.max - region.min;
+        return Err(SceneError::TooLarge {
+            path: scene.source.clone(),
+            needed: Bytes(needed as u128),
+            limit: Bytes(limit as u128),
+            detail: format!(
+                "a region of {}×{}×{} voxels, up to {bricks} bricks of 8³ voxels; the nodes' own data (meshes, ADF builds) {}",
+                s.x,
+                s.y,
+                s.z,
+                Bytes(u128::from(nodes.extra_bytes))
+            ),
+        });
+    }
+    let volume = scene.root.bake_in(&scene.grid, colour, region, progress)?;
+    volume.window(region).map_err(bad_region)
+}
+
+/// Nodes in the tree under `node`, itself included.
+fn count_nodes(node: &dyn Node) -> u64 {
+    1 + node.children().iter().map(|c| count_nodes(c.as_ref())).sum::<u64>()
+}

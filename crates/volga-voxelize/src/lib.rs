@@ -57,8 +57,8 @@ pub use job::{parse_bytes_bound, JobError, JobEstimate, MeshJob, MeshJobMode, Me
 pub use lines::{polyline_segments, segment_voxels, voxelize_segments, LineConnectivity, UnsupportedAdjacency};
 pub use mesh::MeshVoxelizer;
 pub use sign::SignStats;
-pub use solids::{estimate_solid_bricks, merge_max, voxelize_solids, Solid};
-pub use surfaces::{voxelize_shapes, SurfaceMode};
+pub use solids::{estimate_solid_bricks, merge_max, voxelize_solids, voxelize_solids_in, Solid};
+pub use surfaces::{voxelize_shapes, voxelize_shapes_in, SurfaceMode};
 /// The geometry layer, re-exported: shapes and the filter live in `volga-shapes`.
 pub use volga_shapes as shapes;
 pub use volga_shapes::{OrientedBoxFilter, Shape, SignedDistance};

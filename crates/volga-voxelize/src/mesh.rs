@@ -315,6 +315,26 @@ impl MeshVoxelizer {
         Ok((volume.window(region)?, stats))
     }
 
+    /// [`MeshVoxelizer::voxelize_with_stats`] on the bricks of `grid` that meet `clip`
+    /// (voxel indices) only, each bit for bit the whole run's brick, on `grid`'s lattice
+    /// (no other brick stored); [`MeshVoxelizer::voxelize_region`] moves a region onto a
+    /// grid of its own.
+    pub fn voxelize_in(
+        &self,
+        grid: &Grid,
+        mode: SurfaceMode,
+        clip: &IndexBox,
+        progress: &dyn Progress,
+    ) -> (SparseVolume, SignStats) {
+        let clip = brick_cover(clip).intersection(&grid.index_box());
+        if clip.is_empty() {
+            let background = mode.background(grid);
+            let volume = SparseVolume::new(*grid, background, false).with_density_kind(mode.channel_kind());
+            return (volume, SignStats::default());
+        }
+        self.voxelize_clipped(grid, mode, &clip, progress)
+    }
+
     /// [`MeshVoxelizer::voxelize_with_stats`] on the bricks of `grid` inside `clip` (a
     /// union of whole bricks clipped to the grid); no brick outside it is stored.
     pub(crate) fn voxelize_clipped(

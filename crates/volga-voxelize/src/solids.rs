@@ -86,10 +86,28 @@ fn classify(shape: &Shape, center: DVec3, radius: f64, half_width: f64) -> Cover
 /// Work is per brick of the solids' bands; bricks are processed in parallel and stored
 /// in a fixed order, so the result does not depend on the thread count.
 pub fn voxelize_solids(grid: &Grid, solids: &[Solid], with_colour: bool, progress: &dyn Progress) -> SparseVolume {
+    voxelize_solids_in(grid, solids, with_colour, &grid.index_box(), progress)
+}
+
+/// [`voxelize_solids`] on the bricks of `grid` that meet `clip` (voxel indices) only, each
+/// the whole run's brick bit for bit (a brick's voxels depend on nothing outside it).
+pub fn voxelize_solids_in(
+    grid: &Grid,
+    solids: &[Solid],
+    with_colour: bool,
+    clip: &IndexBox,
+    progress: &dyn Progress,
+) -> SparseVolume {
     let filter = OrientedBoxFilter::for_spacing(grid.transform.spacing());
+    let wanted = volga_core::bricks_meeting(clip);
     let mut bricks: Vec<IVec3> = solids
         .iter()
-        .flat_map(|s| band_bricks(grid, s, &filter).iter().collect::<Vec<_>>())
+        .flat_map(|s| {
+            band_bricks(grid, s, &filter)
+                .intersection(&wanted)
+                .iter()
+                .collect::<Vec<_>>()
+        })
         .collect();
     bricks.sort_unstable_by_key(|b| (b.z, b.y, b.x));
     bricks.dedup();

@@ -77,6 +77,20 @@ pub fn voxelize_shapes<S: SignedDistance + Sync>(
     mode: SurfaceMode,
     progress: &dyn Progress,
 ) -> SparseVolume {
+    voxelize_shapes_in(grid, inputs, mode, &grid.index_box(), progress)
+}
+
+/// [`voxelize_shapes`] on the bricks of `grid` that meet `clip` (voxel indices) only, each
+/// the whole run's brick bit for bit (every voxel is a function of its own position and
+/// its neighbours' distances, evaluated directly).
+pub fn voxelize_shapes_in<S: SignedDistance + Sync>(
+    grid: &Grid,
+    inputs: &[S],
+    mode: SurfaceMode,
+    clip: &IndexBox,
+    progress: &dyn Progress,
+) -> SparseVolume {
+    let wanted = volga_core::bricks_meeting(clip);
     let filter = OrientedBoxFilter::for_spacing(grid.transform.spacing());
     // World distance beyond which a voxel takes the mode's far value.
     let band = match mode {
@@ -110,7 +124,7 @@ pub fn voxelize_shapes<S: SignedDistance + Sync>(
                     (vox.max - 1).div_euclid(IVec3::splat(BRICK_DIM)) + 1,
                 )
             };
-            b.iter().collect::<Vec<_>>()
+            b.intersection(&wanted).iter().collect::<Vec<_>>()
         })
         .collect();
     bricks.sort_unstable_by_key(|b| (b.z, b.y, b.x));

@@ -21,7 +21,7 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use volga_adf::{Adf, AdfError, AdfOptions, AdfSource, BuildEstimate, MeshSource, ShapeSource, MAX_SUPPORTED_DEPTH};
 use volga_core::memory::Bytes;
-use volga_core::{Aabb, Field, Grid, NoProgress, Progress, Rgb, SparseVolume};
+use volga_core::{Aabb, Field, Grid, IndexBox, NoProgress, Progress, Rgb, SparseVolume};
 use volga_shapes::{OrientedBoxFilter, Shape, SignedDistance};
 
 use super::mesh::MeshNode;
@@ -244,9 +244,15 @@ impl Node for AdfNode {
     fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError> {
         self.lazy_field_with(grid, &NoProgress)
     }
-    fn bake(&self, grid: &Grid, colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
+    fn bake_in(
+        &self,
+        grid: &Grid,
+        colour: bool,
+        clip: &IndexBox,
+        progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError> {
         let field = self.lazy_field_with(grid, progress)?;
-        Ok(super::procedural::bake_field(&*field, grid, colour))
+        Ok(super::procedural::bake_field_in(&*field, grid, colour, clip))
     }
 }
 

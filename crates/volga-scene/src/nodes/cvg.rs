@@ -9,10 +9,10 @@
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use volga_core::{Aabb, Field, Grid, Progress, SparseVolume};
+use volga_core::{Aabb, Field, Grid, IndexBox, Progress, SparseVolume};
 use volga_cvg::{Cvg, CvgField, Leaf, LeafColour, Op};
 
-use super::procedural::{bake_field, Counted, Counters, NodeCounters};
+use super::procedural::{bake_field_in, Counted, Counters, NodeCounters};
 use super::{Estimate, Node, Resolve};
 use crate::ctx::Ctx;
 use crate::model::NodeSpec;
@@ -173,8 +173,14 @@ impl Node for CvgNode {
             samples: &self.counters.samples,
         }))
     }
-    fn bake(&self, grid: &Grid, colour: bool, _progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
-        Ok(bake_field(self.lazy_field(grid)?.as_ref(), grid, colour))
+    fn bake_in(
+        &self,
+        grid: &Grid,
+        colour: bool,
+        clip: &IndexBox,
+        _progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError> {
+        Ok(bake_field_in(self.lazy_field(grid)?.as_ref(), grid, colour, clip))
     }
     fn counters(&self) -> Vec<NodeCounters> {
         vec![NodeCounters {

@@ -4,10 +4,10 @@
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use volga_core::{Aabb, Field, Grid, Progress, SparseVolume};
+use volga_core::{Aabb, Field, Grid, IndexBox, Progress, SparseVolume};
 use volga_cvg::{Core, Cvg, CvgField, LeafColour, Radial};
 
-use super::procedural::bake_field;
+use super::procedural::bake_field_in;
 use super::{bricks_within, Estimate, Node};
 use crate::ctx::Ctx;
 use crate::model::V3;
@@ -132,7 +132,13 @@ impl Node for FuzzyNode {
         field.set_gradient_step(grid.transform.spacing());
         Ok(Box::new(field))
     }
-    fn bake(&self, grid: &Grid, colour: bool, _progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
-        Ok(bake_field(self.lazy_field(grid)?.as_ref(), grid, colour))
+    fn bake_in(
+        &self,
+        grid: &Grid,
+        colour: bool,
+        clip: &IndexBox,
+        _progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError> {
+        Ok(bake_field_in(self.lazy_field(grid)?.as_ref(), grid, colour, clip))
     }
 }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use glam::{DAffine3, DQuat, DVec3};
 use volga_core::memory::Bytes;
-use volga_core::{Aabb, Field, Grid, Progress, Rgb, SparseVolume};
+use volga_core::{Aabb, Field, Grid, IndexBox, Progress, Rgb, SparseVolume};
 use volga_mesh::{Bvh, TriMesh};
 use volga_shapes::OrientedBoxFilter;
 use volga_voxelize::{parse_bytes_bound, MeshJob, MeshJobMode, MeshVoxelizer, SurfaceMode};
@@ -173,8 +173,16 @@ impl Node for MeshNode {
         };
         Ok(Box::new(Clipped::new(field, grid.world_bounds()).tinted(self.colour)))
     }
-    fn bake(&self, grid: &Grid, _colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
-        Ok(MeshVoxelizer::new(self.loaded()?).voxelize(grid, SurfaceMode::Solid, progress))
+    fn bake_in(
+        &self,
+        grid: &Grid,
+        _colour: bool,
+        clip: &IndexBox,
+        progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError> {
+        Ok(MeshVoxelizer::new(self.loaded()?)
+            .voxelize_in(grid, SurfaceMode::Solid, clip, progress)
+            .0)
     }
 }
 

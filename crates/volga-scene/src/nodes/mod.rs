@@ -28,7 +28,7 @@ pub mod volume;
 use std::path::Path;
 
 use glam::{DVec3, Vec3};
-use volga_core::{Aabb, Field, FieldKind, Grid, Progress, Rgb, SparseVolume};
+use volga_core::{Aabb, Field, FieldKind, Grid, IndexBox, Progress, Rgb, SparseVolume};
 use volga_shapes::OrientedBoxFilter;
 use volga_voxelize::Solid;
 
@@ -130,7 +130,19 @@ pub trait Node: std::fmt::Debug + Send + Sync {
     /// it equals the baked value up to the `f32` rounding of the payload.
     fn lazy_field(&self, grid: &Grid) -> Result<Box<dyn Field + '_>, SceneError>;
     /// The node voxelized on `grid` (density, and colour when `colour`).
-    fn bake(&self, grid: &Grid, colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError>;
+    fn bake(&self, grid: &Grid, colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
+        self.bake_in(grid, colour, &grid.index_box(), progress)
+    }
+    /// [`Node::bake`] on the bricks of `grid` that meet `clip` (voxel indices) only: each
+    /// of them bit for bit the whole bake's brick, no other brick stored or computed.
+    /// Chunked and out-of-core bakes are made of these.
+    fn bake_in(
+        &self,
+        grid: &Grid,
+        colour: bool,
+        clip: &IndexBox,
+        progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError>;
     /// Where this node's procedural work (noise) runs, for the plan; `None` when it has
     /// none.
     fn procedural_plan(&self) -> Option<String> {

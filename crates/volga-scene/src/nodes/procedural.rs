@@ -116,6 +116,11 @@ pub fn bake_field(field: &dyn Field, grid: &Grid, colour: bool) -> SparseVolume 
     volga_cvg::bake(field, grid, colour).0
 }
 
+/// [`bake_field`] on the bricks that meet `clip` only ([`volga_cvg::bake_in`]).
+pub fn bake_field_in(field: &dyn Field, grid: &Grid, colour: bool, clip: &volga_core::IndexBox) -> SparseVolume {
+    volga_cvg::bake_in(field, grid, colour, clip).0
+}
+
 /// A field that counts its samples (value calls and batch entries).
 pub struct Counted<'a, F> {
     /// The field whose samples are counted.

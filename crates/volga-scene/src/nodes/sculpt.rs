@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use glam::{DVec3, IVec3};
-use volga_core::{Aabb, Field, Grid, Progress, Rgb, SparseVolume};
+use volga_core::{Aabb, Field, Grid, IndexBox, Progress, Rgb, SparseVolume};
 use volga_sculpt::{Sculpt, SculptGrid, BRICK_BYTES_BOUND};
 
 use super::{Clipped, Estimate, Node, Resolve};
@@ -142,12 +142,18 @@ impl Node for SculptNode {
         let sculpt = self.sculpt(grid)?;
         Ok(Box::new(Clipped::new(sculpt, grid.world_bounds())))
     }
-    fn bake(&self, grid: &Grid, colour: bool, _progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
+    fn bake_in(
+        &self,
+        grid: &Grid,
+        colour: bool,
+        clip: &IndexBox,
+        _progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError> {
         let padded = self.sculpt(grid)?.to_sparse_volume(colour);
         // Same origin and voxel size: the bricks inside the scene grid carry over as they are.
         let mut out = SparseVolume::new(*grid, 0.0, colour);
-        let extent = volga_core::brick_extent(grid.dims());
-        let inside = |b: IVec3| b.cmpge(IVec3::ZERO).all() && b.cmplt(extent).all();
+        let wanted = volga_core::bricks_meeting(&clip.intersection(&grid.index_box()));
+        let inside = |b: IVec3| wanted.contains(b);
         for b in padded.density.sorted_bricks().into_iter().filter(|b| inside(*b)) {
             if let Some(brick) = padded.density.brick(b) {
                 out.density.insert_brick(b, brick.clone());

@@ -5,9 +5,9 @@
 //! against all of them) and one `AnalyticField` when rendered lazily.
 
 use glam::{DQuat, DVec3, EulerRot};
-use volga_core::{Aabb, Field, Grid, Progress, Rgb, SparseVolume};
+use volga_core::{Aabb, Field, Grid, IndexBox, Progress, Rgb, SparseVolume};
 use volga_shapes::{AxisBox, Capsule, Cone, Cylinder, Ellipsoid, OrientedBox, Quadric, Shape, SignedDistance, Sphere};
-use volga_voxelize::{estimate_solid_bricks, voxelize_solids, AnalyticField, Solid};
+use volga_voxelize::{estimate_solid_bricks, voxelize_solids_in, AnalyticField, Solid};
 
 use super::{grid_filter, Clipped, Estimate, Node};
 use crate::ctx::Ctx;
@@ -66,8 +66,14 @@ impl Node for ShapeNode {
         let field = AnalyticField::new(vec![self.solid], grid_filter(grid));
         Ok(Box::new(Clipped::new(field, grid.world_bounds())))
     }
-    fn bake(&self, grid: &Grid, colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
-        Ok(voxelize_solids(grid, &[self.solid], colour, progress))
+    fn bake_in(
+        &self,
+        grid: &Grid,
+        colour: bool,
+        clip: &IndexBox,
+        progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError> {
+        Ok(voxelize_solids_in(grid, &[self.solid], colour, clip, progress))
     }
 }
 

@@ -1,9 +1,9 @@
 //! Leaf node: a ring torus (the worked example of adding a node kind; its geometry is
 //! `volga_shapes::Torus`, one file of the geometry layer).
 
-use volga_core::{Aabb, Field, Grid, Progress, Rgb, SparseVolume};
+use volga_core::{Aabb, Field, Grid, IndexBox, Progress, Rgb, SparseVolume};
 use volga_shapes::{FilteredDensity, SignedDistance, Torus};
-use volga_voxelize::{voxelize_shapes, SurfaceMode};
+use volga_voxelize::{voxelize_shapes_in, SurfaceMode};
 
 use super::{bricks_within, grid_filter, Clipped, Estimate, Node};
 use crate::ctx::Ctx;
@@ -69,7 +69,19 @@ impl Node for TorusNode {
         let density = FilteredDensity::new(self.torus, grid_filter(grid));
         Ok(Box::new(Clipped::new(density, grid.world_bounds()).tinted(self.colour)))
     }
-    fn bake(&self, grid: &Grid, _colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
-        Ok(voxelize_shapes(grid, &[self.torus], SurfaceMode::Solid, progress))
+    fn bake_in(
+        &self,
+        grid: &Grid,
+        _colour: bool,
+        clip: &IndexBox,
+        progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError> {
+        Ok(voxelize_shapes_in(
+            grid,
+            &[self.torus],
+            SurfaceMode::Solid,
+            clip,
+            progress,
+        ))
     }
 }

@@ -6,8 +6,8 @@
 //! dispatch over the closed shape set); other operands follow in scene order.
 
 use glam::{DVec3, Vec3};
-use volga_core::{brick_index_box, Aabb, Field, Grid, Progress, Rgb, SparseVolume};
-use volga_voxelize::{estimate_solid_bricks, merge_max, voxelize_solids, AnalyticField, Solid};
+use volga_core::{brick_index_box, Aabb, Field, Grid, IndexBox, Progress, Rgb, SparseVolume};
+use volga_voxelize::{estimate_solid_bricks, merge_max, voxelize_solids_in, AnalyticField, Solid};
 
 use super::{grid_filter, leaf, Estimate, Node, Resolve};
 use crate::ctx::Ctx;
@@ -203,10 +203,16 @@ impl Node for Union {
             step: grid.transform.spacing(),
         }))
     }
-    fn bake(&self, grid: &Grid, colour: bool, progress: &dyn Progress) -> Result<SparseVolume, SceneError> {
-        let mut volume = voxelize_solids(grid, &self.solids(), colour, progress);
+    fn bake_in(
+        &self,
+        grid: &Grid,
+        colour: bool,
+        clip: &IndexBox,
+        progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError> {
+        let mut volume = voxelize_solids_in(grid, &self.solids(), colour, clip, progress);
         for c in self.others() {
-            let part = c.bake(grid, colour, progress)?;
+            let part = c.bake_in(grid, colour, clip, progress)?;
             if part.colour.is_some() {
                 merge_max_coloured(&mut volume, &part);
             } else {
