@@ -66,25 +66,32 @@ def _mesh_spec(mesh: Any) -> Tuple[Dict[str, Any], Mesh]:
     return {"vertices": vertices, "faces": faces, "token": "arrays:" + h.hexdigest()}, m
 
 
+def _cached(cache: "OrderedDict[str, Any]", key: str, make: Any) -> Any:
+    """``cache[key]``, made by ``make()`` on first use; the least recently used entries
+    beyond ``_MAX_JOBS`` are dropped."""
+    with _JOBS_LOCK:
+        value = cache.get(key)
+        if value is not None:
+            cache.move_to_end(key)
+            return value
+    value = make()
+    with _JOBS_LOCK:
+        cache[key] = value
+        while len(cache) > _MAX_JOBS:
+            cache.popitem(last=False)
+    return value
+
+
 def _job(spec: Dict[str, Any], options: Dict[str, Any], threads: Optional[int]) -> VoxelJob:
     """This process's prepared job for ``spec`` and ``options`` (made on first use)."""
-    key = spec["token"] + repr(sorted(options.items()))
-    with _JOBS_LOCK:
-        job = _JOBS.get(key)
-        if job is not None:
-            _JOBS.move_to_end(key)
-            return job
-    if "path" in spec:
-        mesh = load_mesh(spec["path"])
-    else:
-        mesh = Mesh(spec["vertices"], spec["faces"])
-    job = VoxelJob(mesh, **options)
-    job.prepare(threads=threads)
-    with _JOBS_LOCK:
-        _JOBS[key] = job
-        while len(_JOBS) > _MAX_JOBS:
-            _JOBS.popitem(last=False)
-    return job
+
+    def make() -> VoxelJob:
+        mesh = load_mesh(spec["path"]) if "path" in spec else Mesh(spec["vertices"], spec["faces"])
+        job = VoxelJob(mesh, **options)
+        job.prepare(threads=threads)
+        return job
+
+    return _cached(_JOBS, spec["token"] + repr(sorted(options.items())), make)
 
 
 def _chunk(spec: Dict[str, Any], options: Dict[str, Any], threads: Optional[int],
@@ -92,6 +99,27 @@ def _chunk(spec: Dict[str, Any], options: Dict[str, Any], threads: Optional[int]
     job = _job(spec, options, threads)
     grid = job.run_region((lo, hi), memory_limit=memory_limit, threads=threads)
     return np.ascontiguousarray(grid.dense(memory_limit=memory_limit))
+
+
+def _chunked(name: str, spec: Dict[str, Any], chunks: Tuple[Tuple[int, ...], ...], dtype: np.dtype,
+             task: Any) -> Any:
+    """A dask array ``name`` of ``chunks``, chunk ``(i, j, k)`` computed by the task
+    ``task(spec_key, lo, hi)`` for its voxels ``lo ≤ ijk < hi``; ``spec`` (the mesh or
+    scene) goes into the graph once, under its own key."""
+    da = _require_dask()
+    from dask.highlevelgraph import HighLevelGraph
+
+    spec_key = name + "-spec"
+    layer: Dict[Any, Any] = {spec_key: spec}
+    starts = [np.concatenate([[0], np.cumsum(c)]).astype(int) for c in chunks]
+    for i in range(len(chunks[0])):
+        for j in range(len(chunks[1])):
+            for k in range(len(chunks[2])):
+                lo = (int(starts[0][i]), int(starts[1][j]), int(starts[2][k]))
+                hi = (int(starts[0][i + 1]), int(starts[1][j + 1]), int(starts[2][k + 1]))
+                layer[(name, i, j, k)] = task(spec_key, lo, hi)
+    graph = HighLevelGraph.from_collections(name, layer, dependencies=[])
+    return da.Array(graph, name, chunks, dtype=dtype, meta=np.empty((0, 0, 0), dtype=dtype))
 
 
 def _options(resolution: Optional[int], pitch: Optional[float], bounds: Any, mode: str,
@@ -155,7 +183,6 @@ def voxelize_array(
     (``write_zarr`` stores it with the array).
     """
     da = _require_dask()
-    from dask.highlevelgraph import HighLevelGraph
     from dask.base import tokenize
 
     spec, m = _mesh_spec(mesh)
@@ -173,18 +200,8 @@ def voxelize_array(
                 f"{need} bytes, more than memory_limit={memory_limit}: use smaller chunks"
             )
     token = tokenize(spec["token"], options, chunks, threads, memory_limit)
-    name = "volga-voxelize-" + token
-    spec_key = "volga-mesh-" + token
-    layer: Dict[Any, Any] = {spec_key: spec}
-    starts = [np.concatenate([[0], np.cumsum(c)]).astype(int) for c in chunks]
-    for i in range(len(chunks[0])):
-        for j in range(len(chunks[1])):
-            for k in range(len(chunks[2])):
-                lo = (int(starts[0][i]), int(starts[1][j]), int(starts[2][k]))
-                hi = (int(starts[0][i + 1]), int(starts[1][j + 1]), int(starts[2][k + 1]))
-                layer[(name, i, j, k)] = (_chunk, spec_key, options, threads, memory_limit, lo, hi)
-    graph = HighLevelGraph.from_collections(name, layer, dependencies=[])
-    return da.Array(graph, name, chunks, dtype=dtype, meta=np.empty((0, 0, 0), dtype=dtype))
+    return _chunked("volga-voxelize-" + token, spec, chunks, dtype,
+                    lambda key, lo, hi: (_chunk, key, options, threads, memory_limit, lo, hi))
 
 
 _SCENES: "OrderedDict[str, Any]" = OrderedDict()
@@ -194,18 +211,8 @@ def _scene_job(spec: Dict[str, Any]) -> Any:
     """This process's resolved scene for ``spec`` (made on first use)."""
     from . import SceneJob
 
-    key = spec["token"]
-    with _JOBS_LOCK:
-        job = _SCENES.get(key)
-        if job is not None:
-            _SCENES.move_to_end(key)
-            return job
-    job = SceneJob(spec["scene"], base_dir=spec.get("base_dir"), allow_outside_paths=spec["allow_outside_paths"])
-    with _JOBS_LOCK:
-        _SCENES[key] = job
-        while len(_SCENES) > _MAX_JOBS:
-            _SCENES.popitem(last=False)
-    return job
+    return _cached(_SCENES, spec["token"], lambda: SceneJob(
+        spec["scene"], base_dir=spec.get("base_dir"), allow_outside_paths=spec["allow_outside_paths"]))
 
 
 def _scene_chunk(spec: Dict[str, Any], threads: Optional[int], memory_limit: Optional[int],
@@ -228,7 +235,6 @@ def bake_array(
     ``scene`` is a scene file (each worker reads it and the files it names, which must be
     readable there) or a dict; each worker process resolves it once and keeps it."""
     da = _require_dask()
-    from dask.highlevelgraph import HighLevelGraph
     from dask.base import tokenize
     from . import SceneJob
 
@@ -245,18 +251,8 @@ def bake_array(
     shape = job.shape
     dtype = np.dtype(np.float32)
     chunks = da.core.normalize_chunks(chunks, shape=shape, dtype=dtype)
-    name = "volga-bake-" + tokenize(token, chunks, threads, memory_limit)
-    spec_key = "volga-scene-" + tokenize(token)
-    layer: Dict[Any, Any] = {spec_key: spec}
-    starts = [np.concatenate([[0], np.cumsum(c)]).astype(int) for c in chunks]
-    for i in range(len(chunks[0])):
-        for j in range(len(chunks[1])):
-            for k in range(len(chunks[2])):
-                lo = (int(starts[0][i]), int(starts[1][j]), int(starts[2][k]))
-                hi = (int(starts[0][i + 1]), int(starts[1][j + 1]), int(starts[2][k + 1]))
-                layer[(name, i, j, k)] = (_scene_chunk, spec_key, threads, memory_limit, lo, hi)
-    graph = HighLevelGraph.from_collections(name, layer, dependencies=[])
-    return da.Array(graph, name, chunks, dtype=dtype, meta=np.empty((0, 0, 0), dtype=dtype))
+    return _chunked("volga-bake-" + tokenize(token, chunks, threads, memory_limit), spec, chunks, dtype,
+                    lambda key, lo, hi: (_scene_chunk, key, threads, memory_limit, lo, hi))
 
 
 def write_zarr(

@@ -151,3 +151,13 @@ pub type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>
 pub fn mesh_arrays(py: Python<'_>, mesh: volga_mesh::TriMesh) -> PyResult<MeshArrays<'_>> {
     Ok((vec3_array(py, mesh.positions)?, faces_array(py, &mesh.triangles)?))
 }
+
+/// The (4, 4) float64 homogeneous transform from index space to world space at voxel
+/// centres (trimesh's `VoxelGrid.transform`).
+pub fn transform_matrix<'py>(py: Python<'py>, t: &volga_core::Transform) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+    let (o, s) = (t.origin(), t.spacing());
+    let m = vec![
+        s.x, 0.0, 0.0, o.x, 0.0, s.y, 0.0, o.y, 0.0, 0.0, s.z, o.z, 0.0, 0.0, 0.0, 1.0,
+    ];
+    numpy::PyArrayMethods::reshape(&numpy::PyArray1::from_vec(py, m), [4, 4])
+}

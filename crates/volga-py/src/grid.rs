@@ -160,12 +160,7 @@ impl VoxelGrid {
     /// centres (trimesh's `VoxelGrid.transform`).
     #[getter]
     fn transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let t = &self.volume.grid.transform;
-        let (o, s) = (t.origin(), t.spacing());
-        let m = vec![
-            s.x, 0.0, 0.0, o.x, 0.0, s.y, 0.0, o.y, 0.0, 0.0, s.z, o.z, 0.0, 0.0, 0.0, 1.0,
-        ];
-        PyArray1::from_vec(py, m).reshape([4, 4])
+        arrays::transform_matrix(py, &self.volume.grid.transform)
     }
 
     /// (2, 3) float64 world box covered by the voxels' cells.
@@ -805,12 +800,7 @@ impl VoxelJob {
     /// (4, 4) float64 transform from the whole grid's index space to world (voxel centres).
     #[getter]
     fn transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let t = &self.grid.transform;
-        let (o, s) = (t.origin(), t.spacing());
-        let m = vec![
-            s.x, 0.0, 0.0, o.x, 0.0, s.y, 0.0, o.y, 0.0, 0.0, s.z, o.z, 0.0, 0.0, 0.0, 1.0,
-        ];
-        PyArray1::from_vec(py, m).reshape([4, 4])
+        arrays::transform_matrix(py, &self.grid.transform)
     }
 
     /// Voxel edge length (world units).

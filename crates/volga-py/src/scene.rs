@@ -93,12 +93,7 @@ impl SceneJob {
     /// (4, 4) float64 transform from the scene grid's index space to world (voxel centres).
     #[getter]
     fn transform<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
-        let t = &self.scene.grid.transform;
-        let (o, s) = (t.origin(), t.spacing());
-        let m = vec![
-            s.x, 0.0, 0.0, o.x, 0.0, s.y, 0.0, o.y, 0.0, 0.0, s.z, o.z, 0.0, 0.0, 0.0, 1.0,
-        ];
-        numpy::PyArrayMethods::reshape(&numpy::PyArray1::from_vec(py, m), [4, 4])
+        crate::arrays::transform_matrix(py, &self.scene.grid.transform)
     }
 
     /// The scene's baked density over `region` = `((i0, j0, k0), (i1, j1, k1))` (default:

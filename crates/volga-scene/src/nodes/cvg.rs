@@ -9,10 +9,10 @@
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use volga_core::{Aabb, Field, Grid, IndexBox, Progress, SparseVolume};
+use volga_core::{Aabb, Field, Grid};
 use volga_cvg::{Cvg, CvgField, Leaf, LeafColour, Op};
 
-use super::procedural::{bake_field_in, Counted, Counters, NodeCounters};
+use super::procedural::{Counted, Counters, NodeCounters};
 use super::{Estimate, Node, Resolve};
 use crate::ctx::Ctx;
 use crate::model::NodeSpec;
@@ -172,15 +172,6 @@ impl Node for CvgNode {
             field,
             samples: &self.counters.samples,
         }))
-    }
-    fn bake_in(
-        &self,
-        grid: &Grid,
-        colour: bool,
-        clip: &IndexBox,
-        _progress: &dyn Progress,
-    ) -> Result<SparseVolume, SceneError> {
-        Ok(bake_field_in(self.lazy_field(grid)?.as_ref(), grid, colour, clip))
     }
     fn counters(&self) -> Vec<NodeCounters> {
         vec![NodeCounters {

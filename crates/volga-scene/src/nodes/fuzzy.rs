@@ -4,10 +4,9 @@
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use volga_core::{Aabb, Field, Grid, IndexBox, Progress, SparseVolume};
+use volga_core::{Aabb, Field, Grid};
 use volga_cvg::{Core, Cvg, CvgField, LeafColour, Radial};
 
-use super::procedural::bake_field_in;
 use super::{bricks_within, Estimate, Node};
 use crate::ctx::Ctx;
 use crate::model::V3;
@@ -131,14 +130,5 @@ impl Node for FuzzyNode {
         let mut field = CvgField::new(Cvg::Leaf(leaf), &grid.world_bounds());
         field.set_gradient_step(grid.transform.spacing());
         Ok(Box::new(field))
-    }
-    fn bake_in(
-        &self,
-        grid: &Grid,
-        colour: bool,
-        clip: &IndexBox,
-        _progress: &dyn Progress,
-    ) -> Result<SparseVolume, SceneError> {
-        Ok(bake_field_in(self.lazy_field(grid)?.as_ref(), grid, colour, clip))
     }
 }

@@ -6,11 +6,11 @@
 
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
-use volga_core::{Aabb, Field, Grid, IndexBox, Progress, SparseVolume};
+use volga_core::{Aabb, Field, Grid};
 use volga_shapes::Sphere;
 use volga_texture::{edt, DistanceSource, HyperTexture, Modulation, SampledDistance, ShapeSource, TextureError};
 
-use super::procedural::{bake_field_in, NodeCounters, NoiseSpec};
+use super::procedural::{NodeCounters, NoiseSpec};
 use super::{bricks_within, Clipped, Estimate, Node, Resolve};
 use crate::ctx::Ctx;
 use crate::model::V3;
@@ -360,15 +360,6 @@ impl Node for HypertextureNode {
             clipped = clipped.tinted(c.to_array());
         }
         Ok(Box::new(clipped))
-    }
-    fn bake_in(
-        &self,
-        grid: &Grid,
-        colour: bool,
-        clip: &IndexBox,
-        _progress: &dyn Progress,
-    ) -> Result<SparseVolume, SceneError> {
-        Ok(bake_field_in(self.lazy_field(grid)?.as_ref(), grid, colour, clip))
     }
     fn procedural_plan(&self) -> Option<String> {
         let reach = self.hyper.as_ref().map_or(self.soft_width, |h| h.reach());

@@ -135,14 +135,23 @@ pub trait Node: std::fmt::Debug + Send + Sync {
     }
     /// [`Node::bake`] on the bricks of `grid` that meet `clip` (voxel indices) only: each
     /// of them bit for bit the whole bake's brick, no other brick stored or computed.
-    /// Chunked and out-of-core bakes are made of these.
+    /// Chunked and out-of-core bakes are made of these. By default the node's lazy field
+    /// is baked ([`procedural::bake_field_in`]); nodes with a voxelizer of their own
+    /// (shapes, meshes, unions, sculpts) override it.
     fn bake_in(
         &self,
         grid: &Grid,
         colour: bool,
         clip: &IndexBox,
-        progress: &dyn Progress,
-    ) -> Result<SparseVolume, SceneError>;
+        _progress: &dyn Progress,
+    ) -> Result<SparseVolume, SceneError> {
+        Ok(procedural::bake_field_in(
+            self.lazy_field(grid)?.as_ref(),
+            grid,
+            colour,
+            clip,
+        ))
+    }
     /// Where this node's procedural work (noise) runs, for the plan; `None` when it has
     /// none.
     fn procedural_plan(&self) -> Option<String> {

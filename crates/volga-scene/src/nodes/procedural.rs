@@ -111,12 +111,8 @@ pub struct Counters {
     pub noise: Counter,
 }
 
-/// Bakes a node's lazy field on `grid` (see the module doc).
-pub fn bake_field(field: &dyn Field, grid: &Grid, colour: bool) -> SparseVolume {
-    volga_cvg::bake(field, grid, colour).0
-}
-
-/// [`bake_field`] on the bricks that meet `clip` only ([`volga_cvg::bake_in`]).
+/// Bakes a node's lazy field on the bricks of `grid` that meet `clip` (see the module
+/// doc; [`volga_cvg::bake_in`]); `clip = grid.index_box()` bakes the whole grid.
 pub fn bake_field_in(field: &dyn Field, grid: &Grid, colour: bool, clip: &volga_core::IndexBox) -> SparseVolume {
     volga_cvg::bake_in(field, grid, colour, clip).0
 }

@@ -5,10 +5,10 @@
 
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
-use volga_core::{Aabb, Field, Grid, IndexBox, Progress, SparseVolume};
+use volga_core::{Aabb, Field, Grid};
 use volga_texture::{ColourSpline, Pattern, Perlin, SolidTexture, Turbulence};
 
-use super::procedural::{bake_field_in, Counters, NodeCounters};
+use super::procedural::{Counters, NodeCounters};
 use super::{Estimate, Node, Resolve};
 use crate::ctx::Ctx;
 use crate::model::{NodeSpec, V3};
@@ -243,15 +243,6 @@ impl Node for TexturedNode {
             density: self.children[0].lazy_field(grid)?,
             node: self,
         }))
-    }
-    fn bake_in(
-        &self,
-        grid: &Grid,
-        colour: bool,
-        clip: &IndexBox,
-        _progress: &dyn Progress,
-    ) -> Result<SparseVolume, SceneError> {
-        Ok(bake_field_in(self.lazy_field(grid)?.as_ref(), grid, colour, clip))
     }
     fn procedural_plan(&self) -> Option<String> {
         Some("texture colour evaluated only where a colour is read (lazy colour images, or the baked colour channel when planned), at voxels of non-zero density".into())

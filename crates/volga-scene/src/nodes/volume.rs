@@ -9,10 +9,10 @@
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
-use volga_core::{Aabb, Field, Filter, Grid, IndexBox, Progress, Sampled, SparseVolume};
+use volga_core::{Aabb, Field, Filter, Grid, Sampled, SparseVolume};
 use volga_io::{VoxelModel, VoxelValues};
 
-use super::procedural::{bake_field_in, Counted, Counters, NodeCounters};
+use super::procedural::{Counted, Counters, NodeCounters};
 use super::{bricks_within, Clipped, Estimate, Node, Resolve};
 use crate::ctx::Ctx;
 use crate::model::V3;
@@ -178,15 +178,6 @@ impl Node for VolumeNode {
             field: Clipped::new(sampled, grid.world_bounds()).tinted(self.colour),
             samples: &self.counters.samples,
         }))
-    }
-    fn bake_in(
-        &self,
-        grid: &Grid,
-        colour: bool,
-        clip: &IndexBox,
-        _progress: &dyn Progress,
-    ) -> Result<SparseVolume, SceneError> {
-        Ok(bake_field_in(self.lazy_field(grid)?.as_ref(), grid, colour, clip))
     }
     fn counters(&self) -> Vec<NodeCounters> {
         vec![NodeCounters {
