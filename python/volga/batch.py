@@ -31,6 +31,7 @@ caller's ``distributed.Client`` or a local cluster, with:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import glob as _glob
 import hashlib
 import io
@@ -468,9 +469,19 @@ def _process(mesh: str, out_name: str, out_root: str, params: Dict[str, Any], ph
 # ----------------------------------------------------------------------------- client
 
 
+def _workers(client: Any) -> Dict[str, Any]:
+    """Every worker's info (``scheduler_info`` lists only some by default in newer
+    releases, and takes no ``n_workers`` in older ones)."""
+    try:
+        info = client.scheduler_info(n_workers=-1)
+    except TypeError:
+        info = client.scheduler_info()
+    return info.get("workers", {})
+
+
 def _memory_budget(client: Any) -> Tuple[Optional[int], bool]:
     """The memory one task may have (bytes), and whether the workers declare ``MEMORY``."""
-    workers = client.scheduler_info(n_workers=-1).get("workers", {})
+    workers = _workers(client)
     declared = [w.get("resources", {}).get("MEMORY") for w in workers.values()]
     if workers and all(d is not None for d in declared):
         return int(min(declared)), True
@@ -572,7 +583,10 @@ def run(
                                    dashboard_address=":0" if progress else None)
         client = Client(cluster)
         own = (client, cluster)
-    try:
+    with contextlib.ExitStack() as stack:
+        if own:
+            stack.callback(own[1].close)
+            stack.callback(own[0].close)
         budget, declared = _memory_budget(client)
         if progress and getattr(client, "dashboard_link", None):
             print(f"volga-batch: dashboard {client.dashboard_link}", file=sys.stderr)
@@ -591,14 +605,20 @@ def run(
         first = min(reserve, budget) if budget else reserve
         # At most `window` tasks in flight: the scheduler holds a few KB per task, so a
         # million meshes are fed as the earlier ones finish, not submitted at once.
-        threads = sum(w.get("nthreads", 1) for w in client.scheduler_info(n_workers=-1).get("workers", {}).values())
+        threads = sum(w.get("nthreads", 1) for w in _workers(client).values())
         window = max(_MIN_WINDOW, 8 * threads)
         queue = iter(todo)
         pending = as_completed([submit(m, first) for m in itertools.islice(queue, window)])
         status_fs, status_local = _fs(status_path)
         if status_fs is None:
             os.makedirs(os.path.dirname(status_local), exist_ok=True)
-        last = 0.0
+            status = open(status_local, "a")
+        else:
+            status = status_fs.open(status_local, "a")
+        stack.callback(status.close)
+        if status_fs is None:
+            stack.callback(lambda: (status.flush(), os.fsync(status.fileno())))  # runs before the close
+        last = synced = 0.0
         finished = 0
         for fut in pending:
             mesh = fut.volga_mesh
@@ -613,27 +633,21 @@ def run(
             following = next(queue, None)
             if following is not None:
                 pending.add(submit(following, first))
-            line = json.dumps(rec, sort_keys=True) + "\n"
-            if status_fs is None:
-                with open(status_local, "a") as f:
-                    f.write(line)
-                    f.flush()
-                    os.fsync(f.fileno())
-            else:
-                with status_fs.open(status_local, "a") as f:
-                    f.write(line)
+            # Each record reaches the operating system at once (a killed client loses none);
+            # the disk is synced at most once a second (a power loss costs a redo, no more).
+            status.write(json.dumps(rec, sort_keys=True) + "\n")
+            status.flush()
             counts[rec["status"]] = counts.get(rec["status"], 0) + 1
             finished += 1
             now = time.perf_counter()
+            if status_fs is None and now - synced > 1.0:
+                os.fsync(status.fileno())
+                synced = now
             if progress and (now - last > 1.0 or finished == len(todo)):
                 last = now
                 print(f"volga-batch: {finished}/{len(todo)} ({counts['done']} done, {counts['failed']} failed, "
                       f"{counts['refused']} refused), {finished / max(now - t0, 1e-9):.1f} meshes/s",
                       file=sys.stderr)
-    finally:
-        if own:
-            own[0].close()
-            own[1].close()
     elapsed = time.perf_counter() - t0
     summary = {
         "meshes": len(items), "skipped": skipped, "processed": len(todo), **counts,
