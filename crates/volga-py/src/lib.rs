@@ -30,13 +30,14 @@ mod scene;
 mod sculpt;
 mod threads;
 mod validate;
+mod voxelize;
 
 #[pymodule]
 fn _volga(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<mesh::Mesh>()?;
     m.add_class::<grid::VoxelGrid>()?;
-    m.add_class::<grid::VoxelJob>()?;
+    m.add_class::<voxelize::VoxelJob>()?;
     m.add_class::<scene::SceneJob>()?;
     m.add_class::<sculpt::Sculpt>()?;
     m.add_class::<adf::Adf>()?;
@@ -44,7 +45,7 @@ fn _volga(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh::signed_distance, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::winding_number, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::inside, m)?)?;
-    m.add_function(wrap_pyfunction!(grid::voxelize, m)?)?;
+    m.add_function(wrap_pyfunction!(voxelize::voxelize, m)?)?;
     m.add_function(wrap_pyfunction!(grid::extract_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(grid::load_volume, m)?)?;
     m.add_function(wrap_pyfunction!(validate::validate, m)?)?;

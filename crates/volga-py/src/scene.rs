@@ -109,7 +109,7 @@ impl SceneJob {
     ) -> PyResult<crate::grid::VoxelGrid> {
         threads::check(threads)?;
         let region = match region {
-            Some(r) => crate::grid::parse_region(&self.scene.grid, r)?,
+            Some(r) => crate::voxelize::parse_region(&self.scene.grid, r)?,
             None => self.scene.grid.index_box(),
         };
         let scene = self.scene.clone();
