@@ -55,6 +55,11 @@ pub struct BenchArgs {
     /// Write the last result here (.binvox, .nrrd or .vdb).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also report where the time goes: per stage (preparing the mesh, distances, band
+    /// signs, flood signs, far field, ...) the median wall and CPU seconds of the timed
+    /// runs, under `profile`. Timing costs a few clock reads per brick.
+    #[arg(long, conflicts_with = "serve")]
+    profile: bool,
 }
 
 pub fn run(command: BenchCommand) -> Result<(), Failure> {
@@ -72,9 +77,16 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
         output_format(out, binary)?;
     }
     let job = job_args.prepare(&mut Stages::with_stage_start(volga_scene::reset_peak_rss))?;
+    let profiles = std::cell::RefCell::new(Vec::new());
     let once = || {
         let start = Instant::now();
-        let (run, mode) = job.voxelize(&NoProgress);
+        let (run, mode) = if args.profile {
+            let (run, mode, profile) = job.voxelize_profiled(&NoProgress);
+            profiles.borrow_mut().push(profile);
+            (run, mode)
+        } else {
+            job.voxelize(&NoProgress)
+        };
         let volume = run.volume;
         (start.elapsed().as_secs_f64(), volume, mode)
     };
@@ -128,6 +140,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
         return Ok(());
     }
 
+    profiles.borrow_mut().clear(); // the warm-up runs' profiles
     let mut times = Vec::new();
     for _ in 0..args.repeat {
         drop(last.take()); // free the previous result first, as a fresh run would find it
@@ -136,17 +149,11 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
         last = Some((volume, mode));
     }
     let (volume, mode) = last.expect("repeat ≥ 1");
-    let mut sorted = times.clone();
-    sorted.sort_by(f64::total_cmp);
-    let median = if sorted.len() % 2 == 1 {
-        sorted[sorted.len() / 2]
-    } else {
-        0.5 * (sorted[sorted.len() / 2 - 1] + sorted[sorted.len() / 2])
-    };
+    let median = median_of(&times);
     if let Some(out) = &args.out {
         write_outputs(out, &volume, &Default::default(), None)?;
     }
-    let report = json!({
+    let mut report = json!({
         "mesh": job_args.mesh_path(),
         "mode": mode,
         "triangles": job.mesh.triangles.len(),
@@ -156,6 +163,48 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
         "median_s": median,
         "voxels": job.voxel_count(&volume),
     });
+    if args.profile {
+        report["profile"] = profile_medians(&profiles.borrow());
+    }
     println!("{}", serde_json::to_string_pretty(&report).expect("report serializes"));
     Ok(())
+}
+
+fn median_of(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    if sorted.len() % 2 == 1 {
+        sorted[sorted.len() / 2]
+    } else {
+        0.5 * (sorted[sorted.len() / 2 - 1] + sorted[sorted.len() / 2])
+    }
+}
+
+/// Per stage (in the first run's order), the median wall and CPU seconds over the runs,
+/// and each median wall's share of their sum.
+fn profile_medians(profiles: &[volga_voxelize::VoxelizeProfile]) -> serde_json::Value {
+    let Some(first) = profiles.first() else {
+        return json!([]);
+    };
+    let stages: Vec<(&str, f64, f64)> = first
+        .stages
+        .iter()
+        .enumerate()
+        .map(|(i, stage)| {
+            let of = |f: fn(&volga_voxelize::ProfileStage) -> f64| {
+                median_of(&profiles.iter().filter_map(|p| p.stages.get(i)).map(f).collect::<Vec<_>>())
+            };
+            (stage.name, of(|s| s.wall_s), of(|s| s.cpu_s))
+        })
+        .collect();
+    let total: f64 = stages.iter().map(|s| s.1).sum();
+    json!(stages
+        .iter()
+        .map(|(name, wall, cpu)| json!({
+            "name": name,
+            "wall_s": wall,
+            "cpu_s": cpu,
+            "share": if total > 0.0 { wall / total } else { 0.0 },
+        }))
+        .collect::<Vec<_>>())
 }

@@ -288,6 +288,12 @@ impl Job {
         (self.spec.run(&self.mesh, &self.grid, progress), self.spec.mode_name())
     }
 
+    /// [`Job::voxelize`], and where its time went ([`MeshJob::run_profiled`]).
+    pub fn voxelize_profiled(&self, progress: &dyn Progress) -> (MeshRun, String, volga_voxelize::VoxelizeProfile) {
+        let (run, profile) = self.spec.run_profiled(&self.mesh, &self.grid, progress);
+        (run, self.spec.mode_name(), profile)
+    }
+
     /// The voxel count a job reports: band voxels of distance fields (|d| < half-width,
     /// comparable to a level set's active voxels), else the active voxels.
     pub fn voxel_count(&self, volume: &SparseVolume) -> u64 {

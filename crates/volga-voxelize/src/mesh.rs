@@ -29,6 +29,8 @@
 //! constant between sheets) or per octree box, refined down to single voxels where the
 //! level set `w = ½` passes far from the surface (open meshes).
 
+use std::time::Instant;
+
 use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -36,6 +38,7 @@ use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK
 use volga_mesh::{Bvh, TriMesh};
 
 use crate::mask::BrickMask;
+use crate::profile::{BrickClock, Lap, VoxelizeProfile};
 use crate::regions::{EdgeUse, FeatureRegions};
 use crate::sign::{MeshTopology, SignOracle, SignStats};
 use crate::tri_distance::{BandColumns, Nearest, TriDistance};
@@ -63,6 +66,8 @@ pub struct MeshVoxelizer {
     regions: FeatureRegions,
     /// Certified signs: per-triangle principal values, caps, gradient bounds.
     pub(crate) sign: SignOracle,
+    /// Where [`MeshVoxelizer::new`]'s time went.
+    prepare_profile: VoxelizeProfile,
 }
 
 /// [`MeshVoxelizer`]'s parts that do not need the BVH.
@@ -114,7 +119,14 @@ impl MeshVoxelizer {
     pub fn new(mesh: &TriMesh) -> Self {
         // The BVH (for winding numbers) is built from the mesh as given, alongside
         // everything else, which needs it only for meshes without simple boundary loops.
-        let (bvh, rest) = rayon::join(|| Bvh::build(mesh), || Self::without_bvh(mesh));
+        let start = Instant::now();
+        let ((bvh, bvh_s), (rest, rest_s)) = rayon::join(
+            || (Bvh::build(mesh), start.elapsed().as_secs_f64()),
+            || (Self::without_bvh(mesh), start.elapsed().as_secs_f64()),
+        );
+        let mut prepare_profile = VoxelizeProfile::default();
+        let oracle_start = Instant::now();
+        prepare_profile.push("tables_and_bvh", (oracle_start - start).as_secs_f64(), bvh_s + rest_s);
         let sign = SignOracle::build(&MeshTopology {
             triangles: &rest.triangles,
             corners: &rest.corners,
@@ -123,6 +135,7 @@ impl MeshVoxelizer {
             bvh: &bvh,
             to_bvh: &rest.order,
         });
+        prepare_profile.serial("sign_oracle", oracle_start);
         let edge_ambiguous = sign.edge_ok.iter().map(|ok| ok.map(|ok| !ok)).collect();
         let vertex_ambiguous = sign.vertex_ok.iter().map(|ok| ok.map(|ok| !ok)).collect();
         MeshVoxelizer {
@@ -137,7 +150,16 @@ impl MeshVoxelizer {
             distance: rest.distance,
             regions: rest.regions,
             sign,
+            prepare_profile,
         }
+    }
+
+    /// Where [`MeshVoxelizer::new`]'s time went: `tables_and_bvh` (Morton order, welding,
+    /// normals, feature regions and distance tables, alongside the BVH: its CPU time is
+    /// both sides'), then `sign_oracle` (boundary cycle, caps, clean triangles, `I⁺` and
+    /// `w̄` per triangle).
+    pub fn prepare_profile(&self) -> &VoxelizeProfile {
+        &self.prepare_profile
     }
 
     /// Everything but the BVH, on the triangles in Morton order: the triangles a brick
@@ -344,6 +366,22 @@ impl MeshVoxelizer {
         clip: &IndexBox,
         progress: &dyn Progress,
     ) -> (SparseVolume, SignStats) {
+        self.voxelize_profiled(grid, mode, clip, progress, None)
+    }
+
+    /// [`MeshVoxelizer::voxelize_clipped`], appending where the time went to `profile`
+    /// when given (stages `bins`, `slack`, `distances`, `band_signs`, `flood_signs`,
+    /// `brick_output`, `far_field`; or `binary_surface`; see [`VoxelizeProfile`]).
+    pub(crate) fn voxelize_profiled(
+        &self,
+        grid: &Grid,
+        mode: SurfaceMode,
+        clip: &IndexBox,
+        progress: &dyn Progress,
+        mut profile: Option<&mut VoxelizeProfile>,
+    ) -> (SparseVolume, SignStats) {
+        let timing = profile.is_some();
+        let mut stage = Instant::now();
         let spacing = grid.transform.spacing();
         let filter = OrientedBoxFilter::for_spacing(spacing);
         let (band, signed) = match mode {
@@ -363,6 +401,9 @@ impl MeshVoxelizer {
                 } else {
                     crate::binary::voxelize_triangles_in(grid, &self.triangles, separability, clip, progress)
                 };
+                if let Some(profile) = profile {
+                    profile.serial("binary_surface", stage);
+                }
                 return (surface, SignStats::default());
             }
         };
@@ -409,6 +450,9 @@ impl MeshVoxelizer {
         // The band in index units on the finest axis (a superset on anisotropic grids).
         let band_index = band / grid.min_spacing();
         let prepared = self.regions.prepare(t, &grid_box, band);
+        if let Some(profile) = profile.as_deref_mut() {
+            stage = profile.serial("bins", stage);
+        }
         // Half-width of each triangle's certified interval of `w` within the band: the
         // error of `w̄` at its centroid plus the gradient bound times the farthest path
         // (centroid → nearest point → voxel). Zero without a boundary.
@@ -432,9 +476,14 @@ impl MeshVoxelizer {
         } else {
             vec![0.0; self.triangles.len()]
         };
-        let band_bricks: Vec<(IVec3, Brick<f32>, SignStats)> = (0..bins.bricks.len())
+        if let Some(profile) = profile.as_deref_mut() {
+            stage = profile.serial("slack", stage);
+        }
+        let band_bricks: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = (0..bins.bricks.len())
             .into_par_iter()
             .map(|k| {
+                let mut lap = Lap::new(timing);
+                let mut clock = BrickClock::default();
                 let brick = bins.bricks[k];
                 let region = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
                 // Start at the band: farther candidates are never needed.
@@ -454,6 +503,7 @@ impl MeshVoxelizer {
                         prepared.for_each_run(i as usize, &region, &mut update);
                     }
                 }
+                clock.distances = lap.lap();
                 let (best_d2, best_tri) = (&best.d2, &best.id);
                 // Band voxels: exact distance and sign. Voxels beyond the band: their sign
                 // flows from band voxels through 6-neighbours (a 6-step is shorter than the
@@ -487,6 +537,7 @@ impl MeshVoxelizer {
                         }
                     }
                 }
+                clock.band_signs = lap.lap();
                 if signed {
                     let region_mask = BrickMask::of_region(brick, &region);
                     let unknown = region_mask.and_not(&inside_band.or(&outside_band));
@@ -497,20 +548,30 @@ impl MeshVoxelizer {
                         fill.remove(o);
                     }
                 }
+                clock.flood_signs = lap.lap();
                 progress.inc(1);
-                (brick, Brick::from_voxels(&data), stats)
+                let brick_data = Brick::from_voxels(&data);
+                clock.output = lap.lap();
+                (brick, brick_data, stats, clock)
             })
             .collect();
         progress.finish();
 
         let mut stats = self.sign.stats;
         let mut volume = SparseVolume::new(*grid, background, false).with_density_kind(mode.channel_kind());
-        let touched: rustc_hash::FxHashSet<IVec3> = band_bricks.iter().map(|(b, _, _)| *b).collect();
-        for (b, brick, brick_stats) in band_bricks {
+        let touched: rustc_hash::FxHashSet<IVec3> = band_bricks.iter().map(|(b, _, _, _)| *b).collect();
+        let mut clock = BrickClock::default();
+        for (b, brick, brick_stats, brick_clock) in band_bricks {
             stats.add(&brick_stats);
+            clock.add(&brick_clock);
             if brick != Brick::Uniform(background) {
                 volume.density.insert_brick(b, brick);
             }
+        }
+        if let Some(profile) = profile.as_deref_mut() {
+            let now = Instant::now();
+            clock.stages((now - stage).as_secs_f64(), profile);
+            stage = now;
         }
         if signed && inside_value != background {
             // Bricks no triangle band reaches.
@@ -569,6 +630,9 @@ impl MeshVoxelizer {
                 });
                 volume.density.insert_brick(b, brick);
             }
+        }
+        if let Some(profile) = profile {
+            profile.serial("far_field", stage);
         }
         (volume, stats)
     }
