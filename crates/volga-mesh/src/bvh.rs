@@ -235,6 +235,20 @@ impl Bvh {
         });
     }
 
+    /// Calls `f(index, corners)` for every triangle (mesh index) whose bounding box meets
+    /// the closed box, in tree order: the candidates of a segment or box test.
+    pub fn for_each_triangle_near(&self, query: &Aabb, mut f: impl FnMut(u32, [DVec3; 3])) {
+        if query.is_empty() {
+            return;
+        }
+        self.for_each_box_overlapping(query, |k| {
+            let [a, b, c] = self.triangles[k];
+            if !(a.min(b).min(c).cmpgt(query.max).any() || a.max(b).max(c).cmplt(query.min).any()) {
+                f(self.triangle_ids[k], self.triangles[k]);
+            }
+        });
+    }
+
     /// Fast generalized winding number at `p` (Barill, Dickson, Schmidt, Levin &
     /// Jacobson, "Fast Winding Numbers for Soups and Clouds", SIGGRAPH 2018).
     ///

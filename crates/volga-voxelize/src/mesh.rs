@@ -68,6 +68,8 @@ pub struct MeshVoxelizer {
     pub(crate) sign: SignOracle,
     /// Where [`MeshVoxelizer::new`]'s time went.
     prepare_profile: VoxelizeProfile,
+    /// Voxelizer (Morton) order → mesh order (the BVH's triangle ids).
+    pub(crate) to_mesh: Vec<u32>,
 }
 
 /// [`MeshVoxelizer`]'s parts that do not need the BVH.
@@ -151,6 +153,7 @@ impl MeshVoxelizer {
             regions: rest.regions,
             sign,
             prepare_profile,
+            to_mesh: rest.order,
         }
     }
 

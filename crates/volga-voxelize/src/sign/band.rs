@@ -7,6 +7,7 @@ use glam::DVec3;
 use volga_mesh::{closest_point_on_triangle, Feature};
 
 use super::SignStats;
+use super::crossings::CROSSING_SCRATCH;
 use crate::mesh::MeshVoxelizer;
 
 impl MeshVoxelizer {
@@ -24,6 +25,7 @@ impl MeshVoxelizer {
         let along = (p - c).dot(normal);
         // The side is trusted well above the rounding of `p − c` and of the normal.
         let tolerance = 1e-12 * (p.abs().max_element() + (p - c).length()) * normal.length();
+        let mut integer = None;
         if ok && sign.trusted[t] && along.abs() > tolerance && normal.length() > 1e-6 {
             let behind = along < 0.0;
             let mid = sign.w_bar[t] + if behind { 0.5 } else { -0.5 };
@@ -35,20 +37,31 @@ impl MeshVoxelizer {
                 stats.fast_voxels += 1;
                 return (false, 0.5 - mid - slack);
             }
-            if !sign.closed && !sign.cap_within(p, d2.sqrt()) {
-                // No cap between `p` and its nearest point: `w(p) = I − w_C(p)` with the
-                // region's integer `I` on this side.
-                let threshold = (sign.front[t] + behind as i64) as f64 - 0.5;
-                let b = sign.cap_winding(p, threshold);
-                stats.query_terms += b.terms as u64;
-                if b.value + b.error <= threshold {
-                    stats.cap_voxels += 1;
-                    return (true, threshold - b.value - b.error);
-                }
-                if b.value - b.error > threshold {
-                    stats.cap_voxels += 1;
-                    return (false, b.value - b.error - threshold);
-                }
+            // `I` just off `c` on this side is the region's integer; no sheet of the
+            // mesh lies between `c` and `p` (`c` is the nearest point), so `I(p)` is that
+            // plus the caps crossed on the way, counted exactly: `w(p) = I − w_C(p)`.
+            if !sign.closed {
+                integer = CROSSING_SCRATCH
+                    .with_borrow_mut(|scratch| sign.cap_crossings(c, p, scratch))
+                    .map(|crossed| sign.front[t] + behind as i64 + crossed);
+            }
+        }
+        if integer.is_none() && !sign.closed && sign.trusted[t] {
+            // Nearest to a boundary feature (or too close to call the side there): carry
+            // `I` from the triangle's centroid instead, crossings of the mesh included.
+            integer = self.integer_from(t, p);
+        }
+        if let Some(i) = integer {
+            let threshold = i as f64 - 0.5;
+            let b = sign.cap_winding(p, threshold);
+            stats.query_terms += b.terms as u64;
+            if b.value + b.error <= threshold {
+                stats.cap_voxels += 1;
+                return (true, threshold - b.value - b.error);
+            }
+            if b.value - b.error > threshold {
+                stats.cap_voxels += 1;
+                return (false, b.value - b.error - threshold);
             }
         }
         stats.exact_band_voxels += 1;

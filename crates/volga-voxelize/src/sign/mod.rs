@@ -37,6 +37,7 @@
 
 mod band;
 mod clean;
+mod crossings;
 mod far;
 mod flood;
 mod gradient;

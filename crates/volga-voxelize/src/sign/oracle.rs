@@ -47,6 +47,8 @@ pub(crate) struct SignOracle {
     pub(crate) boundary: SegmentTree,
     /// Cones closing the boundary cycle (`None` when it is empty).
     pub(crate) cap: Option<Bvh>,
+    /// The cap triangles, indexed as in `cap`.
+    pub(crate) cap_triangles: Vec<[DVec3; 3]>,
     /// Per triangle: trusted (clean, in a certified region); `I⁺` of its region; `w̄_M`
     /// at its centroid with the error of that value; the farthest corner from the
     /// centroid.
@@ -314,6 +316,7 @@ impl SignOracle {
             closed,
             boundary,
             cap,
+            cap_triangles: caps.iter().map(|(t, _)| *t).collect(),
             trusted: per_triangle.iter().map(|p| p.0).collect(),
             front: per_triangle.iter().map(|p| p.1).collect(),
             w_bar: per_triangle.iter().map(|p| p.2).collect(),
