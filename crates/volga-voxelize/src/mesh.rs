@@ -544,7 +544,36 @@ impl MeshVoxelizer {
                 if signed {
                     let region_mask = BrickMask::of_region(brick, &region);
                     let unknown = region_mask.and_not(&inside_band.or(&outside_band));
-                    let inside = self.flood_signs(brick, inside_band, outside_band, &margin, unknown, grid, &mut stats);
+                    // A trusted triangle near the brick, to carry `I` from.
+                    let reference = if self.sign.closed {
+                        None
+                    } else {
+                        let mut band_voxels = inside_band.or(&outside_band);
+                        let mut found = None;
+                        while let Some(o) = band_voxels.first() {
+                            band_voxels.remove(o);
+                            if self.sign.trusted[best_tri[o] as usize] {
+                                found = Some(best_tri[o] as usize);
+                                break;
+                            }
+                        }
+                        found.or_else(|| {
+                            bins.items(k)
+                                .iter()
+                                .map(|&i| i as usize)
+                                .find(|&i| self.sign.trusted[i])
+                        })
+                    };
+                    let inside = self.flood_signs(
+                        brick,
+                        inside_band,
+                        outside_band,
+                        &margin,
+                        unknown,
+                        reference,
+                        grid,
+                        &mut stats,
+                    );
                     let mut fill = inside.and(&unknown);
                     while let Some(o) = fill.first() {
                         data[o] = inside_value;

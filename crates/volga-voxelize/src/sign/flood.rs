@@ -26,6 +26,7 @@ impl MeshVoxelizer {
         outside_band: BrickMask,
         margin: &[f64; BRICK_VOXELS],
         unknown: BrickMask,
+        reference: Option<usize>,
         grid: &Grid,
         stats: &mut SignStats,
     ) -> BrickMask {
@@ -87,7 +88,8 @@ impl MeshVoxelizer {
                     } else {
                         step_drift * (depth(start, component) - 1.0)
                     };
-                    let w = self.margin_query(centre(first), None, needed);
+                    let known = reference.and_then(|t| self.integer_from(t, centre(first)));
+                    let w = self.margin_query(centre(first), known.map(|i| i as f64), needed);
                     stats.query_terms += w.terms as u64;
                     stats.region_queries += 1;
                     (w.margin(0.5) > needed || (needed == 0.0 && w.side(0.5).is_some())).then_some(w.value >= 0.5)
@@ -98,36 +100,40 @@ impl MeshVoxelizer {
                 Some(true) => inside = inside.or(&component),
                 Some(false) => {}
                 None if self.sign.cap.is_some() => {
-                    // `I = w_M + w_C` is one integer on each connected set of these
-                    // voxels farther than a step from every cap (a step between two of
-                    // them crosses neither the mesh nor a cap): one integer query per
-                    // set, then boxes and voxels ask only the caps' small tree. Voxels
-                    // within a step of a cap ask the whole mesh.
+                    // `I = w_M + w_C` is an integer off the mesh and the caps, carried
+                    // from voxel to voxel by the proven cap crossings of each step (a
+                    // step from a voxel beyond the band crosses no sheet of the mesh),
+                    // from one voxel whose `I` is carried from a trusted triangle (or,
+                    // failing that, queried). Voxels farther than a step from every cap
+                    // are proven box by box with their `I`, the rest one by one, both
+                    // asking only the caps' small tree.
+                    let integers = self.carry_integers(component, reference, &centre, stats);
                     let step = grid.max_spacing();
-                    let mut far = BrickMask::EMPTY;
+                    let mut far: Vec<(i64, BrickMask)> = Vec::new();
                     let mut left = component;
                     while let Some(o) = left.first() {
                         left.remove(o);
-                        if !self.sign.cap_within(centre(o), step) {
-                            far.insert(o);
+                        let known = integers[o];
+                        match known {
+                            Some(i) if !self.sign.cap_within(centre(o), step) => {
+                                match far.iter_mut().find(|(j, _)| *j == i) {
+                                    Some((_, set)) => set.insert(o),
+                                    None => {
+                                        let mut set = BrickMask::EMPTY;
+                                        set.insert(o);
+                                        far.push((i, set));
+                                    }
+                                }
+                            }
+                            _ => {
+                                if self.exact_side(centre(o), known.map(|i| i as f64), stats).0 {
+                                    inside.insert(o);
+                                }
+                            }
                         }
                     }
-                    let mut near = component.and_not(&far);
-                    while let Some(first) = far.first() {
-                        let mut set = BrickMask::EMPTY;
-                        set.insert(first);
-                        set = set.flood(&far);
-                        far = far.and_not(&set);
-                        let (known, terms) = self.integer_at(centre(first));
-                        stats.query_terms += terms as u64;
-                        stats.region_queries += 1;
-                        inside = inside.or(&self.prove_in_brick(brick, set, 0, 8, known, grid, stats));
-                    }
-                    while let Some(o) = near.first() {
-                        near.remove(o);
-                        if self.exact_side(centre(o), None, stats).0 {
-                            inside.insert(o);
-                        }
+                    for (i, set) in far {
+                        inside = inside.or(&self.prove_in_brick(brick, set, 0, 8, Some(i as f64), grid, stats));
                     }
                 }
                 None => {
@@ -138,6 +144,77 @@ impl MeshVoxelizer {
             }
         }
         inside
+    }
+
+    /// `I` at each voxel of `component` (voxels beyond the band of one brick, with
+    /// caps): carried along 6-steps by proven cap crossings from a voxel whose `I` is
+    /// carried from trusted triangle `reference` or, failing that, proven by a query;
+    /// `None` where no proof went through.
+    fn carry_integers(
+        &self,
+        component: BrickMask,
+        reference: Option<usize>,
+        centre: &dyn Fn(usize) -> glam::DVec3,
+        stats: &mut SignStats,
+    ) -> [Option<i64>; BRICK_VOXELS] {
+        let mut integers = [None; BRICK_VOXELS];
+        let mut unassigned = component;
+        let mut failed = BrickMask::EMPTY;
+        let mut scratch = Vec::new();
+        {
+            while let Some(seed) = unassigned.and_not(&failed).first() {
+                let p = centre(seed);
+                let known = reference.and_then(|t| self.integer_from(t, p)).or_else(|| {
+                    let (i, terms) = self.integer_at(p);
+                    stats.query_terms += terms as u64;
+                    stats.region_queries += 1;
+                    i.map(|i| i as i64)
+                });
+                let Some(i) = known else {
+                    failed.insert(seed);
+                    continue;
+                };
+                integers[seed] = Some(i);
+                unassigned.remove(seed);
+                // Breadth first from the seed, each voxel from its first assigned
+                // neighbour (in a fixed order).
+                let mut frontier = BrickMask::EMPTY;
+                frontier.insert(seed);
+                loop {
+                    let mut next = BrickMask::EMPTY;
+                    let mut candidates = frontier.dilate6().and(&unassigned);
+                    while let Some(o) = candidates.first() {
+                        candidates.remove(o);
+                        let (x, y, z) = (o % 8, o / 8 % 8, o / 64);
+                        let neighbours = [
+                            (x > 0).then(|| o - 1),
+                            (x < 7).then(|| o + 1),
+                            (y > 0).then(|| o - 8),
+                            (y < 7).then(|| o + 8),
+                            (z > 0).then(|| o - 64),
+                            (z < 7).then(|| o + 64),
+                        ];
+                        for n in neighbours.into_iter().flatten() {
+                            if !frontier.contains(n) {
+                                continue;
+                            }
+                            let from = integers[n].expect("frontier voxels are assigned");
+                            if let Some(c) = self.sign.cap_crossings(centre(n), centre(o), &mut scratch) {
+                                integers[o] = Some(from + c);
+                                next.insert(o);
+                                break;
+                            }
+                        }
+                    }
+                    if next.is_empty() {
+                        break;
+                    }
+                    unassigned = unassigned.and_not(&next);
+                    frontier = next;
+                }
+            }
+        }
+        integers
     }
 
     /// The inside voxels of `allowed` (voxels beyond the band of one brick) within the
