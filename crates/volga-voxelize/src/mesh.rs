@@ -68,8 +68,9 @@ pub struct MeshVoxelizer {
     pub(crate) sign: SignOracle,
     /// Where [`MeshVoxelizer::new`]'s time went.
     prepare_profile: VoxelizeProfile,
-    /// Voxelizer (Morton) order → mesh order (the BVH's triangle ids).
+    /// Voxelizer (Morton) order → mesh order (the BVH's triangle ids), and back.
     pub(crate) to_mesh: Vec<u32>,
+    pub(crate) from_mesh: Vec<u32>,
 }
 
 /// [`MeshVoxelizer`]'s parts that do not need the BVH.
@@ -153,6 +154,13 @@ impl MeshVoxelizer {
             regions: rest.regions,
             sign,
             prepare_profile,
+            from_mesh: {
+                let mut from = vec![0u32; rest.order.len()];
+                for (i, &m) in rest.order.iter().enumerate() {
+                    from[m as usize] = i as u32;
+                }
+                from
+            },
             to_mesh: rest.order,
         }
     }

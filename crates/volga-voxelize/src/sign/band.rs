@@ -155,7 +155,11 @@ impl MeshVoxelizer {
     /// `I` for a region free of the mesh whose box (centre, radius) no cap reaches.
     pub(super) fn region_integer(&self, centre: DVec3, radius: f64) -> Option<f64> {
         (self.sign.cap.is_some() && !self.sign.cap_within(centre, radius))
-            .then(|| self.integer_at(centre).0)
+            .then(|| {
+                self.integer_near(centre)
+                    .map(|i| i as f64)
+                    .or_else(|| self.integer_at(centre).0)
+            })
             .flatten()
     }
 }

@@ -109,6 +109,16 @@ impl MeshVoxelizer {
         }
         CROSSING_SCRATCH.with_borrow_mut(|scratch| sign.cap_crossings(centroid, p, scratch)).map(|c| total + c)
     }
+
+    /// `I(p)` carried from the triangle nearest to `p` ([`MeshVoxelizer::integer_from`]),
+    /// for a point off the mesh and the caps; `None` when that does not prove it.
+    pub(crate) fn integer_near(&self, p: DVec3) -> Option<i64> {
+        if self.sign.closed {
+            return None;
+        }
+        let nearest = self.bvh.closest(p)?;
+        self.integer_from(self.from_mesh[nearest.triangle as usize] as usize, p)
+    }
 }
 
 thread_local! {

@@ -177,7 +177,9 @@ impl MeshVoxelizer {
             let (inside, _) = self.exact_side(centre, known, &mut stats);
             return (if inside { vec![region] } else { Vec::new() }, stats);
         }
-        let w = self.margin_query(centre, known, drift);
+        // `I` at the centre, carried from its nearest triangle, spares the mesh's tree.
+        let at_centre = known.or_else(|| self.integer_near(centre).map(|i| i as f64));
+        let w = self.margin_query(centre, at_centre, drift);
         stats.query_terms += w.terms as u64;
         stats.region_queries += 1;
         if w.margin(0.5) > drift {
