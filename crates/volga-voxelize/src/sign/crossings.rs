@@ -144,9 +144,11 @@ mod tests {
         assert_eq!(signed_crossing(DVec3::new(0.5, 0.0, 1.0), DVec3::new(0.5, 0.0, -1.0), T), None);
         assert_eq!(signed_crossing(DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.0, 0.0, -1.0), T), None);
         assert_eq!(signed_crossing(front, DVec3::new(0.2, 0.2, 0.0), T), None);
-        // Degenerate triangle: never decided when the segment passes its plane.
+        // A degenerate triangle (a segment): missed when proven, never crossed.
         let flat = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
-        assert_eq!(signed_crossing(front, back, flat), None);
+        assert_eq!(signed_crossing(front, back, flat), Some(0));
+        let through = (DVec3::new(0.5, 0.0, 1.0), DVec3::new(0.5, 0.0, -1.0));
+        assert_eq!(signed_crossing(through.0, through.1, flat), None);
     }
 
     /// Against the winding number of a closed tetrahedron: the jump of `w` along random
