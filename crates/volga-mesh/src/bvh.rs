@@ -333,6 +333,9 @@ impl Bvh {
         if self.nodes.is_empty() {
             return acc.finish();
         }
+        // The far nodes' buffer is reused by the thread's next query (queries run by
+        // the million; allocating one each contended for the allocator's lock).
+        acc.far = FAR_BUFFER.with(|b| std::mem::take(&mut *b.borrow_mut()));
         self.visit(0, p, skip, &mut acc);
         while !done(acc.total / (4.0 * PI), acc.error() / (4.0 * PI)) {
             if acc.heap.is_none() {
@@ -353,7 +356,14 @@ impl Bvh {
                 self.visit(index + node.first_or_right, p, skip, &mut acc);
             }
         }
-        acc.finish()
+        let bound = acc.finish();
+        let mut buffer = match acc.heap.take() {
+            Some(heap) => heap.into_vec(),
+            None => std::mem::take(&mut acc.far),
+        };
+        buffer.clear();
+        FAR_BUFFER.with(|b| *b.borrow_mut() = buffer);
+        bound
     }
 
     /// Adds the subtree at `start` to `acc`: far nodes as expansions with their bounds,
@@ -446,6 +456,11 @@ impl WindingBound {
     pub fn margin(&self, threshold: f64) -> f64 {
         ((self.value - threshold).abs() - self.error).max(0.0)
     }
+}
+
+thread_local! {
+    /// [`Bvh::winding_number_bounded`]'s far-node buffer, kept between queries.
+    static FAR_BUFFER: std::cell::RefCell<Vec<FarNode>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// A far node's expansion and its error bound, ordered by the bound (then index).
