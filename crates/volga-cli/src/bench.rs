@@ -192,7 +192,13 @@ fn profile_medians(profiles: &[volga_voxelize::VoxelizeProfile]) -> serde_json::
         .enumerate()
         .map(|(i, stage)| {
             let of = |f: fn(&volga_voxelize::ProfileStage) -> f64| {
-                median_of(&profiles.iter().filter_map(|p| p.stages.get(i)).map(f).collect::<Vec<_>>())
+                median_of(
+                    &profiles
+                        .iter()
+                        .filter_map(|p| p.stages.get(i))
+                        .map(f)
+                        .collect::<Vec<_>>(),
+                )
             };
             (stage.name, of(|s| s.wall_s), of(|s| s.cpu_s))
         })

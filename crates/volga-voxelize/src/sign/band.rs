@@ -6,8 +6,8 @@
 use glam::DVec3;
 use volga_mesh::{closest_point_on_triangle, Feature};
 
-use super::SignStats;
 use super::crossings::CROSSING_SCRATCH;
+use super::SignStats;
 use crate::mesh::MeshVoxelizer;
 
 impl MeshVoxelizer {

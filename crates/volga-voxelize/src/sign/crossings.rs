@@ -107,7 +107,9 @@ impl MeshVoxelizer {
         if ambiguous {
             return None;
         }
-        CROSSING_SCRATCH.with_borrow_mut(|scratch| sign.cap_crossings(centroid, p, scratch)).map(|c| total + c)
+        CROSSING_SCRATCH
+            .with_borrow_mut(|scratch| sign.cap_crossings(centroid, p, scratch))
+            .map(|c| total + c)
     }
 
     /// `I(p)` carried from the triangle nearest to `p` ([`MeshVoxelizer::integer_from`]),
@@ -138,11 +140,20 @@ mod tests {
         assert_eq!(signed_crossing(front, back, T), Some(1));
         assert_eq!(signed_crossing(back, front, T), Some(-1));
         // Beside the triangle, on one side, parallel to it.
-        assert_eq!(signed_crossing(DVec3::new(2.0, 2.0, 1.0), DVec3::new(2.0, 2.0, -1.0), T), Some(0));
+        assert_eq!(
+            signed_crossing(DVec3::new(2.0, 2.0, 1.0), DVec3::new(2.0, 2.0, -1.0), T),
+            Some(0)
+        );
         assert_eq!(signed_crossing(front, front + DVec3::X, T), Some(0));
         // Through an edge, a corner, or ending on the triangle: not decided.
-        assert_eq!(signed_crossing(DVec3::new(0.5, 0.0, 1.0), DVec3::new(0.5, 0.0, -1.0), T), None);
-        assert_eq!(signed_crossing(DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.0, 0.0, -1.0), T), None);
+        assert_eq!(
+            signed_crossing(DVec3::new(0.5, 0.0, 1.0), DVec3::new(0.5, 0.0, -1.0), T),
+            None
+        );
+        assert_eq!(
+            signed_crossing(DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.0, 0.0, -1.0), T),
+            None
+        );
         assert_eq!(signed_crossing(front, DVec3::new(0.2, 0.2, 0.0), T), None);
         // A degenerate triangle (a segment): missed when proven, never crossed.
         let flat = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
@@ -156,11 +167,19 @@ mod tests {
     #[test]
     fn crossings_match_winding_jumps() {
         let v = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
-        let faces = [[v[0], v[2], v[1]], [v[0], v[1], v[3]], [v[0], v[3], v[2]], [v[1], v[2], v[3]]];
-        let w = |x: DVec3| faces.iter().map(|&f| volga_mesh::solid_angle(x, f)).sum::<f64>() / (4.0 * std::f64::consts::PI);
+        let faces = [
+            [v[0], v[2], v[1]],
+            [v[0], v[1], v[3]],
+            [v[0], v[3], v[2]],
+            [v[1], v[2], v[3]],
+        ];
+        let w =
+            |x: DVec3| faces.iter().map(|&f| volga_mesh::solid_angle(x, f)).sum::<f64>() / (4.0 * std::f64::consts::PI);
         let mut state = 12345u64;
         let mut rand = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 0.5
         };
         let mut decided = 0;

@@ -20,9 +20,12 @@
 //! A band voxel `p` whose nearest point `q` lies on clean triangle `t` (with a clean,
 //! manifold star when `q` is on an edge or corner) has `w(p) = w̄_M(q) ± ½ + ∫_q^p ∇w`,
 //! with the side from the pseudo-normal (Bærentzen & Aanæs 2005). Every term is known
-//! with a certified bound; when the interval straddles ½, the voxel asks `w_C(p)` (when
-//! no cap is within `|p − q|`) or, last, the mesh's certified winding number
-//! ([`volga_mesh::Bvh::winding_number_bounded`]), refined until it proves its side.
+//! with a certified bound; when the interval straddles ½, the voxel's integer `I` is
+//! carried from `q` (or from `t`'s centroid) by the proven signed crossings of the caps
+//! and the mesh on the way (`I` jumps by exactly ±1 at each), and the voxel asks only
+//! `w_C(p)`; last, the mesh's certified winding number
+//! ([`volga_mesh::Bvh::winding_number_bounded`]), refined until it proves its side. The
+//! same carried integers spare the whole mesh's query beyond the band.
 //!
 //! ## Where the proofs live
 //! * [`oracle`]: what is learned once per mesh ([`SignOracle`]): the boundary cycle and
@@ -31,6 +34,8 @@
 //! * `gradient`: bounds on `|∇w|` from the boundary cycle ([`SegmentTree`]).
 //! * `band`: the sign of a band voxel (nearest triangle's interval, caps, certified
 //!   winding number), and the certified queries the other proofs share.
+//! * `crossings`: proven signed crossings of a segment with the caps and the mesh, which
+//!   carry a known integer `I` from point to point.
 //! * `flood`: voxels beyond the band inside a band brick (flood fill from band voxels,
 //!   boxes within the brick).
 //! * `far`: bricks no band reaches (components of bricks, or an octree of boxes).
