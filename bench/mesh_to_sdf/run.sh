@@ -4,6 +4,7 @@
 # Needs the network once (cargo fetches mesh_to_sdf 0.4); not part of CI.
 #
 #   bench/mesh_to_sdf/run.sh [VOLGA_BIN=target/release/volga] [N=256] [ROUNDS=3]
+# MESHES="teapot" (names in ../shared/data) narrows the meshes.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
@@ -17,7 +18,7 @@ cargo build --release -q --manifest-path "$here/Cargo.toml"
 peer="$here/target/release/volga-bench-mesh-to-sdf"
 
 echo "# N = $n, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), $(date -u +%F), volga $volga"
-for mesh in teapot stanford-bunny; do
+for mesh in ${MESHES:-teapot stanford-bunny}; do
     for r in $(seq "$rounds"); do
         "$volga" bench voxelize "$data/$mesh.obj" --resolution "$n" --distance 3 --repeat 5 \
             --out "$work/$mesh.nrrd" 2>/dev/null > "$work/volga_$r.json"

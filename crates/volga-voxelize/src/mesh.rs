@@ -521,6 +521,13 @@ impl MeshVoxelizer {
                 // band, so it cannot cross the surface); a pocket no band voxel reaches asks
                 // the winding number once.
                 let in_band = |o: usize| best_tri[o] != u32::MAX && best_d2[o] <= band2;
+                // A trusted triangle whose band reaches the brick: `I` is carried from it to
+                // voxels whose nearest triangle cannot carry it.
+                let bin_reference = bins
+                    .items(k)
+                    .iter()
+                    .map(|&i| i as usize)
+                    .find(|&i| signed && self.sign.trusted[i]);
                 let mut data = [background; BRICK_VOXELS];
                 let mut stats = SignStats::default();
                 let mut margin = [0.0f64; BRICK_VOXELS];
@@ -534,7 +541,8 @@ impl MeshVoxelizer {
                                 let p = t.voxel_center(IVec3::new(x, y, z));
                                 let tri = best_tri[o] as usize;
                                 let inside = signed && {
-                                    let (inside, m) = self.decide(p, tri, best_d2[o], slack[tri], &mut stats);
+                                    let (inside, m) =
+                                        self.decide(p, tri, best_d2[o], slack[tri], bin_reference, &mut stats);
                                     margin[o] = m;
                                     inside
                                 };

@@ -13,8 +13,17 @@ use crate::mesh::MeshVoxelizer;
 impl MeshVoxelizer {
     /// The sign of a band voxel at `p` whose nearest triangle is `t`, `d2` away (squared),
     /// with its proven margin `|w − ½|` (a lower bound) and how it was proven. `slack` is
-    /// the half-width of `t`'s certified interval of `w` near `t` (see `sign`).
-    pub(crate) fn decide(&self, p: DVec3, t: usize, d2: f64, slack: f64, stats: &mut SignStats) -> (bool, f64) {
+    /// the half-width of `t`'s certified interval of `w` near `t` (see `sign`);
+    /// `reference` a trusted triangle near the voxel to carry `I` from when `t` cannot.
+    pub(crate) fn decide(
+        &self,
+        p: DVec3,
+        t: usize,
+        d2: f64,
+        slack: f64,
+        reference: Option<usize>,
+        stats: &mut SignStats,
+    ) -> (bool, f64) {
         let sign = &self.sign;
         let (c, feature) = closest_point_on_triangle(p, self.triangles[t]);
         let (normal, ok) = match feature {
@@ -46,10 +55,14 @@ impl MeshVoxelizer {
                     .map(|crossed| sign.front[t] + behind as i64 + crossed);
             }
         }
-        if integer.is_none() && !sign.closed && sign.trusted[t] {
+        if integer.is_none() {
             // Nearest to a boundary feature (or too close to call the side there): carry
-            // `I` from the triangle's centroid instead, crossings of the mesh included.
-            integer = self.integer_from(t, p);
+            // `I` from the triangle's centroid instead, crossings of the mesh included; from
+            // a trusted triangle near the brick when this one is not trusted (another
+            // triangle crosses it).
+            integer = self
+                .integer_from(t, p)
+                .or_else(|| reference.filter(|&r| r != t).and_then(|r| self.integer_from(r, p)));
         }
         if let Some(i) = integer {
             let threshold = i as f64 - 0.5;

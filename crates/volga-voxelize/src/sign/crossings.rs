@@ -79,10 +79,10 @@ impl MeshVoxelizer {
     /// on `p`'s side `I` is the region's `I⁺` (plus one behind); from there to `p` it
     /// changes by the signed crossings of every other triangle of the mesh and of the
     /// caps, each proven. `None` when `p` is too close to `t`'s plane or a crossing is
-    /// too close to call.
+    /// too close to call. Without caps (a closed mesh) `I` is the winding number itself.
     pub(crate) fn integer_from(&self, t: usize, p: DVec3) -> Option<i64> {
         let sign = &self.sign;
-        if !sign.trusted[t] || sign.closed {
+        if !sign.trusted[t] {
             return None;
         }
         let tri = self.triangles[t];

@@ -56,7 +56,8 @@ pub(crate) use oracle::{MeshTopology, SignOracle};
 pub struct SignStats {
     /// Band voxels decided by their nearest triangle's certified interval.
     pub fast_voxels: u64,
-    /// Band voxels decided by the caps' winding number `w_C(p)` alone.
+    /// Band voxels decided by a carried integer `I` and the caps' winding number `w_C(p)`
+    /// alone (`w = I` itself on a mesh without caps).
     pub cap_voxels: u64,
     /// Voxels that asked the whole mesh's certified winding number: in the band, and
     /// beyond it (where a flood fill or an octree box could not prove its sign).
