@@ -202,39 +202,8 @@ impl CappedWinding {
         ids: impl IntoIterator<Item = u32>,
     ) -> Option<i64> {
         let mut integer = from_integer;
-        let segment = to - from;
         for id in ids {
-            let [a, b, c] = self.closed_triangles[id as usize];
-            let normal = (b - a).cross(c - a);
-            if normal == DVec3::ZERO {
-                continue;
-            }
-            // Plane sides of the endpoints: positive in front (along the normal).
-            let side = |d: DVec3| -> Option<f64> {
-                let v = -(a - d).dot((b - d).cross(c - d));
-                let bound = 1e-12 * (a - d).length() * (b - d).length() * (c - d).length();
-                (v.abs() > bound).then_some(v)
-            };
-            let (s_from, s_to) = (side(from)?, side(to)?);
-            if (s_from > 0.0) == (s_to > 0.0) {
-                continue;
-            }
-            // Which side of each edge the line from → to passes.
-            let edge = |u: DVec3, v: DVec3| -> Option<f64> {
-                let w = (u - from).cross(v - from).dot(segment);
-                let bound = 1e-12 * (u - from).length() * (v - from).length() * segment.length();
-                (w.abs() > bound).then_some(w)
-            };
-            let known = [edge(a, b), edge(b, c), edge(c, a)];
-            let positive = known.iter().filter(|e| matches!(e, Some(v) if *v > 0.0)).count();
-            let negative = known.iter().filter(|e| matches!(e, Some(v) if *v < 0.0)).count();
-            if positive > 0 && negative > 0 {
-                continue; // the line passes outside the triangle
-            }
-            if positive + negative < 3 {
-                return None; // through an edge or a corner, within rounding
-            }
-            integer += if s_from > 0.0 { 1 } else { -1 };
+            integer += signed_crossing(from, to, self.closed_triangles[id as usize])?;
         }
         Some(integer)
     }
@@ -338,6 +307,50 @@ impl CappedWinding {
             .map_or(0.0, |c| c.winding_number_bounded(p, None, |_, e| e <= tolerance).value);
         integer as f64 - cap
     }
+}
+
+/// How `I` changes along the segment `from → to` at one triangle `[a, b, c]`: `Some(1)`
+/// when the segment crosses its interior entering its back (the side its normal
+/// `(b − a) × (c − a)` points away from), `Some(−1)` entering its front, `Some(0)` when it
+/// misses it or the triangle has zero area (`I` does not jump across it); `None` when
+/// rounding cannot tell (an endpoint within rounding of the plane, or the segment
+/// through an edge or a corner).
+///
+/// Each sign is a floating-point triple product accepted only when it exceeds a bound on
+/// its rounding error (1e-12 of the product of the magnitudes, far above the `f64` error
+/// of a triple product), so a `Some` is exact.
+pub fn signed_crossing(from: DVec3, to: DVec3, [a, b, c]: [DVec3; 3]) -> Option<i64> {
+    let normal = (b - a).cross(c - a);
+    if normal == DVec3::ZERO {
+        return Some(0);
+    }
+    // Plane sides of the endpoints: positive in front (along the normal).
+    let side = |d: DVec3| -> Option<f64> {
+        let v = -(a - d).dot((b - d).cross(c - d));
+        let bound = 1e-12 * (a - d).length() * (b - d).length() * (c - d).length();
+        (v.abs() > bound).then_some(v)
+    };
+    let (s_from, s_to) = (side(from)?, side(to)?);
+    if (s_from > 0.0) == (s_to > 0.0) {
+        return Some(0);
+    }
+    // Which side of each edge the line from → to passes.
+    let segment = to - from;
+    let edge = |u: DVec3, v: DVec3| -> Option<f64> {
+        let w = (u - from).cross(v - from).dot(segment);
+        let bound = 1e-12 * (u - from).length() * (v - from).length() * segment.length();
+        (w.abs() > bound).then_some(w)
+    };
+    let known = [edge(a, b), edge(b, c), edge(c, a)];
+    let positive = known.iter().filter(|e| matches!(e, Some(v) if *v > 0.0)).count();
+    let negative = known.iter().filter(|e| matches!(e, Some(v) if *v < 0.0)).count();
+    if positive > 0 && negative > 0 {
+        return Some(0); // the line passes outside the triangle
+    }
+    if positive + negative < 3 {
+        return None; // through an edge or a corner, within rounding
+    }
+    Some(if s_from > 0.0 { 1 } else { -1 })
 }
 
 /// The cones closing the mesh's boundary cycle: for each boundary edge `a → b` of net

@@ -72,7 +72,7 @@ mod winding;
 mod write;
 
 pub use bvh::{Bvh, Closest, WindingBound, FAR_FIELD_BETA};
-pub use capped::{cap_triangles, CappedWinding, InsideCost};
+pub use capped::{cap_triangles, signed_crossing, CappedWinding, InsideCost};
 pub use closest::{closest_point_on_segment, closest_point_on_triangle, point_triangle_distance_squared, Feature};
 pub use error::{InvalidMesh, MeshError};
 pub use extract::{

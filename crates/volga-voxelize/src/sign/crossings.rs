@@ -1,60 +1,23 @@
 //! Moving the integer `I = w_M + w_C` along a segment: it changes by ±1 exactly where
-//! the segment crosses a cap triangle (the mesh itself must not be crossed), so the
-//! signed count of those crossings, **proven** by orientation tests with error bounds,
-//! carries a known `I` from one point to another without a winding-number query.
+//! the segment crosses a sheet of the mesh or of a cap, so the signed count of those
+//! crossings, each **proven** ([`volga_mesh::signed_crossing`], the test the ADF's
+//! `CappedWinding` counts sheets with), carries a known `I` from one point to another
+//! without a winding-number query.
 
 use glam::DVec3;
 use volga_core::Aabb;
+use volga_mesh::signed_crossing;
 
 use super::oracle::SignOracle;
 use crate::mesh::MeshVoxelizer;
 
-/// Relative error bound of a triple product of differences in `f64`: the computed value
-/// is within `ORIENT_ERROR × |u||v||w|` of the exact one (the differences' rounding and
-/// the products' together are below 10 ε × 3√3 ≈ 6e-15; this keeps a wide margin).
-const ORIENT_ERROR: f64 = 1e-13;
-
-/// `((u − p) × (v − p)) · (w − p)` and its error bound.
-#[inline]
-fn orient(p: DVec3, u: DVec3, v: DVec3, w: DVec3) -> (f64, f64) {
-    let (a, b, c) = (u - p, v - p, w - p);
-    (a.cross(b).dot(c), ORIENT_ERROR * a.length() * b.length() * c.length())
-}
-
-/// What the open segment `a → b` does at triangle `[p, q, r]` (normal `(q−p) × (r−p)`,
-/// its front): `Some(1)` when it proveably passes through the interior from front to
-/// back, `Some(−1)` back to front, `Some(0)` when it proveably misses it; `None` when
-/// rounding cannot tell (an endpoint on the plane, the segment through an edge or a
-/// corner, a degenerate triangle).
-pub(crate) fn signed_crossing(a: DVec3, b: DVec3, [p, q, r]: [DVec3; 3]) -> Option<i64> {
-    // Side of each endpoint: orient(d, p, q, r) = −n·(d − p) up to rounding.
-    let (side_a, err_a) = orient(a, p, q, r);
-    let (side_b, err_b) = orient(b, p, q, r);
-    let proven = |s: f64, e: f64| s.abs() > e;
-    if proven(side_a, err_a) && proven(side_b, err_b) && (side_a > 0.0) == (side_b > 0.0) {
-        return Some(0); // both strictly on one side
-    }
-    // Which side of the line a → b each edge passes.
-    let edges = [orient(a, p, q, b), orient(a, q, r, b), orient(a, r, p, b)];
-    let (mut plus, mut minus, mut unsure) = (false, false, false);
-    for (s, e) in edges {
-        if !proven(s, e) {
-            unsure = true;
-        } else if s > 0.0 {
-            plus = true;
-        } else {
-            minus = true;
-        }
-    }
-    if plus && minus {
-        return Some(0); // the line passes outside an edge
-    }
-    if unsure || !proven(side_a, err_a) || !proven(side_b, err_b) {
-        return None;
-    }
-    // Opposite sides and the line through the interior: one crossing. `a` in front
-    // (n·(a − p) > 0, so orient < 0) going behind adds one.
-    Some(if side_a < 0.0 { 1 } else { -1 })
+/// The side of `p` of the plane of `[a, b, c]`: `Some(true)` behind (away from the normal
+/// `(b − a) × (c − a)`), `Some(false)` in front, `None` within the rounding bound of the
+/// triple product (as in [`signed_crossing`]).
+fn behind(p: DVec3, [a, b, c]: [DVec3; 3]) -> Option<bool> {
+    let v = -(a - p).dot((b - p).cross(c - p));
+    let bound = 1e-12 * (a - p).length() * (b - p).length() * (c - p).length();
+    (v.abs() > bound).then_some(v < 0.0)
 }
 
 impl SignOracle {
@@ -87,12 +50,7 @@ impl MeshVoxelizer {
         }
         let tri = self.triangles[t];
         let centroid = (tri[0] + tri[1] + tri[2]) / 3.0;
-        // Side of `p`: orient(p, corners) < 0 in front (see `signed_crossing`).
-        let (side, err) = orient(p, tri[0], tri[1], tri[2]);
-        if side.abs() <= err {
-            return None;
-        }
-        let mut total = sign.front[t] + (side > 0.0) as i64;
+        let mut total = sign.front[t] + behind(p, tri)? as i64;
         let segment = Aabb::new(centroid.min(p), centroid.max(p));
         let own = self.to_mesh[t];
         let mut ambiguous = false;
@@ -139,6 +97,7 @@ mod tests {
         let (front, back) = (DVec3::new(0.2, 0.2, 1.0), DVec3::new(0.2, 0.2, -1.0));
         assert_eq!(signed_crossing(front, back, T), Some(1));
         assert_eq!(signed_crossing(back, front, T), Some(-1));
+        assert_eq!((behind(front, T), behind(back, T)), (Some(false), Some(true)));
         // Beside the triangle, on one side, parallel to it.
         assert_eq!(
             signed_crossing(DVec3::new(2.0, 2.0, 1.0), DVec3::new(2.0, 2.0, -1.0), T),
@@ -155,11 +114,13 @@ mod tests {
             None
         );
         assert_eq!(signed_crossing(front, DVec3::new(0.2, 0.2, 0.0), T), None);
-        // A degenerate triangle (a segment): missed when proven, never crossed.
+        assert_eq!(behind(DVec3::new(0.7, 0.7, 0.0), T), None);
+        // A zero-area triangle: `I` does not jump across it.
         let flat = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
-        assert_eq!(signed_crossing(front, back, flat), Some(0));
-        let through = (DVec3::new(0.5, 0.0, 1.0), DVec3::new(0.5, 0.0, -1.0));
-        assert_eq!(signed_crossing(through.0, through.1, flat), None);
+        assert_eq!(
+            signed_crossing(DVec3::new(0.5, 0.0, 1.0), DVec3::new(0.5, 0.0, -1.0), flat),
+            Some(0)
+        );
     }
 
     /// Against the winding number of a closed tetrahedron: the jump of `w` along random
