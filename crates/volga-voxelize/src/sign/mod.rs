@@ -34,8 +34,8 @@
 //! * `gradient`: bounds on `|∇w|` from the boundary cycle ([`SegmentTree`]).
 //! * `band`: the sign of a band voxel (nearest triangle's interval, caps, certified
 //!   winding number), and the certified queries the other proofs share.
-//! * `crossings`: proven signed crossings of a segment with the caps and the mesh, which
-//!   carry a known integer `I` from point to point.
+//! * `crossings`: a known integer `I` carried from point to point by the proven signed
+//!   crossings ([`volga_mesh::signed_crossing`]) of the caps and the mesh.
 //! * `flood`: voxels beyond the band inside a band brick (flood fill from band voxels,
 //!   boxes within the brick).
 //! * `far`: bricks no band reaches (components of bricks, or an octree of boxes).
