@@ -151,3 +151,42 @@ fn regions_outside_the_grid_or_empty_are_refused() {
     );
     assert_eq!(grid.window(&grid.index_box()).unwrap().dims(), grid.dims());
 }
+
+/// `MeshJob::run_profiled` returns `run`'s volume and sign counts bit for bit, with the
+/// stages each mode goes through, in order, none negative.
+#[test]
+fn profiled_runs_equal_plain_runs() {
+    let corpus = unclean::corpus();
+    let mesh = &corpus.iter().find(|(n, _)| *n == "open scan with two holes").unwrap().1;
+    let band = [
+        "bins",
+        "slack",
+        "distances",
+        "band_signs",
+        "flood_signs",
+        "brick_output",
+        "far_field",
+    ];
+    for mode in modes() {
+        let job = MeshJob { resolution: 24, mode };
+        let grid = job.layout(&mesh.bounds()).unwrap();
+        let plain = job.run(mesh, &grid, &NoProgress);
+        let (profiled, profile) = job.run_profiled(mesh, &grid, &NoProgress);
+        assert_eq!(bits(&plain.volume), bits(&profiled.volume), "{mode:?}");
+        assert_eq!(plain.sign, profiled.sign, "{mode:?}");
+        let names: Vec<&str> = profile.stages.iter().map(|s| s.name).collect();
+        let mut expected: Vec<&str> = Vec::new();
+        if !matches!(mode, MeshJobMode::Binary { solid: false, .. }) {
+            expected.extend(["tables_and_bvh", "sign_oracle"]);
+        }
+        if matches!(mode, MeshJobMode::Binary { .. }) {
+            expected.push("binary_surface");
+        }
+        if !matches!(mode, MeshJobMode::Binary { solid: false, .. }) {
+            expected.extend(band);
+        }
+        assert_eq!(names, expected, "{mode:?}");
+        assert!(profile.stages.iter().all(|s| s.wall_s >= 0.0 && s.cpu_s >= 0.0));
+        assert!(profile.wall_s() > 0.0);
+    }
+}
