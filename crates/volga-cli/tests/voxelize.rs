@@ -183,6 +183,23 @@ fn bench_times_warm_runs_and_serves_the_same_result() {
     assert_eq!(r["median_s"].as_f64().unwrap(), sorted[1]);
     assert_eq!(r["voxels"].as_u64().unwrap(), fresh_count);
 
+    // `--profile`: the same voxels, and the stages' medians with their shares of 1.
+    let mut args = vec!["bench", "voxelize", spot];
+    args.extend(job);
+    args.extend(["--repeat", "3", "--warmup", "0", "--profile"]);
+    let o = volga(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["voxels"].as_u64().unwrap(), fresh_count);
+    let stages = r["profile"].as_array().unwrap();
+    let names: Vec<&str> = stages.iter().map(|s| s["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["binary_surface"], "a binary surface needs no mesh preparation");
+    let share: f64 = stages.iter().map(|s| s["share"].as_f64().unwrap()).sum();
+    assert!((share - 1.0).abs() < 1e-9, "{r}");
+    assert!(stages
+        .iter()
+        .all(|s| s["wall_s"].as_f64().unwrap() >= 0.0 && s["cpu_s"].as_f64().unwrap() >= 0.0));
+
     // The serve protocol: ready, run, dump, then an unknown request is bad input.
     let mut args = vec!["bench", "voxelize", spot];
     args.extend(job);
