@@ -464,50 +464,93 @@ fn far_from_the_origin() {
     }
 }
 
+/// Whether a corner of `p`'s leaf has the true side (`w ≥ ½`, brute force) `side`, a
+/// corner within 1e-5 of ½ counting as either (the sign field stores `½ − w` to 1e-6).
+fn leaf_has_a_corner_on(adf: &Adf, bvh: &volga_mesh::Bvh, p: DVec3, side: bool) -> bool {
+    let leaf = adf.leaf_at(p);
+    (0..8).any(|k| {
+        let c = leaf.world_min + DVec3::new((k & 1) as f64, (k >> 1 & 1) as f64, (k >> 2) as f64) * leaf.size;
+        let w = bvh.winding_number_exact(c);
+        (w - 0.5).abs() <= 1e-5 || (w >= 0.5) == side
+    })
+}
+
+/// The ADF's sign promise (docs/ADF.md, "What the sign promises"): every stored corner
+/// has the winding number's side, and the reconstruction is a convex combination of its
+/// leaf's corners, so a point can take a side only if a corner of its leaf truly has it:
+/// a wrong side at `p` means the true side changes between `p` and that corner, within
+/// the leaf (where the mesh, or the surface `w = ½` across a hole, passes).
+/// Checked by brute force on the unclean corpus (open, self-intersecting, overlapping,
+/// flipped) and on the open, self-intersecting teapot, at random points of the box and
+/// at points within 3 % of it from the surface; and at every such point, a wrong side
+/// in a leaf refined below the maximum depth lies within the tolerance of the mesh or
+/// where `w` is within 0.05 of ½ (the jump across a hole, placed by the sign field).
 #[test]
-fn open_and_self_intersecting_meshes_get_the_winding_inside() {
-    // Signs are right wherever the surface is farther than the tolerance (nearer, the
-    // reconstruction may move the zero set by its error) and outside maximum-depth leaves
-    // (a hole's rim, where the sign jumps without a surface).
-    for (name, mesh) in unclean::corpus() {
-        if mesh.triangle_count() < 4
-            || mesh.bounds().size().min_element() < 1e-9
-            || mesh.bounds().center().length() > 1e3
-        {
-            continue; // single triangles, flat sheets and far copies are covered above
+fn a_wrong_side_is_a_side_some_corner_of_the_leaf_truly_has() {
+    let teapot = {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/teapot.obj");
+        volga_mesh::load_mesh(path).unwrap_or_else(|e| panic!("{path}: {e}"))
+    };
+    let mut meshes = unclean::corpus();
+    meshes.push(("teapot", teapot));
+    let mut total_wrong = 0;
+    for (name, mesh) in meshes {
+        if mesh.triangle_count() < 4 || mesh.bounds().size().min_element() < 1e-9 {
+            continue; // single triangles and flat sheets are covered by `hard_cases`
         }
+        let (tolerance, max_depth) = (5e-3, 7);
         let source = MeshSource::new(&mesh).unwrap();
+        let bounds = mesh.bounds();
         let adf = Adf::build(
             &source,
             AdfOptions {
-                max_depth: 7,
-                ..AdfOptions::relative(5e-3, &mesh.bounds())
+                max_depth,
+                ..AdfOptions::relative(tolerance, &bounds)
             },
         )
         .unwrap();
+        let tau = adf.options().tolerance;
         let bvh = source.bvh();
+        let extent = bounds.size().max_element();
+        let around = bounds.expanded(DVec3::splat(0.05 * extent));
         let mut rng = Rng(77);
-        let (mut wrong, mut jump_wrong) = (0, 0);
-        for _ in 0..2000 {
-            let p = rng.in_box(&mesh.bounds());
-            let inside = bvh.winding_number_exact(p) >= 0.5;
+        let (mut wrong, mut far_wrong) = (0, 0);
+        for k in 0..4000 {
+            let p = if k % 2 == 0 {
+                rng.in_box(&around)
+            } else {
+                let [a, b, c] =
+                    mesh.triangle((rng.next() * mesh.triangle_count() as f64) as usize % mesh.triangle_count());
+                let (u, v) = (rng.next(), rng.next());
+                let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+                a + (b - a) * u + (c - a) * v + rng.unit() * (rng.next() * 0.03 * extent)
+            };
+            let w = bvh.winding_number_exact(p);
+            if adf.inside(p) == (w >= 0.5) || (w - 0.5).abs() <= 1e-9 {
+                continue;
+            }
+            wrong += 1;
             let leaf = adf.leaf_at(p);
-            if adf.inside(p) != inside && bvh.closest(p).unwrap().distance > adf.options().tolerance && leaf.depth < 7 {
-                if leaf.jump {
-                    jump_wrong += 1; // the jump placed by the trilinear sign field
-                } else {
-                    wrong += 1;
-                }
+            assert!(
+                leaf_has_a_corner_on(&adf, bvh, p, w < 0.5),
+                "{name}: wrong side at {p} (w = {w}) that no corner of its leaf has: {leaf:?}"
+            );
+            assert!(!leaf.pruned, "{name}: wrong side at {p} in a pruned leaf");
+            let d = bvh.closest(p).unwrap().distance;
+            if d > tau {
+                far_wrong += 1;
+                assert!(
+                    leaf.depth == max_depth || (w - 0.5).abs() <= 0.05,
+                    "{name}: wrong side at {p}, {:.2} tolerances from the mesh, w = {w}, in {leaf:?}",
+                    d / tau
+                );
             }
         }
-        assert_eq!(
-            wrong,
-            0,
-            "{name}: {wrong} wrong signs away from the surface, {:?}",
-            adf.stats()
-        );
-        assert!(jump_wrong <= 2, "{name}: {jump_wrong} wrong signs in jump leaves");
+        eprintln!("{name}: {wrong} wrong sides of 4,000 ({far_wrong} farther than the tolerance from the mesh)");
+        total_wrong += wrong;
     }
+    // Not vacuous: the reconstruction does move the zero set by up to its error.
+    assert!(total_wrong > 0);
 }
 
 #[test]
