@@ -1,14 +1,18 @@
 #!/usr/bin/env bash
 # The Python package's suite: the wheel built by maturin and installed into a fresh virtual
 # environment with the `dask` extra's packages, then pytest (python/tests; VOLGA_TEST_DASK=1
-# makes the Dask tests fail, not skip, when those packages are missing). The `volga` binary
-# the suite compares against bit for bit is built with the same profile (`ci`, as the Rust
-# tests of scripts/test.sh), so the kernel crates are compiled once.
+# makes the Dask tests fail, not skip, when those packages are missing). The suite compares
+# against the `volga` binary bit for bit: $VOLGA_BIN when set (scripts/test.sh passes the
+# one `cargo test --profile ci` built for the CLI's tests), else it is built here with the
+# `ci` profile.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-cargo build --profile ci --bin volga
-export VOLGA_BIN="$PWD/target/ci/volga"
+if [ -z "${VOLGA_BIN:-}" ]; then
+    cargo build --profile ci --bin volga
+    VOLGA_BIN="$PWD/target/ci/volga"
+fi
+export VOLGA_BIN
 
 venv="$(mktemp -d)/venv"
 trap 'rm -rf "$(dirname "$venv")"' EXIT
