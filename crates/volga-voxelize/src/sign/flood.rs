@@ -109,13 +109,18 @@ impl MeshVoxelizer {
                     // asking only the caps' small tree.
                     let integers = self.carry_integers(component, reference, &centre, stats);
                     let step = grid.max_spacing();
+                    // The cap triangles that can lie within `step` of a voxel of the
+                    // brick, gathered once: `cap_within` over them is the caps' tree's
+                    // answer (the same distances, compared the same way), without a
+                    // tree query per voxel.
+                    let near_caps = self.caps_near_brick(&centre, step);
                     let mut far: Vec<(i64, BrickMask)> = Vec::new();
                     let mut left = component;
                     while let Some(o) = left.first() {
                         left.remove(o);
                         let known = integers[o];
                         match known {
-                            Some(i) if !self.sign.cap_within(centre(o), step) => {
+                            Some(i) if !cap_within_among(&near_caps, centre(o), step) => {
                                 match far.iter_mut().find(|(j, _)| *j == i) {
                                     Some((_, set)) => set.insert(o),
                                     None => {
@@ -144,6 +149,20 @@ impl MeshVoxelizer {
             }
         }
         inside
+    }
+
+    /// The cap triangles whose boxes meet the box of the brick's voxel centres grown by
+    /// `distance` (and a relative 1e-9): every cap triangle within `distance` of a voxel
+    /// centre of the brick.
+    fn caps_near_brick(&self, centre: &dyn Fn(usize) -> glam::DVec3, distance: f64) -> Vec<[glam::DVec3; 3]> {
+        let mut near = Vec::new();
+        if let Some(cap) = &self.sign.cap {
+            let (a, b) = (centre(0), centre(BRICK_VOXELS - 1));
+            let grow = distance * (1.0 + 1e-9) + 1e-9 * a.abs().max(b.abs()).max_element();
+            let query = Aabb::new(a.min(b), a.max(b)).expanded(glam::DVec3::splat(grow));
+            cap.for_each_triangle_near(&query, |_, t| near.push(t));
+        }
+        near
     }
 
     /// `I` at each voxel of `component` (voxels beyond the band of one brick, with
@@ -269,4 +288,15 @@ impl MeshVoxelizer {
         }
         inside
     }
+}
+
+/// Whether one of `triangles` lies within `distance` of `p`: the test of
+/// [`Bvh::closest_within`](volga_mesh::Bvh::closest_within) (the nearest point's
+/// distance, `sqrt` of its square, at most `distance`) over a list that holds every
+/// triangle of the tree within `distance` of `p`.
+fn cap_within_among(triangles: &[[glam::DVec3; 3]], p: glam::DVec3, distance: f64) -> bool {
+    triangles.iter().any(|&t| {
+        let (q, _) = volga_mesh::closest_point_on_triangle(p, t);
+        (p - q).length_squared().sqrt() <= distance
+    })
 }
