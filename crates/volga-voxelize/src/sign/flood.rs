@@ -300,3 +300,53 @@ fn cap_within_among(triangles: &[[glam::DVec3; 3]], p: glam::DVec3, distance: f6
         (p - q).length_squared().sqrt() <= distance
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::{DVec3, IVec3, UVec3};
+    use volga_core::{Grid, Transform, BRICK_DIM, BRICK_VOXELS};
+
+    use super::cap_within_among;
+    use crate::mesh::MeshVoxelizer;
+
+    /// The brick's gathered list answers `cap_within` as the caps' tree does, for every
+    /// voxel of every brick around the open corpus meshes, at two grids and two steps.
+    #[test]
+    fn gathered_caps_answer_as_the_cap_tree() {
+        let (mut checked, mut within) = (0, 0);
+        for (name, mesh) in volga_mesh::unclean::corpus() {
+            let voxelizer = MeshVoxelizer::new(&mesh);
+            if voxelizer.sign.cap.is_none() {
+                continue;
+            }
+            let bounds = mesh.bounds();
+            for spacing in [0.04, 0.11] {
+                let origin = bounds.min - DVec3::splat(0.3);
+                let dims = ((bounds.size() + 0.6) / spacing).ceil().as_uvec3() + UVec3::ONE;
+                let grid = Grid::new(Transform::new(origin, DVec3::splat(spacing)).unwrap(), dims).unwrap();
+                let bricks = (dims.as_ivec3() + BRICK_DIM - 1) / BRICK_DIM;
+                for brick in volga_core::IndexBox::new(IVec3::ZERO, bricks).iter() {
+                    let centre = |o: usize| {
+                        let ijk = brick * BRICK_DIM + IVec3::new(o as i32 % 8, o as i32 / 8 % 8, o as i32 / 64);
+                        grid.transform.voxel_center(ijk)
+                    };
+                    for step in [spacing, 3.0 * spacing] {
+                        let near = voxelizer.caps_near_brick(&centre, step);
+                        for o in 0..BRICK_VOXELS {
+                            let tree = voxelizer.sign.cap_within(centre(o), step);
+                            assert_eq!(
+                                cap_within_among(&near, centre(o), step),
+                                tree,
+                                "{name}: {brick} {o} {step}"
+                            );
+                            checked += 1;
+                            within += tree as usize;
+                        }
+                    }
+                }
+            }
+        }
+        eprintln!("{within} of {checked} voxels have a cap within the step");
+        assert!(within > 1000 && checked > 2 * within, "{within} of {checked}");
+    }
+}
