@@ -65,6 +65,8 @@ impl MeshVoxelizer {
         };
         let mut inside = inside_band;
         let mut rest = unknown;
+        // The cap triangles near the brick, gathered once for all its components.
+        let mut near_caps: Option<Vec<[glam::DVec3; 3]>> = None;
         while let Some(first) = rest.first() {
             let mut component = BrickMask::EMPTY;
             component.insert(first);
@@ -110,17 +112,16 @@ impl MeshVoxelizer {
                     let integers = self.carry_integers(component, reference, &centre, stats);
                     let step = grid.max_spacing();
                     // The cap triangles that can lie within `step` of a voxel of the
-                    // brick, gathered once: `cap_within` over them is the caps' tree's
-                    // answer (the same distances, compared the same way), without a
-                    // tree query per voxel.
-                    let near_caps = self.caps_near_brick(&centre, step);
+                    // brick: `cap_within` over them is the caps' tree's answer (the same
+                    // distances, compared the same way), without a tree query per voxel.
+                    let near_caps = near_caps.get_or_insert_with(|| self.caps_near_brick(&centre, step));
                     let mut far: Vec<(i64, BrickMask)> = Vec::new();
                     let mut left = component;
                     while let Some(o) = left.first() {
                         left.remove(o);
                         let known = integers[o];
                         match known {
-                            Some(i) if !cap_within_among(&near_caps, centre(o), step) => {
+                            Some(i) if !cap_within_among(near_caps, centre(o), step) => {
                                 match far.iter_mut().find(|(j, _)| *j == i) {
                                     Some((_, set)) => set.insert(o),
                                     None => {
