@@ -6,6 +6,7 @@ use std::f64::consts::PI;
 use glam::{DMat3, DVec3};
 use volga_core::Aabb;
 
+use crate::winding::SolidAngleSum;
 use crate::{closest_point_on_triangle, solid_angle, triangle_box_overlap, Feature, TriMesh};
 
 /// Most triangles in a leaf.
@@ -277,6 +278,7 @@ impl Bvh {
         }
         let far_squared = FAR_FIELD_BETA * FAR_FIELD_BETA;
         let mut total = 0.0;
+        let mut exact = SolidAngleSum::default();
         let mut stack = [0u32; STACK_SIZE];
         let mut top = 1;
         while top > 0 {
@@ -290,7 +292,7 @@ impl Bvh {
             } else if node.is_leaf() {
                 let first = node.first_or_right as usize;
                 for triangle in &self.triangles[first..first + node.count as usize] {
-                    total += solid_angle(p, *triangle);
+                    exact.add(p, *triangle);
                 }
             } else {
                 stack[top] = index + node.first_or_right;
@@ -298,7 +300,7 @@ impl Bvh {
                 top += 2;
             }
         }
-        total / (4.0 * PI)
+        (total + exact.settle()) / (4.0 * PI)
     }
 
     /// The winding number at `p` with a **certified error bound**, refined until `done`
@@ -337,7 +339,7 @@ impl Bvh {
         // the million; allocating one each contended for the allocator's lock).
         acc.far = FAR_BUFFER.with(|b| std::mem::take(&mut *b.borrow_mut()));
         self.visit(0, p, skip, &mut acc);
-        while !done(acc.total / (4.0 * PI), acc.error() / (4.0 * PI)) {
+        while !done(acc.sum.settle() / (4.0 * PI), acc.error() / (4.0 * PI)) {
             if acc.heap.is_none() {
                 // First refinement: order the first pass's far nodes (O(n) heapify).
                 acc.heap = Some(std::collections::BinaryHeap::from(std::mem::take(&mut acc.far)));
@@ -345,7 +347,7 @@ impl Bvh {
             let Some(FarNode { bound, index, approx }) = acc.heap.as_mut().and_then(|h| h.pop()) else {
                 break;
             };
-            acc.total -= approx;
+            acc.sum.total -= approx;
             acc.far_error -= bound;
             acc.refinements += 1;
             let node = &self.nodes[index as usize];
@@ -386,7 +388,7 @@ impl Bvh {
                 let unsigned = node.area / gap2;
                 let bound = (3.0 * node.second_moment / (gap2 * gap2)).min(unsigned + approx.abs())
                     + 1e-12 * (unsigned + approx.abs());
-                acc.total += approx;
+                acc.sum.total += approx;
                 acc.far_error += bound;
                 acc.terms += 1;
                 let far = FarNode { bound, index, approx };
@@ -408,7 +410,7 @@ impl Bvh {
         let first = node.first_or_right as usize;
         for k in first..first + node.count as usize {
             if Some(self.triangle_ids[k]) != skip {
-                acc.total += solid_angle(p, self.triangles[k]);
+                acc.sum.add(p, self.triangles[k]);
                 acc.exact_triangles += 1;
                 acc.terms += 1;
             }
@@ -491,7 +493,8 @@ impl Ord for FarNode {
 /// Running state of [`Bvh::winding_number_bounded`], in steradians.
 #[derive(Default)]
 struct Accumulator {
-    total: f64,
+    /// Far-field estimates and exact solid angles.
+    sum: SolidAngleSum,
     far_error: f64,
     /// Far nodes of the first pass; a heap (largest bound first) once refining.
     far: Vec<FarNode>,
@@ -507,9 +510,9 @@ impl Accumulator {
         self.far_error.max(0.0) + 1e-13 * (self.terms + 2 * self.refinements + 1) as f64
     }
 
-    fn finish(&self) -> WindingBound {
+    fn finish(&mut self) -> WindingBound {
         WindingBound {
-            value: self.total / (4.0 * PI),
+            value: self.sum.settle() / (4.0 * PI),
             error: self.error() / (4.0 * PI),
             exact_triangles: self.exact_triangles,
             refinements: self.refinements,
