@@ -80,7 +80,8 @@ impl SolidAngleSum {
         if numerator == 0.0 {
             return;
         }
-        if !(denominator > HALF_PLANE * numerator.abs()) {
+        let in_half_plane = denominator > HALF_PLANE * numerator.abs();
+        if !in_half_plane {
             self.total += 2.0 * numerator.atan2(denominator);
             return;
         }
