@@ -96,23 +96,25 @@ pub(super) fn candidate_pairs(boxes: &[Aabb], bvh: &Bvh, from_bvh: &[u32]) -> Ve
         (lo, hi)
     };
     let key = |c: glam::IVec3| (c.x as u64) | (c.y as u64) << 21 | (c.z as u64) << 42;
-    let mut entries: Vec<(u64, u32)> = Vec::with_capacity(boxes.len() * 2);
-    let mut large = Vec::new();
-    for (i, b) in boxes.iter().enumerate() {
-        let (lo, hi) = range(b);
+    // Each box's cell range, once (the pair loop asks for the lower corners often).
+    let ranges: Vec<(glam::IVec3, glam::IVec3)> = boxes.par_iter().map(range).collect();
+    let small = |(lo, hi): (glam::IVec3, glam::IVec3)| {
         let span = (hi - lo + 1).as_i64vec3();
-        if span.x * span.y * span.z > 64 || hi.max_element() >= 1 << 21 {
-            large.push(i as u32);
-            continue;
-        }
-        for z in lo.z..=hi.z {
-            for y in lo.y..=hi.y {
-                for x in lo.x..=hi.x {
-                    entries.push((key(glam::IVec3::new(x, y, z)), i as u32));
-                }
-            }
-        }
-    }
+        span.x * span.y * span.z <= 64 && hi.max_element() < 1 << 21
+    };
+    let large: Vec<u32> = (0..boxes.len() as u32)
+        .filter(|&i| !small(ranges[i as usize]))
+        .collect();
+    let mut entries: Vec<(u64, u32)> = ranges
+        .par_iter()
+        .enumerate()
+        .filter(|&(_, &r)| small(r))
+        .flat_map_iter(|(i, &(lo, hi))| {
+            (lo.z..=hi.z).flat_map(move |z| {
+                (lo.y..=hi.y).flat_map(move |y| (lo.x..=hi.x).map(move |x| (key(glam::IVec3::new(x, y, z)), i as u32)))
+            })
+        })
+        .collect();
     entries.par_sort_unstable();
     let groups: Vec<&[(u64, u32)]> = entries.chunk_by(|a, b| a.0 == b.0).collect();
     let mut pairs: Vec<(u32, u32)> = groups
@@ -121,14 +123,14 @@ pub(super) fn candidate_pairs(boxes: &[Aabb], bvh: &Bvh, from_bvh: &[u32]) -> Ve
             let mut out = Vec::new();
             let here = group[0].0;
             for (k, &(_, a)) in group.iter().enumerate() {
+                let (ba, lo_a) = (&boxes[a as usize], ranges[a as usize].0);
                 for &(_, b) in &group[k + 1..] {
-                    let (ba, bb) = (&boxes[a as usize], &boxes[b as usize]);
+                    let bb = &boxes[b as usize];
                     if ba.min.cmpgt(bb.max).any() || bb.min.cmpgt(ba.max).any() {
                         continue;
                     }
                     // Test the pair only in the lowest cell both boxes reach.
-                    let first = range(ba).0.max(range(bb).0);
-                    if key(first) == here {
+                    if key(lo_a.max(ranges[b as usize].0)) == here {
                         out.push((a.min(b), a.max(b)));
                     }
                 }

@@ -67,6 +67,8 @@ impl MeshVoxelizer {
         let mut rest = unknown;
         // The cap triangles near the brick, gathered once for all its components.
         let mut near_caps: Option<Vec<[glam::DVec3; 3]>> = None;
+        // `w` drifts by at most this much per 6-step inside each octant (x + 2y + 4z).
+        let mut octant_drifts: Option<[f64; 8]> = None;
         while let Some(first) = rest.first() {
             let mut component = BrickMask::EMPTY;
             component.insert(first);
@@ -98,10 +100,37 @@ impl MeshVoxelizer {
                 }
                 (true, true) => None,
             };
-            match decided {
-                Some(true) => inside = inside.or(&component),
-                Some(false) => {}
-                None if self.sign.cap.is_some() => {
+            let component = match decided {
+                Some(true) => {
+                    inside = inside.or(&component);
+                    continue;
+                }
+                Some(false) => continue,
+                None => {
+                    // Voxel by voxel: the margin of the best seed, less the drift of the
+                    // steps from it, with the gradient bound of each octant of the brick
+                    // (the brick's own bound is infinite when the boundary enters it).
+                    let drifts = *octant_drifts.get_or_insert_with(|| {
+                        std::array::from_fn(|k| {
+                            let corner =
+                                brick * BRICK_DIM + 4 * IVec3::new(k as i32 & 1, k as i32 >> 1 & 1, k as i32 >> 2);
+                            let lo = grid.transform.index_to_world(corner.as_dvec3() - 0.5);
+                            let hi = grid.transform.index_to_world((corner + 4).as_dvec3() - 0.5);
+                            self.sign.boundary.gradient_bound(&Aabb::new(lo.min(hi), lo.max(hi))) * grid.max_spacing()
+                        })
+                    });
+                    let by_in = proven_by_seeds(inside_band, component, margin, &drifts);
+                    let by_out = proven_by_seeds(outside_band, component, margin, &drifts);
+                    inside = inside.or(&by_in.and_not(&by_out));
+                    let rest = component.and_not(&by_in.or(&by_out).and_not(&by_in.and(&by_out)));
+                    if rest.is_empty() {
+                        continue;
+                    }
+                    rest
+                }
+            };
+            match self.sign.cap.is_some() {
+                true => {
                     // `I = w_M + w_C` is an integer off the mesh and the caps, carried
                     // from voxel to voxel by the proven cap crossings of each step (a
                     // step from a voxel beyond the band crosses no sheet of the mesh),
@@ -142,7 +171,7 @@ impl MeshVoxelizer {
                         inside = inside.or(&self.prove_in_brick(brick, set, 0, 8, Some(i as f64), grid, stats));
                     }
                 }
-                None => {
+                false => {
                     // Octants of the brick wholly in the component are free of sheets:
                     // prove them box by box, down to single voxels.
                     inside = inside.or(&self.prove_in_brick(brick, component, 0, 8, None, grid, stats));
@@ -205,16 +234,7 @@ impl MeshVoxelizer {
                     let mut candidates = frontier.dilate6().and(&unassigned);
                     while let Some(o) = candidates.first() {
                         candidates.remove(o);
-                        let (x, y, z) = (o % 8, o / 8 % 8, o / 64);
-                        let neighbours = [
-                            (x > 0).then(|| o - 1),
-                            (x < 7).then(|| o + 1),
-                            (y > 0).then(|| o - 8),
-                            (y < 7).then(|| o + 8),
-                            (z > 0).then(|| o - 64),
-                            (z < 7).then(|| o + 64),
-                        ];
-                        for n in neighbours.into_iter().flatten() {
+                        for n in neighbours6(o) {
                             if !frontier.contains(n) {
                                 continue;
                             }
@@ -294,12 +314,92 @@ impl MeshVoxelizer {
 /// Whether one of `triangles` lies within `distance` of `p`: the test of
 /// [`Bvh::closest_within`](volga_mesh::Bvh::closest_within) (the nearest point's
 /// distance, `sqrt` of its square, at most `distance`) over a list that holds every
-/// triangle of the tree within `distance` of `p`.
+/// triangle of the tree within `distance` of `p`. A triangle whose box is farther than
+/// `distance` (grown by a relative 1e-9, far beyond the rounding of either distance) is
+/// passed over without its nearest point: the box holds the triangle, so the nearest
+/// point could not be within `distance` either.
 fn cap_within_among(triangles: &[[glam::DVec3; 3]], p: glam::DVec3, distance: f64) -> bool {
+    let reach = (distance * (1.0 + 1e-9)).powi(2);
     triangles.iter().any(|&t| {
+        let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        let gap = (lo - p).max(p - hi).max(glam::DVec3::ZERO);
+        if gap.length_squared() > reach {
+            return false;
+        }
         let (q, _) = volga_mesh::closest_point_on_triangle(p, t);
         (p - q).length_squared().sqrt() <= distance
     })
+}
+
+/// The six-neighbours of brick offset `o` (packed `x + 8y + 64z`) inside the brick.
+fn neighbours6(o: usize) -> impl Iterator<Item = usize> {
+    let (x, y, z) = (o % 8, o / 8 % 8, o / 64);
+    [
+        (x > 0).then(|| o - 1),
+        (x < 7).then(|| o + 1),
+        (y > 0).then(|| o - 8),
+        (y < 7).then(|| o + 8),
+        (z > 0).then(|| o - 64),
+        (z < 7).then(|| o + 64),
+    ]
+    .into_iter()
+    .flatten()
+}
+
+/// The voxels of `component` (beyond the band, so no 6-step into or inside it crosses a
+/// sheet of the mesh) that `seeds` (band voxels of one side with proven margins
+/// `margin[o] ≤ |w − ½|`) prove on their side: along a path of 6-steps from a seed of
+/// margin `m` through voxels of the component, `w` changes by at most the sum of the
+/// steps' drifts, so a voxel with `m − Σ drift > 0` is on the seed's side. A step runs
+/// half in each voxel's cell, so its drift is the mean of the two cells' octant drifts
+/// (`drifts[x/4 + 2(y/4) + 4(z/4)]`: the octant's gradient bound times the longest
+/// spacing). The best seed and path per voxel, by relaxation from the seeds (only strict
+/// gains of positive drifts spread, so it ends); proven where the best exceeds 1e-12,
+/// far above the rounding of the subtractions.
+fn proven_by_seeds(
+    seeds: BrickMask,
+    component: BrickMask,
+    margin: &[f64; BRICK_VOXELS],
+    drifts: &[f64; 8],
+) -> BrickMask {
+    const PROVEN: f64 = 1e-12;
+    let octant = |o: usize| (o % 8 / 4) + 2 * (o / 8 % 8 / 4) + 4 * (o / 64 / 4);
+    let step = |a: usize, b: usize| 0.5 * (drifts[octant(a)] + drifts[octant(b)]);
+    let least = drifts.iter().copied().fold(f64::INFINITY, f64::min);
+    if least.is_nan() || least <= 0.0 {
+        return BrickMask::EMPTY; // no drift bound to count on (a closed mesh never asks)
+    }
+    let mut best = [f64::NEG_INFINITY; BRICK_VOXELS];
+    let mut frontier = BrickMask::EMPTY;
+    let mut left = seeds.and(&component.dilate6());
+    while let Some(o) = left.first() {
+        left.remove(o);
+        if margin[o] - least > PROVEN {
+            best[o] = margin[o];
+            frontier.insert(o);
+        }
+    }
+    let mut proven = BrickMask::EMPTY;
+    while !frontier.is_empty() {
+        let mut next = BrickMask::EMPTY;
+        let mut reached = frontier.dilate6().and(&component);
+        while let Some(o) = reached.first() {
+            reached.remove(o);
+            let from = neighbours6(o)
+                .filter(|&n| frontier.contains(n))
+                .map(|n| best[n] - step(n, o))
+                .fold(f64::NEG_INFINITY, f64::max);
+            if from > best[o] && from > PROVEN {
+                best[o] = from;
+                proven.insert(o);
+                if from - least > PROVEN {
+                    next.insert(o);
+                }
+            }
+        }
+        frontier = next;
+    }
+    proven
 }
 
 #[cfg(test)]
@@ -307,8 +407,71 @@ mod tests {
     use glam::{DVec3, IVec3, UVec3};
     use volga_core::{Grid, Transform, BRICK_DIM, BRICK_VOXELS};
 
-    use super::cap_within_among;
+    use super::{cap_within_among, neighbours6, proven_by_seeds};
+    use crate::mask::BrickMask;
     use crate::mesh::MeshVoxelizer;
+    use proptest::prelude::*;
+
+    /// Every voxel's best `m − Σ drift` over all paths from a seed through the component,
+    /// by plain Bellman–Ford over the whole brick (every voxel relaxed every round).
+    fn best_by_brute_force(seeds: &[usize], component: &BrickMask, margin: &[f64], drifts: &[f64; 8]) -> Vec<f64> {
+        let octant = |o: usize| (o % 8 / 4) + 2 * (o / 8 % 8 / 4) + 4 * (o / 64 / 4);
+        let mut best = vec![f64::NEG_INFINITY; BRICK_VOXELS];
+        for &s in seeds {
+            best[s] = margin[s];
+        }
+        loop {
+            let mut changed = false;
+            for o in 0..BRICK_VOXELS {
+                if !component.contains(o) {
+                    continue;
+                }
+                for n in neighbours6(o) {
+                    let v = best[n] - 0.5 * (drifts[octant(n)] + drifts[octant(o)]);
+                    if v > best[o] {
+                        best[o] = v;
+                        changed = true;
+                    }
+                }
+            }
+            if !changed {
+                return best;
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+        /// The relaxation from the seeds proves exactly the voxels whose best path
+        /// keeps a positive margin (beyond 1e-12), and only voxels of the component.
+        #[test]
+        fn seeds_prove_what_their_best_paths_keep(
+            bits in prop::collection::vec(any::<u64>(), 8),
+            seed_bits in prop::collection::vec(any::<u64>(), 8),
+            margins in prop::collection::vec(0.0f64..0.5, BRICK_VOXELS),
+            drifts in prop::collection::vec(0.005f64..0.2, 8),
+        ) {
+            let mut component = BrickMask::EMPTY;
+            let mut seeds = BrickMask::EMPTY;
+            let mut seed_list = Vec::new();
+            for o in 0..BRICK_VOXELS {
+                let (c, s) = (bits[o / 64] >> (o % 64) & 1 == 1, seed_bits[o / 64] >> (o % 64) & 3 == 3);
+                if s {
+                    seeds.insert(o);
+                    seed_list.push(o);
+                } else if c {
+                    component.insert(o);
+                }
+            }
+            let drifts: [f64; 8] = std::array::from_fn(|k| drifts[k]);
+            let proven = proven_by_seeds(seeds, component, &margins[..].try_into().unwrap(), &drifts);
+            let best = best_by_brute_force(&seed_list, &component, &margins, &drifts);
+            for (o, &b) in best.iter().enumerate() {
+                let expected = component.contains(o) && b > 1e-12;
+                prop_assert_eq!(proven.contains(o), expected, "voxel {} best {}", o, b);
+            }
+        }
+    }
 
     /// The brick's gathered list answers `cap_within` as the caps' tree does, for every
     /// voxel of every brick around the open corpus meshes, at two grids and two steps.
