@@ -181,6 +181,36 @@ impl Bvh {
         })
     }
 
+    /// A triangle (mesh index) near `p`, found in `O(depth)`: from the root down to the
+    /// child whose box is nearer (the first on ties), then the leaf's nearest triangle.
+    /// Not always the nearest of the mesh ([`Bvh::closest`] backtracks for that, which
+    /// from a point deep inside a closed surface visits most of the tree), but a cheap
+    /// start for walks that count what lies between it and `p`. `None` for an empty tree.
+    pub fn near_triangle(&self, p: DVec3) -> Option<u32> {
+        let mut index = 0u32;
+        let node = loop {
+            let node = self.nodes.get(index as usize)?;
+            if node.is_leaf() {
+                break node;
+            }
+            let (left, right) = (index + 1, index + node.first_or_right);
+            let dl = box_distance_squared(&self.nodes[left as usize].bounds, p);
+            let dr = box_distance_squared(&self.nodes[right as usize].bounds, p);
+            index = if dr < dl { right } else { left };
+        };
+        let first = node.first_or_right as usize;
+        (first..first + node.count as usize)
+            .map(|k| {
+                let (point, _) = closest_point_on_triangle(p, self.triangles[k]);
+                ((p - point).length_squared(), k)
+            })
+            .fold(None, |best: Option<(f64, usize)>, (d2, k)| match best {
+                Some((b, _)) if b <= d2 => best,
+                _ => Some((d2, k)),
+            })
+            .map(|(_, k)| self.triangle_ids[k])
+    }
+
     /// Replaces the contents of `out` with the indices (ascending) of the triangles
     /// that touch the closed box, by the exact test [`triangle_box_overlap`].
     pub fn triangles_overlapping(&self, query: &Aabb, out: &mut Vec<u32>) {
@@ -734,5 +764,35 @@ mod tests {
             &mut out,
         );
         assert_eq!(out, vec![2, 3]); // the z = 1 face, touched from inside
+    }
+
+    /// The one-descent triangle is a real triangle of the mesh, never nearer than the
+    /// nearest, and the nearest itself when the tree is a single leaf.
+    #[test]
+    fn near_triangle_is_a_triangle_no_nearer_than_the_nearest() {
+        for (name, mesh) in crate::unclean::corpus() {
+            let bvh = Bvh::build(&mesh);
+            let b = mesh.bounds();
+            for k in 0..200 {
+                let f = k as f64 / 200.0;
+                let p = b.min - 0.3 * b.size() + DVec3::new(f, (f * 7.3).fract(), (f * 13.7).fract()) * 1.6 * b.size();
+                let near = bvh.near_triangle(p).expect("a non-empty mesh");
+                let (q, _) = closest_point_on_triangle(p, mesh.triangle(near as usize));
+                let nearest = bvh.closest(p).expect("a non-empty mesh");
+                assert!((p - q).length() >= nearest.distance, "{name}: {p}");
+            }
+        }
+        let tri = TriMesh {
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
+            triangles: vec![[0, 1, 2], [0, 1, 3], [0, 2, 3]],
+        };
+        let bvh = Bvh::build(&tri);
+        for p in [
+            DVec3::new(0.2, 0.2, -1.0),
+            DVec3::new(0.2, -1.0, 0.2),
+            DVec3::new(-1.0, 0.2, 0.2),
+        ] {
+            assert_eq!(bvh.near_triangle(p), Some(bvh.closest(p).unwrap().triangle), "{p}");
+        }
     }
 }

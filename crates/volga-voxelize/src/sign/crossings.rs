@@ -70,14 +70,22 @@ impl MeshVoxelizer {
             .map(|c| total + c)
     }
 
-    /// `I(p)` carried from the triangle nearest to `p` ([`MeshVoxelizer::integer_from`]),
-    /// for a point off the mesh and the caps; `None` when that does not prove it.
+    /// `I(p)` carried from a triangle near `p` ([`MeshVoxelizer::integer_from`]) for a
+    /// point off the mesh and the caps: first the one a single descent of the tree finds
+    /// (cheap; the crossings of anything between it and `p` are counted), then the
+    /// nearest one; `None` when neither proves it.
     pub(crate) fn integer_near(&self, p: DVec3) -> Option<i64> {
         if self.sign.closed {
             return None;
         }
-        let nearest = self.bvh.closest(p)?;
-        self.integer_from(self.from_mesh[nearest.triangle as usize] as usize, p)
+        let near = self.bvh.near_triangle(p)?;
+        self.integer_from(self.from_mesh[near as usize] as usize, p)
+            .or_else(|| {
+                let nearest = self.bvh.closest(p)?.triangle;
+                (nearest != near)
+                    .then(|| self.integer_from(self.from_mesh[nearest as usize] as usize, p))
+                    .flatten()
+            })
     }
 }
 

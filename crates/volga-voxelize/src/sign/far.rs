@@ -7,6 +7,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use volga_core::{Aabb, Grid, IndexBox, BRICK_DIM};
 
+use super::crossings::CROSSING_SCRATCH;
 use super::SignStats;
 use crate::mask::BrickMask;
 use crate::mesh::MeshVoxelizer;
@@ -109,6 +110,7 @@ impl MeshVoxelizer {
         }
         let results = [self.classify_box(
             None,
+            None,
             IndexBox::new(IVec3::ZERO, IVec3::splat(size)),
             &grid_box,
             &band_in,
@@ -141,10 +143,13 @@ impl MeshVoxelizer {
     }
 
     /// One octree box (voxel index space, a power-of-two cube, clipped to the grid):
-    /// its inside voxels as boxes, and the queries it took.
+    /// its inside voxels as boxes, and the queries it took. `known` is `I` over the whole
+    /// box; `parent` a point of the enclosing box free of the mesh with its proven `I`,
+    /// to carry `I` to this box's centre by the caps crossed on the way.
     fn classify_box(
         &self,
         known: Option<f64>,
+        parent: Option<(glam::DVec3, f64)>,
         cube: IndexBox,
         grid_box: &IndexBox,
         band_in: &(dyn Fn(IVec3, IVec3) -> bool + Sync),
@@ -161,7 +166,7 @@ impl MeshVoxelizer {
             let hi = (region.max + BRICK_DIM - 1).div_euclid(IVec3::splat(BRICK_DIM));
             if band_in(lo, hi) {
                 if size > BRICK_DIM {
-                    return self.split(None, cube, grid_box, band_in, grid);
+                    return self.split(None, None, cube, grid_box, band_in, grid);
                 }
                 return (Vec::new(), stats); // a band brick: its voxels are the band's
             }
@@ -173,12 +178,21 @@ impl MeshVoxelizer {
         let centre = 0.5 * (lo + hi);
         let radius = 0.5 * (hi - lo).length();
         let drift = self.sign.boundary.gradient_bound(&Aabb::new(lo, hi)) * radius;
+        // `I` at the centre, carried from the enclosing box's centre (both lie in its
+        // hull of voxel centres, which no sheet of the mesh meets: the segment crosses
+        // only caps) or from its nearest triangle, spares the mesh's tree.
+        let carried = known.or_else(|| {
+            parent.and_then(|(from, i)| {
+                CROSSING_SCRATCH
+                    .with_borrow_mut(|scratch| self.sign.cap_crossings(from, centre, scratch))
+                    .map(|c| i + c as f64)
+            })
+        });
         if size == 1 {
-            let (inside, _) = self.exact_side(centre, known, &mut stats);
+            let (inside, _) = self.exact_side(centre, carried, &mut stats);
             return (if inside { vec![region] } else { Vec::new() }, stats);
         }
-        // `I` at the centre, carried from its nearest triangle, spares the mesh's tree.
-        let at_centre = known.or_else(|| self.integer_near(centre).map(|i| i as f64));
+        let at_centre = carried.or_else(|| self.integer_near(centre).map(|i| i as f64));
         let w = self.margin_query(centre, at_centre, drift);
         stats.query_terms += w.terms as u64;
         stats.region_queries += 1;
@@ -187,7 +201,8 @@ impl MeshVoxelizer {
         } else {
             // Free of the mesh; if no cap reaches it, `I` is one integer over it.
             let known = known.or_else(|| self.region_integer(centre, radius));
-            let (boxes, more) = self.split(known, cube, grid_box, band_in, grid);
+            let parent = at_centre.map(|i| (centre, i));
+            let (boxes, more) = self.split(known, parent, cube, grid_box, band_in, grid);
             stats.add(&more);
             (boxes, stats)
         }
@@ -197,6 +212,7 @@ impl MeshVoxelizer {
     fn split(
         &self,
         known: Option<f64>,
+        parent: Option<(glam::DVec3, f64)>,
         cube: IndexBox,
         grid_box: &IndexBox,
         band_in: &(dyn Fn(IVec3, IVec3) -> bool + Sync),
@@ -205,7 +221,7 @@ impl MeshVoxelizer {
         let half = (cube.max - cube.min).x / 2;
         let octant = |k: i32| {
             let lo = cube.min + IVec3::new(k & 1, (k >> 1) & 1, k >> 2) * half;
-            self.classify_box(known, IndexBox::new(lo, lo + half), grid_box, band_in, grid)
+            self.classify_box(known, parent, IndexBox::new(lo, lo + half), grid_box, band_in, grid)
         };
         let parts: Vec<(Vec<IndexBox>, SignStats)> = if half >= 4 * BRICK_DIM {
             (0..8).into_par_iter().map(octant).collect()
