@@ -125,7 +125,9 @@ impl MeshVoxelizer {
     ) -> volga_mesh::WindingBound {
         let mut terms = 0;
         if let Some(cap) = &self.sign.cap {
-            let i = known.or_else(|| {
+            // `I` carried from a triangle near `p` (a tree descent and the crossings on
+            // the way) before the mesh's tree is asked for it.
+            let i = known.or_else(|| self.integer_near(p).map(|i| i as f64)).or_else(|| {
                 let (i, t) = self.integer_at(p);
                 terms = t;
                 i

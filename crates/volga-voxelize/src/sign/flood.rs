@@ -213,12 +213,15 @@ impl MeshVoxelizer {
         {
             while let Some(seed) = unassigned.and_not(&failed).first() {
                 let p = centre(seed);
-                let known = reference.and_then(|t| self.integer_from(t, p)).or_else(|| {
-                    let (i, terms) = self.integer_at(p);
-                    stats.query_terms += terms as u64;
-                    stats.region_queries += 1;
-                    i.map(|i| i as i64)
-                });
+                let known = reference
+                    .and_then(|t| self.integer_from(t, p))
+                    .or_else(|| self.integer_near(p))
+                    .or_else(|| {
+                        let (i, terms) = self.integer_at(p);
+                        stats.query_terms += terms as u64;
+                        stats.region_queries += 1;
+                        i.map(|i| i as i64)
+                    });
                 let Some(i) = known else {
                     failed.insert(seed);
                     continue;
