@@ -180,7 +180,7 @@ impl MeshVoxelizer {
         let drift = self.sign.boundary.gradient_bound(&Aabb::new(lo, hi)) * radius;
         // `I` at the centre, carried from the enclosing box's centre (both lie in its
         // hull of voxel centres, which no sheet of the mesh meets: the segment crosses
-        // only caps) or from its nearest triangle, spares the mesh's tree.
+        // only caps) or from a triangle near it, spares the mesh's tree.
         let carried = known.or_else(|| {
             parent.and_then(|(from, i)| {
                 CROSSING_SCRATCH
