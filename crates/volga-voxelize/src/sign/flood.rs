@@ -129,53 +129,50 @@ impl MeshVoxelizer {
                     rest
                 }
             };
-            match self.sign.cap.is_some() {
-                true => {
-                    // `I = w_M + w_C` is an integer off the mesh and the caps, carried
-                    // from voxel to voxel by the proven cap crossings of each step (a
-                    // step from a voxel beyond the band crosses no sheet of the mesh),
-                    // from one voxel whose `I` is carried from a trusted triangle (or,
-                    // failing that, queried). Voxels farther than a step from every cap
-                    // are proven box by box with their `I`, the rest one by one, both
-                    // asking only the caps' small tree.
-                    let integers = self.carry_integers(component, reference, &centre, stats);
-                    let step = grid.max_spacing();
-                    // The cap triangles that can lie within `step` of a voxel of the
-                    // brick: `cap_within` over them is the caps' tree's answer (the same
-                    // distances, compared the same way), without a tree query per voxel.
-                    let near_caps = near_caps.get_or_insert_with(|| self.caps_near_brick(&centre, step));
-                    let mut far: Vec<(i64, BrickMask)> = Vec::new();
-                    let mut left = component;
-                    while let Some(o) = left.first() {
-                        left.remove(o);
-                        let known = integers[o];
-                        match known {
-                            Some(i) if !cap_within_among(near_caps, centre(o), step) => {
-                                match far.iter_mut().find(|(j, _)| *j == i) {
-                                    Some((_, set)) => set.insert(o),
-                                    None => {
-                                        let mut set = BrickMask::EMPTY;
-                                        set.insert(o);
-                                        far.push((i, set));
-                                    }
-                                }
-                            }
-                            _ => {
-                                if self.exact_side(centre(o), known.map(|i| i as f64), stats).0 {
-                                    inside.insert(o);
+            if self.sign.cap.is_some() {
+                // `I = w_M + w_C` is an integer off the mesh and the caps, carried
+                // from voxel to voxel by the proven cap crossings of each step (a
+                // step from a voxel beyond the band crosses no sheet of the mesh),
+                // from one voxel whose `I` is carried from a trusted triangle (or,
+                // failing that, queried). Voxels farther than a step from every cap
+                // are proven box by box with their `I`, the rest one by one, both
+                // asking only the caps' small tree.
+                let integers = self.carry_integers(component, reference, &centre, stats);
+                let step = grid.max_spacing();
+                // The cap triangles that can lie within `step` of a voxel of the
+                // brick: `cap_within` over them is the caps' tree's answer (the same
+                // distances, compared the same way), without a tree query per voxel.
+                let near_caps = near_caps.get_or_insert_with(|| self.caps_near_brick(&centre, step));
+                let mut far: Vec<(i64, BrickMask)> = Vec::new();
+                let mut left = component;
+                while let Some(o) = left.first() {
+                    left.remove(o);
+                    let known = integers[o];
+                    match known {
+                        Some(i) if !cap_within_among(near_caps, centre(o), step) => {
+                            match far.iter_mut().find(|(j, _)| *j == i) {
+                                Some((_, set)) => set.insert(o),
+                                None => {
+                                    let mut set = BrickMask::EMPTY;
+                                    set.insert(o);
+                                    far.push((i, set));
                                 }
                             }
                         }
-                    }
-                    for (i, set) in far {
-                        inside = inside.or(&self.prove_in_brick(brick, set, 0, 8, Some(i as f64), grid, stats));
+                        _ => {
+                            if self.exact_side(centre(o), known.map(|i| i as f64), stats).0 {
+                                inside.insert(o);
+                            }
+                        }
                     }
                 }
-                false => {
-                    // Octants of the brick wholly in the component are free of sheets:
-                    // prove them box by box, down to single voxels.
-                    inside = inside.or(&self.prove_in_brick(brick, component, 0, 8, None, grid, stats));
+                for (i, set) in far {
+                    inside = inside.or(&self.prove_in_brick(brick, set, 0, 8, Some(i as f64), grid, stats));
                 }
+            } else {
+                // Octants of the brick wholly in the component are free of sheets: prove
+                // them box by box, down to single voxels.
+                inside = inside.or(&self.prove_in_brick(brick, component, 0, 8, None, grid, stats));
             }
         }
         inside
