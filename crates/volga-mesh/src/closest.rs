@@ -72,7 +72,15 @@ const DEGENERATE_SINE: f64 = 3e-8;
 /// Differences are taken relative to a corner, so a triangle far from the origin (1e6)
 /// keeps the precision of its own size.
 pub fn closest_point_on_triangle(p: DVec3, triangle: [DVec3; 3]) -> (DVec3, Feature) {
-    if let Some(point) = face_projection(p, triangle) {
+    closest_point_with_frame(p, triangle, FaceFrame::new(triangle).as_ref())
+}
+
+/// [`closest_point_on_triangle`] given the triangle's [`FaceFrame`] (`None` for a
+/// degenerate triangle), prepared once for many queries: the same arithmetic on the
+/// same values, so the same answer bit for bit.
+#[inline]
+pub fn closest_point_with_frame(p: DVec3, triangle: [DVec3; 3], frame: Option<&FaceFrame>) -> (DVec3, Feature) {
+    if let Some(point) = frame.and_then(|f| f.project(p)) {
         return (point, Feature::Face);
     }
     let mut best = (triangle[0], Feature::Vertex(0));
@@ -95,34 +103,67 @@ pub fn closest_point_on_triangle(p: DVec3, triangle: [DVec3; 3]) -> (DVec3, Feat
     best
 }
 
-/// The projection of `p` onto the triangle's plane if it lies strictly inside a
-/// non-degenerate triangle.
-#[inline]
-fn face_projection(p: DVec3, triangle: [DVec3; 3]) -> Option<DVec3> {
-    // Work from the corner opposite the longest edge, keeping the cyclic order.
-    let edge_length_squared = |k: usize| (triangle[(k + 1) % 3] - triangle[k]).length_squared();
-    let (l0, l1, l2) = (edge_length_squared(0), edge_length_squared(1), edge_length_squared(2));
-    let longest = if l0 >= l1 && l0 >= l2 {
-        0
-    } else if l1 >= l2 {
-        1
-    } else {
-        2
-    };
-    let origin = triangle[(longest + 2) % 3];
-    let u = triangle[longest] - origin;
-    let v = triangle[(longest + 1) % 3] - origin;
-    let normal = u.cross(v);
-    let normal_length_squared = normal.length_squared();
-    let scale = u.length_squared() * v.length_squared();
-    if !(normal_length_squared > DEGENERATE_SINE * DEGENERATE_SINE * scale && normal_length_squared.is_finite()) {
-        return None;
+/// The per-triangle part of [`closest_point_on_triangle`]'s face test: the corner
+/// opposite the longest edge, the two edges from it (in cyclic order) and their cross
+/// product. A triangle has one unless it is degenerate (sine of its largest angle
+/// `≤ 3e-8`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaceFrame {
+    origin: DVec3,
+    u: DVec3,
+    v: DVec3,
+    v_minus_u: DVec3,
+    normal: DVec3,
+    normal_length_squared: f64,
+}
+
+impl FaceFrame {
+    /// The frame of `triangle`; `None` when it is degenerate.
+    pub fn new(triangle: [DVec3; 3]) -> Option<FaceFrame> {
+        // Work from the corner opposite the longest edge, keeping the cyclic order.
+        let edge_length_squared = |k: usize| (triangle[(k + 1) % 3] - triangle[k]).length_squared();
+        let (l0, l1, l2) = (edge_length_squared(0), edge_length_squared(1), edge_length_squared(2));
+        let longest = if l0 >= l1 && l0 >= l2 {
+            0
+        } else if l1 >= l2 {
+            1
+        } else {
+            2
+        };
+        let origin = triangle[(longest + 2) % 3];
+        let u = triangle[longest] - origin;
+        let v = triangle[(longest + 1) % 3] - origin;
+        let normal = u.cross(v);
+        let normal_length_squared = normal.length_squared();
+        let scale = u.length_squared() * v.length_squared();
+        (normal_length_squared > DEGENERATE_SINE * DEGENERATE_SINE * scale && normal_length_squared.is_finite())
+            .then_some(FaceFrame {
+                origin,
+                u,
+                v,
+                v_minus_u: v - u,
+                normal,
+                normal_length_squared,
+            })
     }
-    let po = p - origin;
-    let inside = normal.dot(u.cross(po)) > 0.0
-        && normal.dot((v - u).cross(po - u)) > 0.0
-        && normal.dot((-v).cross(po - v)) > 0.0;
-    inside.then(|| origin + (po - normal * (normal.dot(po) / normal_length_squared)))
+
+    /// The projection of `p` onto the triangle's plane if it lies strictly inside.
+    #[inline]
+    pub fn project(&self, p: DVec3) -> Option<DVec3> {
+        let FaceFrame {
+            origin,
+            u,
+            v,
+            v_minus_u,
+            normal,
+            normal_length_squared,
+        } = *self;
+        let po = p - origin;
+        let inside = normal.dot(u.cross(po)) > 0.0
+            && normal.dot(v_minus_u.cross(po - u)) > 0.0
+            && normal.dot((-v).cross(po - v)) > 0.0;
+        inside.then(|| origin + (po - normal * (normal.dot(po) / normal_length_squared)))
+    }
 }
 
 /// Squared distance from `p` to the closed triangle (see [`closest_point_on_triangle`]).

@@ -73,7 +73,10 @@ mod write;
 
 pub use bvh::{Bvh, Closest, WindingBound, FAR_FIELD_BETA};
 pub use capped::{cap_triangles, signed_crossing, CappedWinding, InsideCost};
-pub use closest::{closest_point_on_segment, closest_point_on_triangle, point_triangle_distance_squared, Feature};
+pub use closest::{
+    closest_point_on_segment, closest_point_on_triangle, closest_point_with_frame, point_triangle_distance_squared,
+    FaceFrame, Feature,
+};
 pub use error::{InvalidMesh, MeshError};
 pub use extract::{
     extract_surface, extract_surface_bounded, extract_surface_with, extract_tree_cells, CellExtraction, ExtractError,

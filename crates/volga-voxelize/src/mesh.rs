@@ -35,7 +35,7 @@ use glam::{DVec3, IVec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
-use volga_mesh::{Bvh, TriMesh};
+use volga_mesh::{Bvh, FaceFrame, TriMesh};
 
 use crate::mask::BrickMask;
 use crate::profile::{BrickClock, Lap, VoxelizeProfile};
@@ -49,6 +49,9 @@ use crate::{OrientedBoxFilter, SurfaceMode};
 #[derive(Debug, Clone)]
 pub struct MeshVoxelizer {
     pub(crate) triangles: Vec<[DVec3; 3]>,
+    /// Each triangle's face test for `closest_point_with_frame`, prepared once (`None`:
+    /// degenerate).
+    pub(crate) face_frames: Vec<Option<FaceFrame>>,
     pub(crate) bvh: Bvh,
     /// Unit face normal (zero for degenerate triangles).
     pub(crate) face_normal: Vec<DVec3>,
@@ -76,6 +79,7 @@ pub struct MeshVoxelizer {
 /// [`MeshVoxelizer`]'s parts that do not need the BVH.
 struct WithoutBvh {
     triangles: Vec<[DVec3; 3]>,
+    face_frames: Vec<Option<FaceFrame>>,
     face_normal: Vec<DVec3>,
     edge_normal: Vec<[DVec3; 3]>,
     vertex_normal: Vec<[DVec3; 3]>,
@@ -143,6 +147,7 @@ impl MeshVoxelizer {
         let vertex_ambiguous = sign.vertex_ok.iter().map(|ok| ok.map(|ok| !ok)).collect();
         MeshVoxelizer {
             triangles: rest.triangles,
+            face_frames: rest.face_frames,
             bvh,
             face_normal: rest.face_normal,
             edge_normal: rest.edge_normal,
@@ -248,9 +253,11 @@ impl MeshVoxelizer {
             .collect();
         let regions = FeatureRegions::build(&triangles, &uses, &welded_pos, &vnormal);
         let distance = triangles.par_iter().map(|t| TriDistance::new(*t)).collect();
+        let face_frames = triangles.par_iter().map(|t| FaceFrame::new(*t)).collect();
         let corners = (0..triangles.len()).map(|t| [0, 1, 2].map(|k| corner(t, k))).collect();
         WithoutBvh {
             triangles,
+            face_frames,
             face_normal,
             edge_normal,
             vertex_normal,

@@ -4,7 +4,7 @@
 //! and region proofs share.
 
 use glam::DVec3;
-use volga_mesh::{closest_point_on_triangle, Feature};
+use volga_mesh::{closest_point_with_frame, Feature};
 
 use super::crossings::CROSSING_SCRATCH;
 use super::SignStats;
@@ -25,7 +25,7 @@ impl MeshVoxelizer {
         stats: &mut SignStats,
     ) -> (bool, f64) {
         let sign = &self.sign;
-        let (c, feature) = closest_point_on_triangle(p, self.triangles[t]);
+        let (c, feature) = closest_point_with_frame(p, self.triangles[t], self.face_frames[t].as_ref());
         let (normal, ok) = match feature {
             Feature::Face => (self.face_normal[t], true),
             Feature::Edge(k) => (self.edge_normal[t][k], !self.edge_ambiguous[t][k]),
