@@ -22,7 +22,8 @@ use rustc_hash::FxHashMap;
 
 use glam::DVec3;
 
-use crate::{Bvh, TriMesh};
+use crate::{Bvh, SegmentTree, TriMesh};
+use volga_core::Aabb;
 
 /// The inside test `w(p) ≥ ½` of a mesh, proven per query (see the module doc).
 #[derive(Debug, Clone)]
@@ -38,6 +39,9 @@ pub struct CappedWinding {
     cap_triangles: usize,
     /// Total area of the cap triangles: bounds the gradient of `w_C` away from them.
     cap_area: f64,
+    /// The caps' boundary cycle (the mesh's, reversed): a second, usually much tighter,
+    /// bound on the gradient of `w_C` away from the caps.
+    cap_boundary: SegmentTree,
     /// Size of the mesh (its box's diagonal plus its distance from the origin): the scale
     /// of "on a cap" tests.
     scale: f64,
@@ -84,6 +88,7 @@ impl CappedWinding {
                 .iter()
                 .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
                 .sum(),
+            cap_boundary: boundary_of(&caps),
             scale: {
                 let b = mesh.bounds();
                 b.size().length() + b.min.abs().max(b.max.abs()).max_element()
@@ -262,7 +267,8 @@ impl CappedWinding {
     /// gradient of the caps' winding number is at most `A_C / (π ρ³)` at distance `ρ`
     /// from caps of area `A_C` (the solid-angle kernel's gradient is at most `4/ρ³`, over
     /// `4π`), so `w_C` varies by at most `radius · A_C / (π r³)` over the ball, `r` its
-    /// distance from the caps. If `w_C(centre)`, certified, clears `I − ½` by more than
+    /// distance from the caps (or by the radius times the caps' boundary's Biot–Savart
+    /// bound, when less). If `w_C(centre)`, certified, clears `I − ½` by more than
     /// that, the side is the same everywhere in the ball.
     pub fn inside_over_ball(&self, centre: DVec3, radius: f64, integer: i64) -> Option<bool> {
         let Some(caps) = &self.caps else {
@@ -272,10 +278,26 @@ impl CappedWinding {
         if r.is_nan() || r <= 0.0 {
             return None;
         }
-        let variation = radius * self.cap_area / (std::f64::consts::PI * r * r * r) * (1.0 + 1e-9);
+        let variation = self.cap_variation(centre, radius, r);
         let threshold = integer as f64 - 0.5;
         let cap = caps.winding_number_bounded(centre, None, |v, e| (v - threshold).abs() > e + variation);
         ((cap.value - threshold).abs() > cap.error + variation).then_some(cap.value < threshold)
+    }
+
+    /// How much `w_C` can vary over the ball `|x − centre| ≤ radius`, `r > 0` away from
+    /// the caps: the radius times a bound on `|∇w_C|` over the ball, the lesser of
+    /// `A_C / (π r³)` (see [`CappedWinding::inside_over_ball`]) and the Biot–Savart bound
+    /// of the caps' boundary cycle over the ball's box (`w_C` is harmonic off the caps,
+    /// its gradient the field of their boundary: [`SegmentTree::gradient_bound`]). The
+    /// second is asked only when the first is not already small.
+    fn cap_variation(&self, centre: DVec3, radius: f64, r: f64) -> f64 {
+        let by_area = radius * self.cap_area / (std::f64::consts::PI * r * r * r) * (1.0 + 1e-9);
+        if by_area <= 1e-3 {
+            return by_area;
+        }
+        let ball_box = Aabb::new(centre - DVec3::splat(radius), centre + DVec3::splat(radius));
+        let by_boundary = radius * self.cap_boundary.gradient_bound(&ball_box) * (1.0 + 1e-9);
+        by_area.min(by_boundary)
     }
 
     /// Certified bounds of the caps' winding number `w_C` over the ball
@@ -288,7 +310,7 @@ impl CappedWinding {
         if r.is_nan() || r <= 0.0 {
             return None;
         }
-        let variation = radius * self.cap_area / (std::f64::consts::PI * r * r * r) * (1.0 + 1e-9);
+        let variation = self.cap_variation(centre, radius, r);
         if variation > 0.25 {
             return None;
         }
@@ -454,4 +476,34 @@ pub fn cap_triangles(mesh: &TriMesh) -> Vec<[DVec3; 3]> {
         }
     }
     caps
+}
+
+/// The boundary cycle of `triangles` (each edge with its net multiplicity: the
+/// triangles running along it forwards minus backwards, endpoints equal bit for bit),
+/// as a [`SegmentTree`]. For the caps, the cones' inner edges cancel and the mesh's
+/// boundary cycle, reversed, is left.
+fn boundary_of(triangles: &[[DVec3; 3]]) -> SegmentTree {
+    let key = |p: DVec3| p.to_array().map(|c| (c + 0.0).to_bits());
+    // Per edge (endpoints' bits, lower first): the endpoints and the net multiplicity.
+    type Key = ([u64; 3], [u64; 3]);
+    let mut net: FxHashMap<Key, (DVec3, DVec3, i64)> = FxHashMap::default();
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let (ka, kb) = (key(a), key(b));
+            if ka == kb {
+                continue;
+            }
+            let (lo, hi, sign) = if ka < kb { (a, b, 1) } else { (b, a, -1) };
+            net.entry((key(lo), key(hi))).or_insert((lo, hi, 0)).2 += sign;
+        }
+    }
+    let mut segments: Vec<(DVec3, DVec3, f64)> = net
+        .into_values()
+        .filter(|&(_, _, m)| m != 0)
+        .map(|(a, b, m)| (a, b, m.unsigned_abs() as f64))
+        .collect();
+    // A fixed order (the map's is arbitrary): the tree, and its sums, are then one.
+    segments.sort_unstable_by(|x, y| key(x.0).cmp(&key(y.0)).then_with(|| key(x.1).cmp(&key(y.1))));
+    SegmentTree::build(segments)
 }

@@ -60,6 +60,7 @@ mod capped;
 mod closest;
 mod error;
 pub mod extract;
+mod gradient;
 mod intersect;
 mod load;
 mod mesh;
@@ -83,6 +84,7 @@ pub use extract::{
     ExtractMethod, Extraction, IsoIndex, Surface, TreeLeaf, VertexPlacement, BYTES_PER_TRIANGLE, MAX_BLOCKS,
     TREE_BYTES_PER_LEAF,
 };
+pub use gradient::SegmentTree;
 pub use intersect::triangles_may_intersect;
 pub use load::{load_gltf, load_mesh, load_obj, read_gltf, read_obj};
 pub use mesh::{EdgeStats, TriMesh};

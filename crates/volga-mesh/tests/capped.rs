@@ -58,3 +58,51 @@ fn capped_inside_equals_the_winding_number_and_carries_agree() {
         assert!(carried > undecided, "{name}: {carried} carried, {undecided} undecided");
     }
 }
+
+/// `caps_range_over_ball` bounds the caps' winding number at every point of the ball:
+/// checked against the caps' exact winding number at points spread over balls of many
+/// sizes, near the holes and away from them.
+#[test]
+fn the_caps_range_over_a_ball_holds_at_every_point_of_it() {
+    let (mut proven, mut asked) = (0, 0);
+    for (name, mesh) in unclean::corpus() {
+        let caps = volga_mesh::cap_triangles(&mesh);
+        if caps.is_empty() {
+            continue;
+        }
+        let capped = CappedWinding::new(&mesh);
+        let cap_mesh = volga_mesh::TriMesh {
+            positions: caps.iter().flatten().copied().collect(),
+            triangles: (0..caps.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
+        };
+        let cap_bvh = Bvh::build(&cap_mesh);
+        let b = mesh.bounds();
+        let size = b.size().max_element().max(1e-3);
+        let mut rng = Rng(7);
+        for k in 0..300 {
+            // Centres over the mesh's box and near cap corners; radii from 1e-4 to 0.3 of it.
+            let centre = if k % 2 == 0 {
+                b.min - 0.1 * size + DVec3::new(rng.next(), rng.next(), rng.next()) * 1.2 * size
+            } else {
+                let corner = caps[(rng.next() * caps.len() as f64) as usize % caps.len()][k % 3];
+                corner + (DVec3::new(rng.next(), rng.next(), rng.next()) - 0.5) * 0.2 * size
+            };
+            let radius = size * 1e-4 * 3000f64.powf(rng.next());
+            asked += 1;
+            let Some((lo, hi)) = capped.caps_range_over_ball(centre, radius) else {
+                continue;
+            };
+            proven += 1;
+            for _ in 0..20 {
+                let d = DVec3::new(rng.next(), rng.next(), rng.next()) * 2.0 - 1.0;
+                let x = centre + d.normalize_or_zero() * radius * rng.next().cbrt();
+                let w = cap_bvh.winding_number_exact(x);
+                assert!(
+                    lo - 1e-12 <= w && w <= hi + 1e-12,
+                    "{name}: w_C = {w} at {x}, outside [{lo}, {hi}] over the ball at {centre} of radius {radius}"
+                );
+            }
+        }
+    }
+    assert!(proven * 3 > asked, "{proven} of {asked} balls bounded");
+}

@@ -14,7 +14,7 @@
 //!   every clean, consistently oriented manifold edge: one certified query per connected
 //!   region of clean triangles gives `I⁺` exactly. Then `w̄_M = I⁺ + ½ − w_C` on `t`.
 //! * `∇w_M = −∇w_C` off the surface is the Biot–Savart field of the boundary cycle, so
-//!   `|∇w| ≤ Σ_e |m_e| ∫_e dl/|x − p|² / 4π` ([`SegmentTree::gradient_bound`]); for a
+//!   `|∇w| ≤ Σ_e |m_e| ∫_e dl/|x − p|² / 4π` ([`volga_mesh::SegmentTree::gradient_bound`]); for a
 //!   closed mesh it is 0 and `w` is constant between sheets.
 //!
 //! A band voxel `p` whose nearest point `q` lies on clean triangle `t` (with a clean,
@@ -31,7 +31,6 @@
 //! * [`oracle`]: what is learned once per mesh ([`SignOracle`]): the boundary cycle and
 //!   its caps, clean triangles, `I⁺` per region and `w̄_M` per triangle.
 //! * `clean`: which triangles another triangle (or a cap) crosses.
-//! * `gradient`: bounds on `|∇w|` from the boundary cycle ([`SegmentTree`]).
 //! * `band`: the sign of a band voxel (nearest triangle's interval, caps, certified
 //!   winding number), and the certified queries the other proofs share.
 //! * `crossings`: a known integer `I` carried from point to point by the proven signed
@@ -45,10 +44,8 @@ mod clean;
 mod crossings;
 mod far;
 mod flood;
-mod gradient;
 mod oracle;
 
-pub(crate) use gradient::SegmentTree;
 pub(crate) use oracle::{MeshTopology, SignOracle};
 
 /// How each voxel's sign was proven; the counts go to reports.

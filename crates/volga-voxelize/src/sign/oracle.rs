@@ -9,8 +9,9 @@ use volga_core::Aabb;
 use volga_mesh::{Bvh, TriMesh};
 
 use super::clean::{adjacent_pair_crosses, candidate_pairs, TOUCH};
-use super::{SegmentTree, SignStats};
+use super::SignStats;
 use crate::regions::EdgeUse;
+use volga_mesh::SegmentTree;
 
 /// Union–find with path halving.
 struct Sets(Vec<u32>);

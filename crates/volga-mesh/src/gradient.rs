@@ -1,15 +1,17 @@
-//! Gradient bounds of the winding number off the surface: `∇w_M = −∇w_C` is the
-//! Biot–Savart field of the boundary cycle, bounded over a box by a weighted segment
-//! hierarchy.
+//! Gradient bounds of the winding number off the surface: the gradient of a surface's
+//! winding number depends only on its boundary (it is the Biot–Savart field of the
+//! boundary cycle), bounded over a box by a weighted segment hierarchy.
 
 use std::f64::consts::PI;
 
 use glam::DVec3;
 use volga_core::Aabb;
 
-/// A weighted segment hierarchy over the boundary cycle, for gradient bounds.
+/// A weighted segment hierarchy over a boundary cycle, for bounds on the gradient of
+/// the winding number of any surface it bounds, at points off that surface: `∇w` is
+/// the Biot–Savart field of the cycle, so `|∇w(x)| ≤ Σ_e |m_e| ∫_e dl/|x − y|² / 4π`.
 #[derive(Debug, Clone, Default)]
-pub(crate) struct SegmentTree {
+pub struct SegmentTree {
     nodes: Vec<SegmentNode>,
     /// (start, end, |multiplicity|), in tree order.
     segments: Vec<(DVec3, DVec3, f64)>,
@@ -31,7 +33,8 @@ fn box_gap(a: &Aabb, b: &Aabb) -> f64 {
 }
 
 impl SegmentTree {
-    pub(crate) fn build(mut segments: Vec<(DVec3, DVec3, f64)>) -> SegmentTree {
+    /// The hierarchy over `segments`: `(start, end, |multiplicity|)`.
+    pub fn build(mut segments: Vec<(DVec3, DVec3, f64)>) -> SegmentTree {
         let mut nodes = Vec::new();
         if !segments.is_empty() {
             let n = segments.len();
@@ -76,7 +79,7 @@ impl SegmentTree {
 
     /// An upper bound on `|∇w|` over the box: `Σ_e |m_e| min(|e|/D², π/D) / 4π` with `D`
     /// the gap between the box and the segment's box; infinite when a segment touches it.
-    pub(crate) fn gradient_bound(&self, query: &Aabb) -> f64 {
+    pub fn gradient_bound(&self, query: &Aabb) -> f64 {
         if self.nodes.is_empty() {
             return 0.0;
         }
