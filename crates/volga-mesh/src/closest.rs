@@ -119,6 +119,7 @@ pub struct FaceFrame {
 
 impl FaceFrame {
     /// The frame of `triangle`; `None` when it is degenerate.
+    #[inline]
     pub fn new(triangle: [DVec3; 3]) -> Option<FaceFrame> {
         // Work from the corner opposite the longest edge, keeping the cyclic order.
         let edge_length_squared = |k: usize| (triangle[(k + 1) % 3] - triangle[k]).length_squared();

@@ -84,8 +84,13 @@ impl SegmentTree {
             return 0.0;
         }
         let mut total = 0.0;
-        let mut stack = vec![0usize];
-        while let Some(i) = stack.pop() {
+        // Depth-first, on the stack: each level pops one node and pushes at most two, and
+        // median splits keep the depth below 32 (`u32` segment counts), so 64 slots hold it.
+        let mut stack = [0u32; 64];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let i = stack[top] as usize;
             let node = &self.nodes[i];
             let gap = box_gap(&node.bounds, query);
             if gap > 0.0 && gap >= node.bounds.size().length() {
@@ -100,8 +105,9 @@ impl SegmentTree {
                     total += w * ((e - s).length() / (d * d)).min(PI / d);
                 }
             } else {
-                stack.push(node.right as usize);
-                stack.push(i + 1);
+                stack[top] = node.right;
+                stack[top + 1] = i as u32 + 1;
+                top += 2;
             }
         }
         total / (4.0 * PI)
