@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 use volga_core::{Aabb, Field, FieldKind};
-use volga_mesh::{Bvh, CappedWinding, TriMesh};
+use volga_mesh::{Bvh, CappedWinding, FaceFrame, TriMesh};
 use volga_shapes::{DistanceSource, ShapeSource, SignedDistance};
 
 /// What the ADF build asks of a source beyond its signed distance ([`DistanceSource`]):
@@ -277,6 +277,8 @@ pub struct MeshSource {
     bvh: Bvh,
     /// Triangle corners and boxes by mesh id, for scans of a cell's candidate list.
     triangles: Vec<[DVec3; 3]>,
+    /// Each triangle's face test, prepared once for the scans (`None`: degenerate).
+    frames: Vec<Option<FaceFrame>>,
     boxes: Vec<(DVec3, DVec3)>,
     /// Unit normals by mesh id for the plane lower bound of scans
     /// ([`MeshSource::sample_among`]); zero for triangles too thin for it.
@@ -308,11 +310,13 @@ impl MeshSource {
             .map(|&[a, b, c]| (a.min(b).min(c), a.max(b).max(c)))
             .collect();
         let normals = triangles.iter().map(|&t| scan_normal(t)).collect();
+        let frames = triangles.iter().map(|&t| FaceFrame::new(t)).collect();
         let extent = bounds.min.abs().max(bounds.max.abs()).max_element();
         let plane_slack = 1e-9 * bounds.size().length() + 1e-12 * extent;
         Ok(MeshSource {
             bvh: Bvh::build(mesh),
             triangles,
+            frames,
             boxes,
             normals,
             plane_slack,
@@ -570,7 +574,8 @@ impl AdfSource for MeshSource {
             if self.lower_bound_squared(p, id) > best {
                 continue;
             }
-            let (q, _) = volga_mesh::closest_point_on_triangle(p, self.triangles[id as usize]);
+            let (q, _) =
+                volga_mesh::closest_point_with_frame(p, self.triangles[id as usize], self.frames[id as usize].as_ref());
             let d2 = (p - q).length_squared();
             if d2 <= best {
                 best = d2;
