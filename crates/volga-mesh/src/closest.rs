@@ -241,4 +241,46 @@ mod tests {
         let (q, _) = closest_point_on_triangle(DVec3::new(1.0, 0.5, 0.0), repeated);
         assert_eq!(q, DVec3::new(0.0, 0.5, 0.0));
     }
+
+    #[test]
+    fn face_frames_exist_only_for_triangles_with_a_face_and_keep_their_precision_far_away() {
+        let nan = DVec3::splat(f64::NAN);
+        for degenerate in [
+            [DVec3::ONE; 3],
+            [DVec3::ZERO, DVec3::X * 2.0, DVec3::X],
+            [DVec3::ZERO, DVec3::ZERO, DVec3::Y],
+            [DVec3::ZERO, DVec3::X, DVec3::new(0.5, 1e-9, 0.0)], // sine ≈ 4e-9
+            [DVec3::ZERO, DVec3::X, nan],
+            [DVec3::ZERO, DVec3::X * f64::INFINITY, DVec3::Y],
+        ] {
+            assert!(FaceFrame::new(degenerate).is_none(), "{degenerate:?}");
+        }
+        assert!(FaceFrame::new([DVec3::ZERO, DVec3::X, DVec3::new(0.5, 1e-6, 0.0)]).is_some());
+
+        // One frame prepared far from the origin answers many points as at the origin.
+        let offset = DVec3::new(1e6, -2e6, 3e6);
+        let tri = [DVec3::ZERO, DVec3::new(1.0, 0.2, 0.0), DVec3::new(0.3, 1.0, 0.4)];
+        let far = tri.map(|v| v + offset);
+        let frame = FaceFrame::new(far).expect("a face");
+        let mut faces = 0;
+        for k in 0..200 {
+            let t = k as f64;
+            // Barycentric weights in [−0.2, 1.2] (inside and outside the face), lifted off it.
+            let (u, v) = (0.7 * (t * 0.37).sin().abs() - 0.2, 0.7 * (t * 0.71).cos().abs() - 0.2);
+            let normal = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+            let p = tri[0] + (tri[1] - tri[0]) * u + (tri[2] - tri[0]) * v + normal * (t * 0.13).sin();
+            let (q_near, f_near) = closest_point_on_triangle(p, tri);
+            let (q_far, f_far) = closest_point_with_frame(p + offset, far, Some(&frame));
+            assert_eq!((q_far, f_far), closest_point_on_triangle(p + offset, far));
+            assert!(
+                (q_far - offset - q_near).length() < 1e-8,
+                "{p}: {q_far} against {q_near}"
+            );
+            if f_near == Feature::Face {
+                faces += 1;
+                assert_eq!(f_far, Feature::Face, "{p}");
+            }
+        }
+        assert!(faces > 20, "{faces} face answers");
+    }
 }
