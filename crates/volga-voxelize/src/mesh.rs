@@ -40,7 +40,7 @@ use volga_mesh::{Bvh, FaceFrame, TriMesh};
 use crate::mask::BrickMask;
 use crate::profile::{BrickClock, Lap, VoxelizeProfile};
 use crate::regions::{EdgeUse, FeatureRegions};
-use crate::sign::{MeshTopology, SignOracle, SignStats};
+use crate::sign::{MeshTopology, SignOracle, SignStats, Slack};
 use crate::tri_distance::{BandColumns, Nearest, TriDistance};
 use crate::{OrientedBoxFilter, SurfaceMode};
 
@@ -76,21 +76,29 @@ pub struct MeshVoxelizer {
     pub(crate) from_mesh: Vec<u32>,
 }
 
-/// [`MeshVoxelizer`]'s parts that do not need the BVH.
-struct WithoutBvh {
+/// [`MeshVoxelizer::new`]'s tables: the triangles in Morton order, welded, with their
+/// normals and edge uses. Built alongside the BVH; the feature regions and the sign
+/// oracle are then built from them side by side.
+struct Tables {
     triangles: Vec<[DVec3; 3]>,
-    face_frames: Vec<Option<FaceFrame>>,
     face_normal: Vec<DVec3>,
     edge_normal: Vec<[DVec3; 3]>,
     vertex_normal: Vec<[DVec3; 3]>,
+    /// Angle-weighted normal per welded vertex.
+    welded_normal: Vec<DVec3>,
     boundary_edges: usize,
-    distance: Vec<TriDistance>,
-    regions: FeatureRegions,
     /// Voxelizer (Morton) order → mesh order.
     order: Vec<u32>,
     corners: Vec<[u32; 3]>,
     welded_pos: Vec<DVec3>,
     uses: Vec<EdgeUse>,
+}
+
+/// The per-triangle distance machinery built from [`Tables`] (no BVH, no signs).
+struct Features {
+    face_frames: Vec<Option<FaceFrame>>,
+    distance: Vec<TriDistance>,
+    regions: FeatureRegions,
 }
 
 /// Welded positions, indexed by welded vertex.
@@ -124,30 +132,44 @@ impl MeshVoxelizer {
     /// Prepares `mesh` (world space): triangles in Morton order, normals and
     /// pseudo-normals of the welded mesh, feature regions, the BVH and the sign oracle.
     pub fn new(mesh: &TriMesh) -> Self {
-        // The BVH (for winding numbers) is built from the mesh as given, alongside
-        // everything else, which needs it only for meshes without simple boundary loops.
+        // The BVH (for winding numbers) is built from the mesh as given, alongside the
+        // tables; then the feature regions (mostly one core's work) alongside the sign
+        // oracle (which needs the BVH, not the regions).
         let start = Instant::now();
         let ((bvh, bvh_s), (rest, rest_s)) = rayon::join(
             || (Bvh::build(mesh), start.elapsed().as_secs_f64()),
-            || (Self::without_bvh(mesh), start.elapsed().as_secs_f64()),
+            || (Self::tables(mesh), start.elapsed().as_secs_f64()),
         );
+        let second = Instant::now();
+        let ((features, features_s), (sign, sign_s)) = rayon::join(
+            || (Self::features(&rest), second.elapsed().as_secs_f64()),
+            || {
+                let sign = SignOracle::build(&MeshTopology {
+                    triangles: &rest.triangles,
+                    corners: &rest.corners,
+                    welded_pos: &rest.welded_pos,
+                    uses: &rest.uses,
+                    bvh: &bvh,
+                    to_bvh: &rest.order,
+                });
+                (sign, second.elapsed().as_secs_f64())
+            },
+        );
+        // The second step's wall time is shared out in proportion to its two sides' times.
+        let (first_wall, second_wall) = ((second - start).as_secs_f64(), second.elapsed().as_secs_f64());
+        let features_share = features_s / (features_s + sign_s).max(f64::MIN_POSITIVE);
         let mut prepare_profile = VoxelizeProfile::default();
-        let oracle_start = Instant::now();
-        prepare_profile.push("tables_and_bvh", (oracle_start - start).as_secs_f64(), bvh_s + rest_s);
-        let sign = SignOracle::build(&MeshTopology {
-            triangles: &rest.triangles,
-            corners: &rest.corners,
-            welded_pos: &rest.welded_pos,
-            uses: &rest.uses,
-            bvh: &bvh,
-            to_bvh: &rest.order,
-        });
-        prepare_profile.serial("sign_oracle", oracle_start);
+        prepare_profile.push(
+            "tables_and_bvh",
+            first_wall + second_wall * features_share,
+            bvh_s + rest_s + features_s,
+        );
+        prepare_profile.push("sign_oracle", second_wall * (1.0 - features_share), sign_s);
         let edge_ambiguous = sign.edge_ok.iter().map(|ok| ok.map(|ok| !ok)).collect();
         let vertex_ambiguous = sign.vertex_ok.iter().map(|ok| ok.map(|ok| !ok)).collect();
         MeshVoxelizer {
             triangles: rest.triangles,
-            face_frames: rest.face_frames,
+            face_frames: features.face_frames,
             bvh,
             face_normal: rest.face_normal,
             edge_normal: rest.edge_normal,
@@ -155,8 +177,8 @@ impl MeshVoxelizer {
             vertex_normal: rest.vertex_normal,
             vertex_ambiguous,
             boundary_edges: rest.boundary_edges,
-            distance: rest.distance,
-            regions: rest.regions,
+            distance: features.distance,
+            regions: features.regions,
             sign,
             prepare_profile,
             from_mesh: {
@@ -170,18 +192,20 @@ impl MeshVoxelizer {
         }
     }
 
-    /// Where [`MeshVoxelizer::new`]'s time went: `tables_and_bvh` (Morton order, welding,
-    /// normals, feature regions and distance tables, alongside the BVH: its CPU time is
-    /// both sides'), then `sign_oracle` (boundary cycle, caps, clean triangles, `I⁺` and
-    /// `w̄` per triangle).
+    /// Where [`MeshVoxelizer::new`]'s time went: `tables_and_bvh` (Morton order, welding
+    /// and normals alongside the BVH, then the feature regions and distance tables),
+    /// and `sign_oracle` (boundary cycle, caps, clean triangles, `I⁺` and `w̄` per
+    /// triangle). The oracle runs alongside the feature regions: that step's wall time is
+    /// shared out between the two stages in proportion to their sides' times, so the
+    /// stages' wall times add up to the call's; a stage's CPU time sums its sides' times.
     pub fn prepare_profile(&self) -> &VoxelizeProfile {
         &self.prepare_profile
     }
 
-    /// Everything but the BVH, on the triangles in Morton order: the triangles a brick
-    /// gathers then sit close together in memory (in mesh order they are scattered over
-    /// the whole arrays, and cache misses dominated the band loop).
-    fn without_bvh(mesh: &TriMesh) -> WithoutBvh {
+    /// The tables, on the triangles in Morton order: the triangles a brick gathers then
+    /// sit close together in memory (in mesh order they are scattered over the whole
+    /// arrays, and cache misses dominated the band loop).
+    fn tables(mesh: &TriMesh) -> Tables {
         let order = morton_order(mesh);
         let mesh = &TriMesh {
             positions: mesh.positions.clone(),
@@ -251,23 +275,37 @@ impl MeshVoxelizer {
         let vertex_normal: Vec<[DVec3; 3]> = (0..triangles.len())
             .map(|t| [0, 1, 2].map(|k| vnormal[corner(t, k) as usize]))
             .collect();
-        let regions = FeatureRegions::build(&triangles, &uses, &welded_pos, &vnormal);
-        let distance = triangles.par_iter().map(|t| TriDistance::new(*t)).collect();
-        let face_frames = triangles.par_iter().map(|t| FaceFrame::new(*t)).collect();
         let corners = (0..triangles.len()).map(|t| [0, 1, 2].map(|k| corner(t, k))).collect();
-        WithoutBvh {
+        Tables {
             triangles,
-            face_frames,
             face_normal,
             edge_normal,
             vertex_normal,
+            welded_normal: vnormal,
             boundary_edges,
-            distance,
-            regions,
             order,
             corners,
             welded_pos,
             uses,
+        }
+    }
+
+    /// Feature regions, distance tables and face frames of the tables' triangles.
+    fn features(tables: &Tables) -> Features {
+        let triangles = &tables.triangles;
+        let ((regions, distance), face_frames) = rayon::join(
+            || {
+                rayon::join(
+                    || FeatureRegions::build(triangles, &tables.uses, &tables.welded_pos, &tables.welded_normal),
+                    || triangles.par_iter().map(|t| TriDistance::new(*t)).collect(),
+                )
+            },
+            || triangles.par_iter().map(|t| FaceFrame::new(*t)).collect(),
+        );
+        Features {
+            face_frames,
+            distance,
+            regions,
         }
     }
 
@@ -461,20 +499,23 @@ impl MeshVoxelizer {
                 IndexBox::new(clip_to(lo), clip_to(hi)).intersection(clip)
             })
             .collect();
-        let bins = crate::pairs::bin_by_brick(&ranges, volga_core::brick_extent(grid.dims()));
 
+        // The bins and the regions laid out for this grid, side by side.
+        let (bins, prepared) = rayon::join(
+            || crate::pairs::bin_by_brick(&ranges, volga_core::brick_extent(grid.dims())),
+            || self.regions.prepare(t, &grid_box, band),
+        );
         progress.start("voxelize", bins.bricks.len() as u64);
         let band2 = band * band;
         // The band in index units on the finest axis (a superset on anisotropic grids).
         let band_index = band / grid.min_spacing();
-        let prepared = self.regions.prepare(t, &grid_box, band);
         if let Some(profile) = profile.as_deref_mut() {
             stage = profile.serial("bins", stage);
         }
-        // Half-width of each triangle's certified interval of `w` within the band: the
-        // error of `w̄` at its centroid plus the gradient bound times the farthest path
-        // (centroid → nearest point → voxel). Zero without a boundary.
-        let slack: Vec<f64> = if signed && !self.sign.closed {
+        // Each triangle's certified interval of `w` within the band: the error of `w̄` at
+        // its centroid plus a gradient bound times the path (centroid → nearest point →
+        // voxel), taken per voxel ([`MeshVoxelizer::decide`]). Zero without a boundary.
+        let slack: Vec<Slack> = if signed && !self.sign.closed {
             // One gradient bound per triangle, over its box grown by the band (runs of
             // triangles sharing one bound were cheaper to set up but sent twice as many
             // bunny voxels to the caps at N = 256).
@@ -483,16 +524,18 @@ impl MeshVoxelizer {
                 .map(|i| {
                     // Unused by a triangle whose band misses the bricks computed.
                     if ranges[i].is_empty() {
-                        return 0.0;
+                        return Slack::default();
                     }
                     let tri = &self.triangles[i];
                     let b = volga_core::Aabb::new(tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]));
-                    let g = self.sign.boundary.gradient_bound(&b.expanded(DVec3::splat(band)));
-                    self.sign.w_bar_error[i] + g * (self.sign.radius[i] + band)
+                    Slack {
+                        error: self.sign.w_bar_error[i],
+                        gradient: self.sign.boundary.gradient_bound(&b.expanded(DVec3::splat(band))),
+                    }
                 })
                 .collect()
         } else {
-            vec![0.0; self.triangles.len()]
+            vec![Slack::default(); self.triangles.len()]
         };
         if let Some(profile) = profile.as_deref_mut() {
             stage = profile.serial("slack", stage);

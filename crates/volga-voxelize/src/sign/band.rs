@@ -10,22 +10,50 @@ use super::crossings::CROSSING_SCRATCH;
 use super::SignStats;
 use crate::mesh::MeshVoxelizer;
 
+/// How far `w` can stray from a triangle's `w̄` (its certified value at the centroid)
+/// at a band voxel whose nearest point on the triangle is `c`: `w̄`'s own error plus a
+/// bound on `|∇w|` over the triangle's box grown by the band, times the length of the
+/// path centroid → `c` → voxel (along the triangle, then off it: no sheet of the mesh is
+/// crossed, and the whole path lies in that box).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Slack {
+    pub(crate) error: f64,
+    pub(crate) gradient: f64,
+}
+
+impl Slack {
+    /// The half-width of the interval at voxel centre `p` (world space) whose nearest
+    /// point on triangle `tri` is `c`.
+    #[inline]
+    pub(crate) fn at(&self, p: DVec3, c: DVec3, tri: [DVec3; 3]) -> f64 {
+        if self.gradient == 0.0 {
+            return self.error;
+        }
+        let centroid = (tri[0] + tri[1] + tri[2]) / 3.0;
+        // The lengths' rounding is far below the allowance.
+        let path = ((c - centroid).length() + (p - c).length()) * (1.0 + 1e-9);
+        self.error + self.gradient * path
+    }
+}
+
 impl MeshVoxelizer {
     /// The sign of a band voxel at `p` whose nearest triangle is `t`, `d2` away (squared),
-    /// with its proven margin `|w − ½|` (a lower bound) and how it was proven. `slack` is
-    /// the half-width of `t`'s certified interval of `w` near `t` (see `sign`);
+    /// with its proven margin `|w − ½|` (a lower bound) and how it was proven. `slack`
+    /// bounds how far `w` strays from `t`'s `w̄` within the band ([`Slack`]);
     /// `reference` a trusted triangle near the voxel to carry `I` from when `t` cannot.
     pub(crate) fn decide(
         &self,
         p: DVec3,
         t: usize,
         d2: f64,
-        slack: f64,
+        slack: Slack,
         reference: Option<usize>,
         stats: &mut SignStats,
     ) -> (bool, f64) {
         let sign = &self.sign;
-        let (c, feature) = closest_point_with_frame(p, self.triangles[t], self.face_frames[t].as_ref());
+        let tri = self.triangles[t];
+        let (c, feature) = closest_point_with_frame(p, tri, self.face_frames[t].as_ref());
+        let slack = slack.at(p, c, tri);
         let (normal, ok) = match feature {
             Feature::Face => (self.face_normal[t], true),
             Feature::Edge(k) => (self.edge_normal[t][k], !self.edge_ambiguous[t][k]),

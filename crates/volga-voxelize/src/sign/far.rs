@@ -176,8 +176,6 @@ impl MeshVoxelizer {
         let (a, b) = (t.voxel_center(region.min), t.voxel_center(region.max - IVec3::ONE));
         let (lo, hi) = (a.min(b), a.max(b));
         let centre = 0.5 * (lo + hi);
-        let radius = 0.5 * (hi - lo).length();
-        let drift = self.sign.boundary.gradient_bound(&Aabb::new(lo, hi)) * radius;
         // `I` at the centre, carried from the enclosing box's centre (both lie in its
         // hull of voxel centres, which no sheet of the mesh meets: the segment crosses
         // only caps) or from a triangle near it, spares the mesh's tree.
@@ -188,10 +186,14 @@ impl MeshVoxelizer {
                     .map(|c| i + c as f64)
             })
         });
+        // A single voxel is decided exactly; a larger box by one query when `w` keeps
+        // clear of ½ by more than it can drift over the box.
         if size == 1 {
             let (inside, _) = self.exact_side(centre, carried, &mut stats);
             return (if inside { vec![region] } else { Vec::new() }, stats);
         }
+        let radius = 0.5 * (hi - lo).length();
+        let drift = self.sign.boundary.gradient_bound(&Aabb::new(lo, hi)) * radius;
         let at_centre = carried.or_else(|| self.integer_near(centre).map(|i| i as f64));
         let w = self.margin_query(centre, at_centre, drift);
         stats.query_terms += w.terms as u64;

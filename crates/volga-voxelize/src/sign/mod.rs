@@ -46,6 +46,7 @@ mod far;
 mod flood;
 mod oracle;
 
+pub(crate) use band::Slack;
 pub(crate) use oracle::{MeshTopology, SignOracle};
 
 /// How each voxel's sign was proven; the counts go to reports.

@@ -51,13 +51,11 @@ pub(crate) struct SignOracle {
     /// The cap triangles, indexed as in `cap`.
     pub(crate) cap_triangles: Vec<[DVec3; 3]>,
     /// Per triangle: trusted (clean, in a certified region); `I⁺` of its region; `w̄_M`
-    /// at its centroid with the error of that value; the farthest corner from the
-    /// centroid.
+    /// at its centroid with the error of that value.
     pub(crate) trusted: Vec<bool>,
     pub(crate) front: Vec<i64>,
     pub(crate) w_bar: Vec<f64>,
     pub(crate) w_bar_error: Vec<f64>,
-    pub(crate) radius: Vec<f64>,
     /// Per triangle and corner `k`: edge `k → k+1` may use its pseudo-normal; the
     /// vertex at corner `k` may use its pseudo-normal.
     pub(crate) edge_ok: Vec<[bool; 3]>,
@@ -267,7 +265,7 @@ impl SignOracle {
         // gradient bound times the distance; triangles the shared value does not pin
         // within 0.02 ask their own.
         let (clean_ref, root_ref, front_ref) = (&clean, &root, &front_of_region);
-        let per_triangle: Vec<(bool, i64, f64, f64, f64)> = (0..n)
+        let per_triangle: Vec<(bool, i64, f64, f64)> = (0..n)
             .into_par_iter()
             .chunks(32)
             .flat_map_iter(|run| {
@@ -282,9 +280,7 @@ impl SignOracle {
                     })
                 });
                 run.into_iter().map(move |t| {
-                    let tri = mesh.triangles[t];
                     let c = centroid(t);
-                    let radius = tri.iter().map(|v| (*v - c).length()).fold(0.0, f64::max);
                     let front = if clean_ref[t] {
                         front_ref.get(&root_ref[t]).copied().flatten()
                     } else {
@@ -299,9 +295,9 @@ impl SignOracle {
                             let (wc, ec) = near
                                 .or_else(|| cap_winding(c, 0.02).map(|b| (b.value, b.error)))
                                 .unwrap_or((0.0, 0.0));
-                            (true, i, i as f64 + 0.5 - wc, ec, radius)
+                            (true, i, i as f64 + 0.5 - wc, ec)
                         }
-                        None => (false, 0, 0.0, 0.0, radius),
+                        None => (false, 0, 0.0, 0.0),
                     }
                 })
             })
@@ -322,7 +318,6 @@ impl SignOracle {
             front: per_triangle.iter().map(|p| p.1).collect(),
             w_bar: per_triangle.iter().map(|p| p.2).collect(),
             w_bar_error: per_triangle.iter().map(|p| p.3).collect(),
-            radius: per_triangle.iter().map(|p| p.4).collect(),
             edge_ok,
             vertex_ok,
             stats,
