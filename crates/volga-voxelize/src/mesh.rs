@@ -526,12 +526,7 @@ impl MeshVoxelizer {
                     if ranges[i].is_empty() {
                         return Slack::default();
                     }
-                    let tri = &self.triangles[i];
-                    let b = volga_core::Aabb::new(tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]));
-                    Slack {
-                        error: self.sign.w_bar_error[i],
-                        gradient: self.sign.boundary.gradient_bound(&b.expanded(DVec3::splat(band))),
-                    }
+                    self.slack(i, band)
                 })
                 .collect()
         } else {
