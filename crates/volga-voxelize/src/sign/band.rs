@@ -220,7 +220,6 @@ impl MeshVoxelizer {
 
 #[cfg(test)]
 mod tests {
-    use glam::DVec3;
     use volga_mesh::{closest_point_on_triangle, Feature, TriMesh};
 
     use crate::mesh::MeshVoxelizer;
