@@ -18,20 +18,25 @@ use crate::mesh::MeshVoxelizer;
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Slack {
     pub(crate) error: f64,
+    /// Infinite when the boundary reaches the box.
     pub(crate) gradient: f64,
+    pub(crate) centroid: DVec3,
 }
 
 impl Slack {
     /// The half-width of the interval at voxel centre `p` (world space) whose nearest
-    /// point on triangle `tri` is `c`.
+    /// point on the triangle is `c`.
     #[inline]
-    pub(crate) fn at(&self, p: DVec3, c: DVec3, tri: [DVec3; 3]) -> f64 {
+    pub(crate) fn at(&self, p: DVec3, c: DVec3) -> f64 {
         if self.gradient == 0.0 {
             return self.error;
         }
-        let centroid = (tri[0] + tri[1] + tri[2]) / 3.0;
+        if !self.gradient.is_finite() {
+            // Also where the path has length 0 (a voxel centre at the centroid).
+            return f64::INFINITY;
+        }
         // The lengths' rounding is far below the allowance.
-        let path = ((c - centroid).length() + (p - c).length()) * (1.0 + 1e-9);
+        let path = ((c - self.centroid).length() + (p - c).length()) * (1.0 + 1e-9);
         self.error + self.gradient * path
     }
 }
@@ -45,6 +50,7 @@ impl MeshVoxelizer {
         Slack {
             error: self.sign.w_bar_error[t],
             gradient: self.sign.boundary.gradient_bound(&b.expanded(DVec3::splat(band))),
+            centroid: (tri[0] + tri[1] + tri[2]) / 3.0,
         }
     }
 
@@ -62,9 +68,8 @@ impl MeshVoxelizer {
         stats: &mut SignStats,
     ) -> (bool, f64) {
         let sign = &self.sign;
-        let tri = self.triangles[t];
-        let (c, feature) = closest_point_with_frame(p, tri, self.face_frames[t].as_ref());
-        let slack = slack.at(p, c, tri);
+        let (c, feature) = closest_point_with_frame(p, self.triangles[t], self.face_frames[t].as_ref());
+        let slack = slack.at(p, c);
         let (normal, ok) = match feature {
             Feature::Face => (self.face_normal[t], true),
             Feature::Edge(k) => (self.edge_normal[t][k], !self.edge_ambiguous[t][k]),
@@ -287,7 +292,7 @@ mod tests {
                 let behind = (p - c).dot(v.face_normal[t]) < 0.0;
                 let mid = v.sign.w_bar[t] + if behind { 0.5 } else { -0.5 };
                 let slack = v.slack(t, band);
-                let half_width = slack.at(p, c, tri);
+                let half_width = slack.at(p, c);
                 let w = v.bvh.winding_number_exact(p);
                 assert!(
                     (w - mid).abs() <= half_width,
