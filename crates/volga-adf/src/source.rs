@@ -183,7 +183,8 @@ pub struct CellCandidates {
     /// When as long as `ids`: a lower bound, for every point of the cell, of the squared
     /// distance to each primitive, ascending (`ids` in that order), so a scan for the
     /// nearest one stops at the first bound above its best (a mesh: the squared gap
-    /// between the cell and the triangle's box). Empty: `ids` in no particular order.
+    /// between the cell and the triangle's box, rounded down to `f32`). Empty: `ids` in no
+    /// particular order.
     pub lower: Vec<f64>,
     /// Certified bounds over the cell of a quantity the source decides signs with (a mesh
     /// with holes: the caps' winding number `w_C`), when it could bound it.
@@ -279,10 +280,10 @@ pub struct MeshSource {
     triangles: Vec<[DVec3; 3]>,
     /// Each triangle's face test, prepared once for the scans (`None`: degenerate).
     frames: Vec<Option<FaceFrame>>,
-    boxes: Vec<(DVec3, DVec3)>,
-    /// Unit normals by mesh id for the plane lower bound of scans
-    /// ([`MeshSource::sample_among`]); zero for triangles too thin for it.
-    normals: Vec<DVec3>,
+    /// Each triangle's box and plane by mesh id, side by side: what a candidate list's
+    /// narrowing and a scan's lower bound read ([`MeshSource::candidates`],
+    /// [`MeshSource::sample_among`]).
+    scan: Vec<ScanRecord>,
     /// Absolute slack (world units) subtracted from the plane lower bounds: covers the
     /// rounding of the bound and of `closest_point_on_triangle` with a wide margin.
     plane_slack: f64,
@@ -305,11 +306,18 @@ impl MeshSource {
             return Err(crate::AdfError::EmptySource("the mesh has non-finite vertices".into()));
         }
         let triangles: Vec<[DVec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.triangle(i)).collect();
-        let boxes = triangles
+        let scan = triangles
             .iter()
-            .map(|&[a, b, c]| (a.min(b).min(c), a.max(b).max(c)))
+            .map(|&t @ [a, b, c]| {
+                let normal = scan_normal(t);
+                ScanRecord {
+                    lo: a.min(b).min(c),
+                    hi: a.max(b).max(c),
+                    normal,
+                    offset: normal.dot(a),
+                }
+            })
             .collect();
-        let normals = triangles.iter().map(|&t| scan_normal(t)).collect();
         let frames = triangles.iter().map(|&t| FaceFrame::new(t)).collect();
         let extent = bounds.min.abs().max(bounds.max.abs()).max_element();
         let plane_slack = 1e-9 * bounds.size().length() + 1e-12 * extent;
@@ -317,8 +325,7 @@ impl MeshSource {
             bvh: Bvh::build(mesh),
             triangles,
             frames,
-            boxes,
-            normals,
+            scan,
             plane_slack,
             winding: CappedWinding::new(mesh),
             bounds,
@@ -422,6 +429,30 @@ impl MeshSource {
     }
 }
 
+/// The largest `f32` not above `x` (for `x ≥ 0`, finite or not).
+#[inline]
+fn f32_at_most(x: f64) -> f32 {
+    let y = x as f32;
+    if f64::from(y) > x {
+        // y > x ≥ 0: the next positive f32 below (f32::MAX below +∞).
+        f32::from_bits(y.to_bits() - 1)
+    } else {
+        y
+    }
+}
+
+/// A triangle's box and plane, for the narrowing of candidate lists and the lower bounds
+/// of scans (one record per triangle, read together).
+#[derive(Clone, Copy, Debug)]
+struct ScanRecord {
+    lo: DVec3,
+    hi: DVec3,
+    /// [`scan_normal`]: unit, or zero for a triangle too thin for a plane bound.
+    normal: DVec3,
+    /// `normal · a` for the triangle's first corner `a`: the plane is `normal · x = offset`.
+    offset: f64,
+}
+
 /// The unit normal of a triangle whose double area is at least 1e-3 of its longest edge
 /// squared, else zero (no plane bound: the nearest point of a thin triangle may lie off
 /// the plane computed from its corners by more than rounding).
@@ -447,9 +478,9 @@ impl MeshSource {
     /// distance so far cannot lower it, so skipping it leaves the minimum unchanged.
     #[inline]
     fn lower_bound_squared(&self, p: DVec3, id: u32) -> f64 {
-        let (lo, hi) = self.boxes[id as usize];
-        let gap = (lo - p).max(p - hi).max(DVec3::ZERO).length_squared();
-        let plane = self.normals[id as usize].dot(p - self.triangles[id as usize][0]).abs() - self.plane_slack;
+        let r = &self.scan[id as usize];
+        let gap = (r.lo - p).max(p - r.hi).max(DVec3::ZERO).length_squared();
+        let plane = (r.normal.dot(p) - r.offset).abs() - self.plane_slack;
         if plane > 0.0 {
             gap.max(plane * plane * (1.0 - 1e-9))
         } else {
@@ -507,15 +538,27 @@ impl AdfSource for MeshSource {
         let reach = reach * (1.0 + 1e-9) + 1e-12 * cell.size().max_element();
         let reach_squared = reach * reach;
         let gap_squared = |id: u32| {
-            let (lo, hi) = self.boxes[id as usize];
-            (lo - cell.max).max(cell.min - hi).max(DVec3::ZERO).length_squared()
+            let r = &self.scan[id as usize];
+            (r.lo - cell.max).max(cell.min - r.hi).max(DVec3::ZERO).length_squared()
         };
+        // A candidate's sort key: its gap rounded down to f32 (still a lower bound), whose
+        // bits order as the values do (gaps are ≥ 0), above its id (ties by id: the order
+        // is a function of the cell alone).
         let near = |id: u32| {
             let g = gap_squared(id);
-            (g <= reach_squared).then_some((g, id))
+            (g <= reach_squared).then(|| (u64::from(f32_at_most(g).to_bits()) << 32) | u64::from(id))
         };
-        let mut pairs: Vec<(f64, u32)> = match parent {
-            Some(list) if list.ids.len() <= NARROW_FROM_BVH => list.ids.iter().filter_map(|&id| near(id)).collect(),
+        let mut keys: Vec<u64> = match parent {
+            Some(list) if list.ids.len() <= NARROW_FROM_BVH => {
+                // The parent's gaps are lower bounds of this cell's (it lies inside the
+                // parent): a sorted list ends with the first one beyond the reach.
+                let end = if list.lower.len() == list.ids.len() {
+                    list.lower.partition_point(|&g| g <= reach_squared)
+                } else {
+                    list.ids.len()
+                };
+                list.ids[..end].iter().filter_map(|&id| near(id)).collect()
+            }
             _ => {
                 let grown = Aabb::new(cell.min - DVec3::splat(reach), cell.max + DVec3::splat(reach));
                 let mut ids = Vec::new();
@@ -523,10 +566,13 @@ impl AdfSource for MeshSource {
                 ids.into_iter().filter_map(near).collect()
             }
         };
-        // Nearest boxes first (ties by id: the order is a function of the cell alone).
-        // (Gaps are ≥ 0, so their bits order as the values do.)
-        pairs.sort_unstable_by_key(|&(g, id)| (g.to_bits(), id));
-        let (lower, ids) = pairs.into_iter().unzip();
+        // Nearest boxes first.
+        keys.sort_unstable();
+        let lower = keys
+            .iter()
+            .map(|&k| f64::from(f32::from_bits((k >> 32) as u32)))
+            .collect();
+        let ids = keys.iter().map(|&k| k as u32).collect();
         Some(CellCandidates {
             ids,
             lower,

@@ -255,6 +255,7 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
                         cache,
                     )?;
                 }
+                cache.finish(depth);
             }
         }
         Ok(())
@@ -276,7 +277,7 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
                 corners: [0.0; 8],
                 children: LEAF,
             }];
-            let mut cache = SampleCache::default();
+            let mut cache = SampleCache::new(depth, self.max_depth);
             self.build_into(
                 &mut out,
                 &mut jumps,

@@ -15,7 +15,6 @@ use crate::AdfError;
 /// coordinates in half-finest-cell units from the root's minimum): a point shared by
 /// sibling or cousin cells is evaluated once. Values are functions of the point alone, so
 /// the cache changes the work, never the tree.
-#[derive(Default)]
 pub(crate) struct SampleCache {
     ///
     /// A test point is on the lattice of cells of its own depth only (at an odd multiple
@@ -23,10 +22,84 @@ pub(crate) struct SampleCache {
     /// from its parent's lattice, and no shallower cell's lattice holds it), so it is
     /// looked up only by the other cells of that depth around it: one across a face
     /// centre, three around an edge midpoint. Each entry counts the lookups left and is
-    /// dropped at the last, so the map holds the build's frontier, not every sample.
+    /// dropped at the last; the entries whose other cells never take a lattice (they
+    /// are pruned, or leaves of a shallower depth) are dropped when the subtree holding
+    /// all of them is done ([`SampleCache::finish`]). So the map holds the build's
+    /// frontier, not every sample, and stays small enough to be quick.
     pub(super) samples: rustc_hash::FxHashMap<[u32; 3], (Sample, u8)>,
     /// Sign-field values at jump leaves' corners ([`AdfSource::sign_field_at`]).
     pub(super) sign_fields: rustc_hash::FxHashMap<[u32; 3], Option<f64>>,
+    /// Depth of the subtree's root: a point whose cells' common ancestor is shallower is
+    /// shared with cells of other subtrees only, which have caches of their own.
+    root_depth: u8,
+    /// The build's maximum depth (the lattice's unit is half its cells).
+    max_depth: u8,
+    /// By depth `a`: the keys stored whose cells' common ancestor is the cell of depth `a`
+    /// being built (one at a time, depth first).
+    by_ancestor: Vec<Vec<[u32; 3]>>,
+}
+
+impl SampleCache {
+    /// An empty cache for the subtree rooted at depth `root_depth` of a build to
+    /// `max_depth`.
+    pub(crate) fn new(root_depth: u8, max_depth: u8) -> Self {
+        SampleCache {
+            samples: Default::default(),
+            sign_fields: Default::default(),
+            root_depth,
+            max_depth,
+            by_ancestor: vec![Vec::new(); max_depth as usize + 1],
+        }
+    }
+
+    /// The depth of the smallest cell of this subtree that holds every cell of this subtree
+    /// having test point `key` on its boundary; `boundary` marks the axes across which
+    /// the point lies on those cells' faces. `None` when no other cell of this subtree has
+    /// it (the others lie in other subtrees, or outside the root).
+    ///
+    /// A lattice coordinate with `z` trailing zero bits lies on a mid-plane of the cells of
+    /// depth `max_depth − z` (the lattice's unit is half the finest cell), which divides
+    /// them and nothing shallower; the coordinates 0 and `2^(max_depth + 1)` are the root's
+    /// faces. Across an axis whose plane divides a cell shallower than this subtree's
+    /// root, the cells on the other side lie in other subtrees; across the others, the
+    /// cells around the point lie in the smallest cell that the shallowest of those
+    /// planes divides.
+    fn ancestor_depth(&self, key: [u32; 3], boundary: [bool; 3]) -> Option<u8> {
+        let mut depth = None;
+        for (k, on) in key.into_iter().zip(boundary) {
+            if !on {
+                continue;
+            }
+            let zeros = k.trailing_zeros();
+            if zeros > u32::from(self.max_depth) {
+                continue; // a face of the root
+            }
+            let a = self.max_depth - zeros as u8;
+            if a >= self.root_depth {
+                depth = Some(depth.map_or(a, |d: u8| d.min(a)));
+            }
+        }
+        depth
+    }
+
+    /// Keeps sample `s` at test point `key` for the `left` other cells around it, unless
+    /// none of them is in this subtree.
+    fn keep(&mut self, key: [u32; 3], boundary: [bool; 3], s: Sample, left: u8) {
+        if let Some(a) = self.ancestor_depth(key, boundary) {
+            self.samples.insert(key, (s, left));
+            self.by_ancestor[a as usize].push(key);
+        }
+    }
+
+    /// The cell of depth `depth` being built is done: every cell around the test points
+    /// kept for it has been built, so they are dropped.
+    pub(crate) fn finish(&mut self, depth: u8) {
+        if let Some(keys) = self.by_ancestor.get_mut(depth as usize) {
+            for key in keys.drain(..) {
+                self.samples.remove(&key);
+            }
+        }
+    }
 }
 
 /// The 27 points of a cell's 3×3×3 lattice, index `i + 3j + 9k`, in half-cell units.
@@ -121,8 +194,9 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
                         // Other cells of this depth sharing the point: 1 across a face
                         // centre (one coordinate on the cell's boundary), 3 around an
                         // edge midpoint (two).
-                        let on_boundary = [i, j, k].iter().filter(|&&x| x != 1).count();
-                        c.samples.insert(key, (s, if on_boundary == 1 { 1 } else { 3 }));
+                        let boundary = [i != 1, j != 1, k != 1];
+                        let on_boundary = boundary.iter().filter(|&&b| b).count();
+                        c.keep(key, boundary, s, if on_boundary == 1 { 1 } else { 3 });
                     }
                     lattice[l] = Some(s);
                 }
@@ -149,4 +223,87 @@ pub(crate) fn child_of<T: Copy>(min: DVec3, half: f64, o: usize, lattice: &[T; 2
     let values =
         std::array::from_fn(|b| lattice[lattice_index(ox + (b & 1), oy + ((b >> 1) & 1), oz + ((b >> 2) & 1))]);
     (child_min, values)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SampleCache;
+
+    /// The smallest common ancestor's depth of the cells of depth `depth` (integer indices)
+    /// that lie inside the subtree root `root` (its index at `root_depth`), by brute
+    /// force; `None` unless there are two.
+    fn brute_ancestor(cells: &[[u32; 3]], depth: u8, root: [u32; 3], root_depth: u8) -> Option<u8> {
+        let inside: Vec<[u32; 3]> = cells
+            .iter()
+            .copied()
+            .filter(|c| c.map(|x| x >> (depth - root_depth)) == root)
+            .collect();
+        if inside.len() < 2 {
+            return None;
+        }
+        (root_depth..depth).rev().find(|&e| {
+            inside
+                .iter()
+                .all(|c| c.map(|x| x >> (depth - e)) == inside[0].map(|x| x >> (depth - e)))
+        })
+    }
+
+    /// Every test point of every cell of a small build, in every subtree: the depth at
+    /// which the cache drops it is that of the smallest cell holding the other cells of
+    /// its subtree around it, and it is not kept when there are none (brute force over
+    /// the cells around the point).
+    #[test]
+    fn test_points_are_dropped_exactly_when_their_subtree_cells_are_done() {
+        let max_depth = 5u8;
+        let mut checked = 0;
+        for root_depth in 0..=3u8 {
+            let cache = SampleCache::new(root_depth, max_depth);
+            for depth in root_depth..=max_depth {
+                let unit = 1u32 << (max_depth + 1 - depth); // a depth-`depth` cell, in lattice units
+                let n = 1u32 << depth;
+                // Cells of a few subtrees (all of them for shallow roots).
+                for cell in (0..n * n * n).step_by(7) {
+                    let c = [cell % n, (cell / n) % n, cell / (n * n)];
+                    let root = c.map(|x| x >> (depth - root_depth));
+                    for l in 0..27u32 {
+                        let ijk = [l % 3, (l / 3) % 3, l / 9];
+                        let boundary = ijk.map(|x| x != 1);
+                        let on = boundary.iter().filter(|&&b| b).count();
+                        if on == 0 || on == 3 {
+                            continue; // the centre and the corners are not cached
+                        }
+                        let key = [0, 1, 2].map(|a| c[a] * unit + ijk[a] * unit / 2);
+                        // The cells of this depth around the point.
+                        let mut cells = vec![[0u32; 3]];
+                        for a in 0..3 {
+                            let options: Vec<u32> = if boundary[a] {
+                                let b = key[a] / unit;
+                                [b.wrapping_sub(1), b].into_iter().filter(|&x| x < n).collect()
+                            } else {
+                                vec![key[a] / unit]
+                            };
+                            cells = cells
+                                .iter()
+                                .flat_map(|cell| {
+                                    options.iter().map(move |&x| {
+                                        let mut next = *cell;
+                                        next[a] = x;
+                                        next
+                                    })
+                                })
+                                .collect();
+                        }
+                        assert!(cells.contains(&c));
+                        assert_eq!(
+                            cache.ancestor_depth(key, boundary),
+                            brute_ancestor(&cells, depth, root, root_depth),
+                            "root depth {root_depth}, depth {depth}, cell {c:?}, lattice point {ijk:?}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 10_000, "{checked}");
+    }
 }
