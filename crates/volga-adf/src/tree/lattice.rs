@@ -26,9 +26,9 @@ pub(crate) struct SampleCache {
     /// are pruned, or leaves of a shallower depth) are dropped when the subtree holding
     /// all of them is done ([`SampleCache::finish`]). So the map holds the build's
     /// frontier, not every sample, and stays small enough to be quick.
-    pub(super) samples: rustc_hash::FxHashMap<[u32; 3], (Sample, u8)>,
+    pub(super) samples: rustc_hash::FxHashMap<LatticeKey, (Sample, u8)>,
     /// Sign-field values at jump leaves' corners ([`AdfSource::sign_field_at`]).
-    pub(super) sign_fields: rustc_hash::FxHashMap<[u32; 3], Option<f64>>,
+    pub(super) sign_fields: rustc_hash::FxHashMap<LatticeKey, Option<f64>>,
     /// Depth of the subtree's root: a point whose cells' common ancestor is shallower is
     /// shared with cells of other subtrees only, which have caches of their own.
     root_depth: u8,
@@ -36,7 +36,21 @@ pub(crate) struct SampleCache {
     max_depth: u8,
     /// By depth `a`: the keys stored whose cells' common ancestor is the cell of depth `a`
     /// being built (one at a time, depth first).
-    by_ancestor: Vec<Vec<[u32; 3]>>,
+    by_ancestor: Vec<Vec<LatticeKey>>,
+}
+
+/// A lattice point's integer coordinates ([`Builder::lattice_key`]), hashed as two words
+/// (the cache's maps are on the build's hot path).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct LatticeKey(pub [u32; 3]);
+
+impl std::hash::Hash for LatticeKey {
+    #[inline]
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        let [x, y, z] = self.0;
+        state.write_u64(u64::from(x) | (u64::from(y) << 32));
+        state.write_u32(z);
+    }
 }
 
 impl SampleCache {
@@ -64,9 +78,9 @@ impl SampleCache {
     /// root, the cells on the other side lie in other subtrees; across the others, the
     /// cells around the point lie in the smallest cell that the shallowest of those
     /// planes divides.
-    fn ancestor_depth(&self, key: [u32; 3], boundary: [bool; 3]) -> Option<u8> {
+    fn ancestor_depth(&self, key: LatticeKey, boundary: [bool; 3]) -> Option<u8> {
         let mut depth = None;
-        for (k, on) in key.into_iter().zip(boundary) {
+        for (k, on) in key.0.into_iter().zip(boundary) {
             if !on {
                 continue;
             }
@@ -84,7 +98,7 @@ impl SampleCache {
 
     /// Keeps sample `s` at test point `key` for the `left` other cells around it, unless
     /// none of them is in this subtree.
-    fn keep(&mut self, key: [u32; 3], boundary: [bool; 3], s: Sample, left: u8) {
+    fn keep(&mut self, key: LatticeKey, boundary: [bool; 3], s: Sample, left: u8) {
         if let Some(a) = self.ancestor_depth(key, boundary) {
             self.samples.insert(key, (s, left));
             self.by_ancestor[a as usize].push(key);
@@ -107,6 +121,43 @@ impl SampleCache {
 pub(super) fn lattice_index(i: usize, j: usize, k: usize) -> usize {
     i + 3 * j + 9 * k
 }
+
+/// By lattice index: the cell's 8 corners from the nearest to the farthest, in corner
+/// order among equally near ones (distances in half-cell units, exact).
+const CORNERS_BY_DISTANCE: [[u8; 8]; 27] = {
+    let mut table = [[0u8; 8]; 27];
+    let mut l: usize = 0;
+    while l < 27 {
+        let ijk = [l % 3, (l / 3) % 3, l / 9];
+        let mut distance = [0usize; 8];
+        let mut b = 0;
+        while b < 8 {
+            let mut axis = 0;
+            while axis < 3 {
+                let d = ijk[axis].abs_diff(((b >> axis) & 1) * 2);
+                distance[b] += d * d;
+                axis += 1;
+            }
+            b += 1;
+        }
+        // Insertion by (distance, corner): a stable order.
+        let mut n = 0;
+        let mut d = 0;
+        while d <= 12 {
+            let mut b = 0;
+            while b < 8 {
+                if distance[b] == d {
+                    table[l][n] = b as u8;
+                    n += 1;
+                }
+                b += 1;
+            }
+            d += 1;
+        }
+        l += 1;
+    }
+    table
+};
 
 #[inline]
 fn corner_lattice(b: usize) -> usize {
@@ -181,11 +232,13 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
                             continue;
                         }
                     }
-                    // The nearest corner that knows its region (the shortest carry).
-                    let near = (0..8)
-                        .filter(|&b| samples[b].region.is_some())
-                        .map(|b| (corner_position(min, size, b), &samples[b]))
-                        .min_by(|a, b| (p - a.0).length_squared().total_cmp(&(p - b.0).length_squared()));
+                    // The nearest corner that knows its region (the shortest carry; the
+                    // first in corner order among equally near ones).
+                    let near = CORNERS_BY_DISTANCE[l]
+                        .iter()
+                        .map(|&b| b as usize)
+                        .find(|&b| samples[b].region.is_some())
+                        .map(|b| (corner_position(min, size, b), &samples[b]));
                     let s = match candidates {
                         Some(c) => self.eval_among(p, near, c)?,
                         None => self.eval(p, near)?,
@@ -208,9 +261,9 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
     /// Integer lattice coordinates of a lattice point (exact: points and origin are on
     /// the lattice of the finest cells).
     #[inline]
-    pub(super) fn lattice_key(&self, p: DVec3) -> [u32; 3] {
+    pub(super) fn lattice_key(&self, p: DVec3) -> LatticeKey {
         let k = ((p - self.lattice_origin) / self.lattice_unit).round();
-        [k.x as u32, k.y as u32, k.z as u32]
+        LatticeKey([k.x as u32, k.y as u32, k.z as u32])
     }
 }
 
@@ -246,6 +299,25 @@ mod tests {
                 .iter()
                 .all(|c| c.map(|x| x >> (depth - e)) == inside[0].map(|x| x >> (depth - e)))
         })
+    }
+
+    /// The corner order by distance is the one a search by world distance finds (the first
+    /// of equally near corners), at every lattice point of a cell far from the origin.
+    #[test]
+    fn corners_by_distance_are_the_nearest_first() {
+        use glam::DVec3;
+        let (min, size) = (DVec3::new(1e6, -3.5e5, 2.0), 0.125);
+        for l in 0..27 {
+            let p = min + DVec3::new((l % 3) as f64, ((l / 3) % 3) as f64, (l / 9) as f64) * size * 0.5;
+            let mut order: Vec<usize> = (0..8).collect();
+            order.sort_by(|&a, &b| {
+                let da = (p - super::corner_position(min, size, a)).length_squared();
+                let db = (p - super::corner_position(min, size, b)).length_squared();
+                da.total_cmp(&db).then(a.cmp(&b))
+            });
+            let table: Vec<usize> = super::CORNERS_BY_DISTANCE[l].iter().map(|&b| b as usize).collect();
+            assert_eq!(table, order, "lattice point {l}");
+        }
     }
 
     /// Every test point of every cell of a small build, in every subtree: the depth at
@@ -295,7 +367,7 @@ mod tests {
                         }
                         assert!(cells.contains(&c));
                         assert_eq!(
-                            cache.ancestor_depth(key, boundary),
+                            cache.ancestor_depth(super::LatticeKey(key), boundary),
                             brute_ancestor(&cells, depth, root, root_depth),
                             "root depth {root_depth}, depth {depth}, cell {c:?}, lattice point {ijk:?}"
                         );
