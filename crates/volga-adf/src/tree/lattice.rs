@@ -39,17 +39,36 @@ pub(crate) struct SampleCache {
     by_ancestor: Vec<Vec<LatticeKey>>,
 }
 
-/// A lattice point's integer coordinates ([`Builder::lattice_key`]), hashed as two words
-/// (the cache's maps are on the build's hot path).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct LatticeKey(pub [u32; 3]);
+/// A lattice point's integer coordinates ([`Builder::lattice_key`]) as two words, `x` and
+/// `y` in one (the cache's maps are on the build's hot path).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) struct LatticeKey {
+    xy: u64,
+    z: u32,
+}
 
-impl std::hash::Hash for LatticeKey {
+impl LatticeKey {
     #[inline]
-    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
-        let [x, y, z] = self.0;
-        state.write_u64(u64::from(x) | (u64::from(y) << 32));
-        state.write_u32(z);
+    pub(crate) fn new([x, y, z]: [u32; 3]) -> Self {
+        LatticeKey {
+            xy: u64::from(x) | (u64::from(y) << 32),
+            z,
+        }
+    }
+
+    #[inline]
+    pub(crate) fn coordinates(self) -> [u32; 3] {
+        [self.xy as u32, (self.xy >> 32) as u32, self.z]
+    }
+
+    /// The key `(i, j, k)` lattice units further along the axes (no coordinate passes
+    /// `u32::MAX`: they are at most `2^(max_depth + 1)`).
+    #[inline]
+    fn offset(self, [i, j, k]: [u32; 3]) -> Self {
+        LatticeKey {
+            xy: self.xy + u64::from(i) + (u64::from(j) << 32),
+            z: self.z + k,
+        }
     }
 }
 
@@ -80,7 +99,7 @@ impl SampleCache {
     /// planes divides.
     fn ancestor_depth(&self, key: LatticeKey, boundary: [bool; 3]) -> Option<u8> {
         let mut depth = None;
-        for (k, on) in key.0.into_iter().zip(boundary) {
+        for (k, on) in key.coordinates().into_iter().zip(boundary) {
             if !on {
                 continue;
             }
@@ -206,6 +225,9 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
             lattice[corner_lattice(b)] = Some(samples[b]);
         }
         let half = size * 0.5;
+        // The lattice's keys from the minimum's: a half cell is a power of two of units.
+        let base = self.lattice_key(min);
+        let step = (half / self.lattice_unit).round() as u32;
         for k in 0..3 {
             for j in 0..3 {
                 for i in 0..3 {
@@ -220,7 +242,8 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
                     // looked up nor kept.
                     let centre = l == lattice_index(1, 1, 1);
                     let mut cache_here = if centre { None } else { cache.as_deref_mut() };
-                    let key = self.lattice_key(p);
+                    let key = base.offset([i as u32 * step, j as u32 * step, k as u32 * step]);
+                    debug_assert_eq!(key, self.lattice_key(p));
                     if let Some(c) = cache_here.as_deref_mut() {
                         if let std::collections::hash_map::Entry::Occupied(mut e) = c.samples.entry(key) {
                             let (s, left) = e.get_mut();
@@ -263,7 +286,7 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
     #[inline]
     pub(super) fn lattice_key(&self, p: DVec3) -> LatticeKey {
         let k = ((p - self.lattice_origin) / self.lattice_unit).round();
-        LatticeKey([k.x as u32, k.y as u32, k.z as u32])
+        LatticeKey::new([k.x as u32, k.y as u32, k.z as u32])
     }
 }
 
@@ -367,7 +390,7 @@ mod tests {
                         }
                         assert!(cells.contains(&c));
                         assert_eq!(
-                            cache.ancestor_depth(super::LatticeKey(key), boundary),
+                            cache.ancestor_depth(super::LatticeKey::new(key), boundary),
                             brute_ancestor(&cells, depth, root, root_depth),
                             "root depth {root_depth}, depth {depth}, cell {c:?}, lattice point {ijk:?}"
                         );
