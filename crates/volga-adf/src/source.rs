@@ -366,10 +366,10 @@ impl MeshSource {
 }
 
 /// Candidate lists longer than this are narrowed with the BVH, not by filtering.
-const NARROW_FROM_BVH: usize = 4096;
+const NARROW_FROM_BVH: usize = 1 << 16;
 /// Candidate lists longer than this are not scanned: the point asks the BVH. (Sorted
 /// scans stop early, so the whole narrowed list is worth scanning.)
-const SCAN_LIMIT: usize = NARROW_FROM_BVH;
+const SCAN_LIMIT: usize = 4096;
 
 /// The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
 #[inline]
