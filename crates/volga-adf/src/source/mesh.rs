@@ -1,0 +1,452 @@
+//! The triangle-mesh source: exact distances to the nearest triangle and signs proven by
+//! the capped winding number, with the build's shortcuts (candidate lists, sorted scans,
+//! whole-cell sign proofs).
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::DVec3;
+use volga_core::Aabb;
+use volga_mesh::{Bvh, CappedWinding, FaceFrame, TriMesh};
+use volga_shapes::DistanceSource;
+
+use super::{AdfSource, CellCandidates, Sample, SurfaceMeasures};
+
+/// A triangle mesh: exact unsigned distance to the nearest triangle (`Bvh::closest`) with
+/// the sign of the generalized winding number, **proven** per point: inside means
+/// `w(p) ≥ ½`, decided by `volga_mesh::CappedWinding` (the integer winding number of the
+/// mesh closed by cones over its boundary cycle, minus the cones' own, each certified).
+/// Open, self-intersecting and overlapping meshes (the Stanford bunny with its holes)
+/// therefore get the same inside as the voxelizer's.
+///
+/// Counts its queries (`queries`, `winding_terms`) for reports.
+#[derive(Debug)]
+pub struct MeshSource {
+    bvh: Bvh,
+    /// Triangle corners by mesh id, for the exact distances of a cell's candidate scans.
+    triangles: Vec<[DVec3; 3]>,
+    /// Each triangle's face test, prepared once for the scans (`None`: degenerate).
+    frames: Vec<Option<FaceFrame>>,
+    /// Each triangle's box and plane by mesh id, side by side: what a candidate list's
+    /// narrowing and a scan's lower bound read ([`MeshSource::candidates`],
+    /// [`MeshSource::sample_among`]).
+    scan: Vec<ScanRecord>,
+    /// Absolute slack (world units) subtracted from the plane lower bounds: covers the
+    /// rounding of the bound and of `closest_point_on_triangle` with a wide margin.
+    plane_slack: f64,
+    winding: CappedWinding,
+    bounds: Aabb,
+    measures: SurfaceMeasures,
+    queries: AtomicU64,
+    winding_terms: AtomicU64,
+    integer_queries: AtomicU64,
+}
+
+impl MeshSource {
+    /// Builds the BVH. Errors if the mesh has no triangles.
+    pub fn new(mesh: &TriMesh) -> Result<Self, crate::AdfError> {
+        if mesh.triangle_count() == 0 {
+            return Err(crate::AdfError::EmptySource("the mesh has no triangles".into()));
+        }
+        let bounds = mesh.bounds();
+        if !(bounds.min.is_finite() && bounds.max.is_finite()) {
+            return Err(crate::AdfError::EmptySource("the mesh has non-finite vertices".into()));
+        }
+        let triangles: Vec<[DVec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.triangle(i)).collect();
+        let scan = triangles
+            .iter()
+            .map(|&t @ [a, b, c]| {
+                let normal = scan_normal(t);
+                ScanRecord {
+                    lo: a.min(b).min(c),
+                    hi: a.max(b).max(c),
+                    normal,
+                    offset: normal.dot(a),
+                }
+            })
+            .collect();
+        let frames = triangles.iter().map(|&t| FaceFrame::new(t)).collect();
+        let extent = bounds.min.abs().max(bounds.max.abs()).max_element();
+        let plane_slack = 1e-9 * bounds.size().length() + 1e-12 * extent;
+        Ok(MeshSource {
+            bvh: Bvh::build(mesh),
+            triangles,
+            frames,
+            scan,
+            plane_slack,
+            winding: CappedWinding::new(mesh),
+            bounds,
+            measures: SurfaceMeasures::of_mesh(mesh),
+            queries: AtomicU64::new(0),
+            winding_terms: AtomicU64::new(0),
+            integer_queries: AtomicU64::new(0),
+        })
+    }
+
+    /// The mesh's BVH (exact nearest points, winding numbers).
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// Distance queries answered so far.
+    pub fn queries(&self) -> u64 {
+        self.queries.load(Ordering::Relaxed)
+    }
+
+    /// Queries that computed the integer winding number `I` themselves (the others took it
+    /// from a neighbour's sheet-free ball).
+    pub fn integer_queries(&self) -> u64 {
+        self.integer_queries.load(Ordering::Relaxed)
+    }
+
+    /// Winding-number terms summed so far (the cost of proving signs).
+    pub fn winding_terms(&self) -> u64 {
+        self.winding_terms.load(Ordering::Relaxed)
+    }
+
+    /// The proven side of `p`: `w(p) ≥ ½`.
+    pub fn inside(&self, p: DVec3) -> bool {
+        let (inside, cost) = self.winding.inside(p);
+        self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
+        inside
+    }
+}
+
+/// Candidate lists longer than this are narrowed with the BVH, not by filtering.
+const NARROW_FROM_BVH: usize = 1 << 16;
+/// Candidate lists longer than this are not scanned: the point asks the BVH. (Sorted
+/// scans stop early, so the whole narrowed list is worth scanning.)
+const SCAN_LIMIT: usize = 4096;
+
+/// The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
+#[inline]
+fn near_bound(p: DVec3, near: Option<(DVec3, &Sample)>) -> f64 {
+    near.map_or(f64::INFINITY, |(q, s)| {
+        (s.value.abs() + (p - q).length()) * (1.0 + 1e-9)
+    })
+}
+
+impl MeshSource {
+    /// The sample from its unsigned distance: the sign from the winding number
+    /// `w = I − w_C` (`volga_mesh::CappedWinding`), the integer `I` carried over from
+    /// `near` by counting the sheets crossed in between (among `candidates` when given:
+    /// they hold every mesh triangle meeting the segment) or computed when that count is
+    /// not certain; `w_C` (the caps alone) is always computed, certified against `I − ½`.
+    fn signed(
+        &self,
+        p: DVec3,
+        unsigned: f64,
+        near: Option<(DVec3, &Sample)>,
+        candidates: Option<&CellCandidates>,
+    ) -> Sample {
+        if unsigned == 0.0 {
+            return Sample {
+                value: 0.0,
+                region: None,
+            };
+        }
+        let known = near.and_then(|(q, s)| {
+            s.region.and_then(|i| match candidates {
+                Some(c) => self.winding.integer_along_among(q, i, p, c.meeting_cell()),
+                None => self.winding.integer_along(q, i, p),
+            })
+        });
+        if known.is_none() {
+            self.integer_queries.fetch_add(1, Ordering::Relaxed);
+        }
+        // Inside ⇔ w_C ≤ I − ½: decided by the cell's bounds on w_C when they clear it.
+        let threshold = known.map(|i| i as f64 - 0.5);
+        let by_bounds = match (candidates.and_then(|c| c.sign_bounds), threshold) {
+            (Some((_, hi)), Some(t)) if hi < t => Some(true),
+            (Some((lo, _)), Some(t)) if lo > t => Some(false),
+            _ => None,
+        };
+        let (inside, integer) = match by_bounds {
+            Some(inside) => (inside, known),
+            None => {
+                let (inside, integer, cost) = self.winding.inside_with(p, known);
+                self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
+                (inside, integer)
+            }
+        };
+        Sample {
+            value: if inside { -unsigned } else { unsigned },
+            region: integer,
+        }
+    }
+}
+
+/// The largest `f32` not above `x` (for `x ≥ 0`, finite or not).
+#[inline]
+fn f32_at_most(x: f64) -> f32 {
+    let y = x as f32;
+    if f64::from(y) > x {
+        // y > x ≥ 0: the next positive f32 below (f32::MAX below +∞).
+        f32::from_bits(y.to_bits() - 1)
+    } else {
+        y
+    }
+}
+
+/// A triangle's box and plane, for the narrowing of candidate lists and the lower bounds
+/// of scans (one record per triangle, read together).
+#[derive(Clone, Copy, Debug)]
+struct ScanRecord {
+    lo: DVec3,
+    hi: DVec3,
+    /// [`scan_normal`]: unit, or zero for a triangle too thin for a plane bound.
+    normal: DVec3,
+    /// `normal · a` for the triangle's first corner `a`: the plane is `normal · x = offset`.
+    offset: f64,
+}
+
+/// The unit normal of a triangle whose double area is at least 1e-3 of its longest edge
+/// squared, else zero (no plane bound: the nearest point of a thin triangle may lie off
+/// the plane computed from its corners by more than rounding).
+fn scan_normal([a, b, c]: [DVec3; 3]) -> DVec3 {
+    let n = (b - a).cross(c - a);
+    let longest = (b - a)
+        .length_squared()
+        .max((c - b).length_squared())
+        .max((a - c).length_squared());
+    let area2 = n.length();
+    if area2.is_finite() && area2 >= 1e-3 * longest && area2 > 0.0 {
+        n / area2
+    } else {
+        DVec3::ZERO
+    }
+}
+
+impl MeshSource {
+    /// A lower bound of the squared distance `closest_point_on_triangle` computes from `p`
+    /// to triangle `id`, below it by more than rounding: the squared gap to the triangle's
+    /// box (what the scan always pruned by), or the squared distance to its plane less
+    /// `plane_slack` when that is larger. A candidate whose bound exceeds the best squared
+    /// distance so far cannot lower it, so skipping it leaves the minimum unchanged.
+    #[inline]
+    fn lower_bound_squared(&self, p: DVec3, id: u32) -> f64 {
+        let r = &self.scan[id as usize];
+        let gap = (r.lo - p).max(p - r.hi).max(DVec3::ZERO).length_squared();
+        let plane = (r.normal.dot(p) - r.offset).abs() - self.plane_slack;
+        if plane > 0.0 {
+            gap.max(plane * plane * (1.0 - 1e-9))
+        } else {
+            gap
+        }
+    }
+}
+
+impl DistanceSource for MeshSource {
+    fn distance(&self, p: DVec3) -> f64 {
+        self.sample(p, None).value
+    }
+
+    /// The 1-Lipschitz bound around the box's centre; for a mesh with holes, whose sign
+    /// may jump away from the surface, only the unsigned distance is 1-Lipschitz, so the
+    /// range is `±(|d| + r)`.
+    fn range(&self, world_box: &Aabb) -> (f64, f64) {
+        let d = self.distance(world_box.center());
+        let r = world_box.size().length() * 0.5;
+        if self.may_jump() {
+            (-(d.abs() + r), d.abs() + r)
+        } else {
+            (d - r, d + r)
+        }
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+}
+
+impl AdfSource for MeshSource {
+    /// The unsigned distance to the nearest triangle, and the sign from the winding number
+    /// `w = I − w_C` (`volga_mesh::CappedWinding`): the integer `I` is carried over from
+    /// `near` by counting the sheets of the mesh and its caps the segment between them
+    /// crosses (`CappedWinding::integer_along`), or computed when that count is not
+    /// certain; `w_C` (the caps alone) is always computed, certified against `I − ½`.
+    fn sample(&self, p: DVec3, near: Option<(DVec3, &Sample)>) -> Sample {
+        self.queries.fetch_add(1, Ordering::Relaxed);
+        let bound = near_bound(p, near);
+        let unsigned = self
+            .bvh
+            .closest_within(p, bound)
+            .or_else(|| self.bvh.closest(p))
+            .map_or(f64::INFINITY, |c| c.distance);
+        self.signed(p, unsigned, near, None)
+    }
+
+    /// The triangles whose boxes are within `reach` (Euclidean) of the cell: they hold
+    /// the nearest point of every point of the cell (its distance is at most `reach`).
+    /// From the BVH at the top of the tree (no parent, or a long parent list), else by
+    /// filtering the parent's list; sorted by their boxes' gap to the cell (`lower`).
+    fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
+        // Slack for the rounding of `reach` and of the box distances.
+        let reach = reach * (1.0 + 1e-9) + 1e-12 * cell.size().max_element();
+        let reach_squared = reach * reach;
+        let gap_squared = |id: u32| {
+            let r = &self.scan[id as usize];
+            (r.lo - cell.max).max(cell.min - r.hi).max(DVec3::ZERO).length_squared()
+        };
+        // A candidate's sort key: its gap rounded down to f32 (still a lower bound), whose
+        // bits order as the values do (gaps are ≥ 0), above its id (ties by id: the order
+        // is a function of the cell alone).
+        let near = |id: u32| {
+            let g = gap_squared(id);
+            (g <= reach_squared).then(|| (u64::from(f32_at_most(g).to_bits()) << 32) | u64::from(id))
+        };
+        let mut keys: Vec<u64> = match parent {
+            Some(list) if list.ids.len() <= NARROW_FROM_BVH => {
+                // The parent's gaps are lower bounds of this cell's (it lies inside the
+                // parent): a sorted list ends with the first one beyond the reach.
+                let end = if list.lower.len() == list.ids.len() {
+                    list.lower.partition_point(|&g| g <= reach_squared)
+                } else {
+                    list.ids.len()
+                };
+                list.ids[..end].iter().filter_map(|&id| near(id)).collect()
+            }
+            _ => {
+                let grown = Aabb::new(cell.min - DVec3::splat(reach), cell.max + DVec3::splat(reach));
+                let mut ids = Vec::new();
+                self.bvh.boxes_overlapping(&grown, &mut ids);
+                ids.into_iter().filter_map(near).collect()
+            }
+        };
+        // Nearest boxes first.
+        keys.sort_unstable();
+        let lower = keys
+            .iter()
+            .map(|&k| f64::from(f32::from_bits((k >> 32) as u32)))
+            .collect();
+        let ids = keys.iter().map(|&k| k as u32).collect();
+        Some(CellCandidates {
+            ids,
+            lower,
+            sign_bounds: match parent.and_then(|p| p.sign_bounds) {
+                // The parent's ball holds this cell's (a child's centre is half the
+                // parent's radius from the parent's, its radius half of it), so its
+                // bounds hold here; they decide every threshold `I − ½` its own would
+                // decide when they hold no half-integer.
+                Some((lo, hi)) if (lo + 0.5).ceil() > hi + 0.5 => Some((lo, hi)),
+                _ => self
+                    .winding
+                    .caps_range_over_ball(cell.center(), 0.5 * cell.size().length() * (1.0 + 1e-9)),
+            },
+        })
+    }
+
+    /// The nearest of the cell's candidates when the list is short, and the sheets
+    /// crossed from `near` counted among them; the BVH otherwise. The same distance as
+    /// [`MeshSource::sample`]: the minimum over a set that holds the nearest triangle.
+    ///
+    /// The scan visits the candidates by their boxes' gap to the cell and stops at the
+    /// first gap above the best squared distance so far (every later triangle is farther
+    /// from any point of the cell); a candidate is skipped when its box or, for a
+    /// well-shaped triangle, its plane is farther from `p` than the best
+    /// (`MeshSource::lower_bound_squared`, private). Only triangles that cannot lower the minimum
+    /// are skipped, so the value is the plain scan's, bit for bit.
+    fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
+        if candidates.ids.len() > SCAN_LIMIT {
+            return self.sample(p, near);
+        }
+        self.queries.fetch_add(1, Ordering::Relaxed);
+        let bound = near_bound(p, near);
+        let mut best = if bound.is_finite() {
+            bound * bound * (1.0 + 1e-12)
+        } else {
+            f64::INFINITY
+        };
+        let mut found = false;
+        // Ascending cell-box gaps: every later candidate is at least this far from `p`.
+        let sorted = candidates.lower.len() == candidates.ids.len();
+        for (k, &id) in candidates.ids.iter().enumerate() {
+            if sorted && candidates.lower[k] > best {
+                break;
+            }
+            if self.lower_bound_squared(p, id) > best {
+                continue;
+            }
+            let (q, _) =
+                volga_mesh::closest_point_with_frame(p, self.triangles[id as usize], self.frames[id as usize].as_ref());
+            let d2 = (p - q).length_squared();
+            if d2 <= best {
+                best = d2;
+                found = true;
+            }
+        }
+        if !found {
+            // Only through rounding of the neighbour's bound: ask the BVH.
+            return self.sample(p, near);
+        }
+        self.signed(p, best.sqrt(), near, Some(candidates))
+    }
+
+    /// Only with holes (caps closing a boundary).
+    fn may_jump(&self) -> bool {
+        self.winding.cap_triangle_count() > 0
+    }
+
+    /// Measured once from the triangles ([`SurfaceMeasures::of_mesh`]).
+    fn surface_measures(&self) -> Option<SurfaceMeasures> {
+        Some(self.measures)
+    }
+
+    /// `½ − w(p)`, with `w_C` summed to 1e-6.
+    fn sign_field(&self, p: DVec3) -> Option<f64> {
+        Some(0.5 - self.winding.winding_value(p, 1e-6))
+    }
+
+    /// `I − w_C` with the sample's certified `I`.
+    fn sign_field_at(&self, p: DVec3, sample: &Sample) -> Option<f64> {
+        Some(match sample.region {
+            Some(i) => 0.5 - self.winding.winding_value_with(p, i, 1e-6),
+            None => 0.5 - self.winding.winding_value(p, 1e-6),
+        })
+    }
+
+    /// `CappedWinding::inside_over_ball` over the cell's circumscribed ball: its centre is
+    /// farther than the ball's radius from the mesh (the corner is farther than the
+    /// cell's diagonal), so `I` is the corner's unless a cap meets the ball (then `None`).
+    fn side_of_empty_cell(&self, cell: &Aabb, corner: (DVec3, &Sample)) -> Option<bool> {
+        let radius = 0.5 * cell.size().length();
+        if corner.1.value.is_nan() || corner.1.value.abs() <= 2.0 * radius {
+            return None;
+        }
+        self.winding
+            .inside_over_ball(cell.center(), radius * (1.0 + 1e-9), corner.1.region?)
+    }
+
+    /// The parent's certified bounds of `w_C` (over a ball holding the cell and meeting
+    /// no cap) decide the side when they clear the corner's `I − ½`: no mesh sheet meets
+    /// the cell (the corner is farther than its diagonal) and no cap does, so `I` is the
+    /// corner's everywhere in it. Otherwise [`AdfSource::side_of_empty_cell`].
+    fn side_of_empty_cell_in(
+        &self,
+        cell: &Aabb,
+        corner: (DVec3, &Sample),
+        parent: Option<&CellCandidates>,
+    ) -> Option<bool> {
+        if let (Some((lo, hi)), Some(integer)) = (parent.and_then(|p| p.sign_bounds), corner.1.region) {
+            let threshold = integer as f64 - 0.5;
+            if corner.1.value.abs() > cell.size().length() {
+                if hi < threshold {
+                    return Some(true);
+                }
+                if lo > threshold {
+                    return Some(false);
+                }
+            }
+        }
+        self.side_of_empty_cell(cell, corner)
+    }
+
+    /// No mesh triangle meets the cell, so `I` changes only across the caps between
+    /// `near` and `p` (counted); `w_C` decides.
+    fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
+        let (q, s) = near;
+        let integer = self.winding.integer_along_among(q, s.region?, p, &[])?;
+        let (inside, _, cost) = self.winding.inside_with(p, Some(integer));
+        self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
+        Some(inside)
+    }
+}
