@@ -76,6 +76,7 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
         samples: &[Sample; 8],
         outside: bool,
         parent_candidates: Option<&CellCandidates>,
+        mut cache: Option<&mut SampleCache>,
     ) -> bool {
         let cell = Aabb::new(min, min + DVec3::splat(size));
         if let Some(inside) = self
@@ -85,18 +86,29 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
             return inside != outside;
         }
         let half = size * 0.5;
+        // Keys as in `lattice`: a point's side is shared with the neighbours of this depth.
+        let base = self.lattice_key(min);
+        let step = (half / self.lattice_unit).round() as u32;
         for k in 0..3 {
             for j in 0..3 {
                 for i in 0..3 {
                     if i % 2 == 0 && j % 2 == 0 && k % 2 == 0 {
                         continue; // a corner
                     }
-                    let b = (i / 2) | ((j / 2) << 1) | ((k / 2) << 2);
-                    let p = min + DVec3::new(i as f64, j as f64, k as f64) * half;
-                    match self
-                        .source
-                        .inside_in_empty_cell(p, (corner_position(min, size, b), &samples[b]))
-                    {
+                    let key = base.offset([i as u32 * step, j as u32 * step, k as u32 * step]);
+                    let known = cache.as_deref_mut().and_then(|c| c.side(key));
+                    let side = known.or_else(|| {
+                        let b = (i / 2) | ((j / 2) << 1) | ((k / 2) << 2);
+                        let p = min + DVec3::new(i as f64, j as f64, k as f64) * half;
+                        let side = self
+                            .source
+                            .inside_in_empty_cell(p, (corner_position(min, size, b), &samples[b]))?;
+                        if let Some(c) = cache.as_deref_mut() {
+                            c.keep_side(key, [i, j, k], side);
+                        }
+                        Some(side)
+                    });
+                    match side {
                         Some(inside) if inside != outside => {}
                         _ => return false,
                     }
@@ -166,7 +178,16 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
             stats.leaf(true, false, jump.is_some());
             return Ok(Decision::Leaf(corners, jump));
         }
-        if prunable && self.signs_confirmed(min, size, samples, positive == 8, parent_candidates) {
+        if prunable
+            && self.signs_confirmed(
+                min,
+                size,
+                samples,
+                positive == 8,
+                parent_candidates,
+                cache.as_deref_mut(),
+            )
+        {
             stats.leaf(false, true, false);
             return Ok(Decision::Leaf(corners, None));
         }

@@ -27,6 +27,10 @@ pub(crate) struct SampleCache {
     /// all of them is done ([`SampleCache::finish`]). So the map holds the build's
     /// frontier, not every sample, and stays small enough to be quick.
     pub(super) samples: rustc_hash::FxHashMap<LatticeKey, (Sample, u8)>,
+    /// Sides proven at the test points of cells no surface meets
+    /// ([`AdfSource::inside_in_empty_cell`]; `true`: inside), with the lookups left, kept
+    /// and dropped like `samples`: neighbouring empty cells near a jump share them.
+    sides: rustc_hash::FxHashMap<LatticeKey, (bool, u8)>,
     /// Sign-field values at jump leaves' corners ([`AdfSource::sign_field_at`]).
     pub(super) sign_fields: rustc_hash::FxHashMap<LatticeKey, Option<f64>>,
     /// Depth of the subtree's root: a point whose cells' common ancestor is shallower is
@@ -64,7 +68,7 @@ impl LatticeKey {
     /// The key `(i, j, k)` lattice units further along the axes (no coordinate passes
     /// `u32::MAX`: they are at most `2^(max_depth + 1)`).
     #[inline]
-    fn offset(self, [i, j, k]: [u32; 3]) -> Self {
+    pub(crate) fn offset(self, [i, j, k]: [u32; 3]) -> Self {
         LatticeKey {
             xy: self.xy + u64::from(i) + (u64::from(j) << 32),
             z: self.z + k,
@@ -78,6 +82,7 @@ impl SampleCache {
     pub(crate) fn new(root_depth: u8, max_depth: u8) -> Self {
         SampleCache {
             samples: Default::default(),
+            sides: Default::default(),
             sign_fields: Default::default(),
             root_depth,
             max_depth,
@@ -124,12 +129,45 @@ impl SampleCache {
         }
     }
 
+    /// The side at test point `key` of a cell no surface meets, if a neighbour of the
+    /// same depth proved it (one of the lookups its entry waits for) or sampled the point.
+    /// A sample's entry is only read: the cell may still take its lattice (when a side
+    /// disagrees) and look the sample up then.
+    pub(crate) fn side(&mut self, key: LatticeKey) -> Option<bool> {
+        if let Some((inside, left)) = self.sides.get_mut(&key) {
+            let inside = *inside;
+            *left -= 1;
+            if *left == 0 {
+                self.sides.remove(&key);
+            }
+            return Some(inside);
+        }
+        self.samples.get(&key).map(|(s, _)| s.value < 0.0)
+    }
+
+    /// Keeps the side proven at test point `key` (lattice position `ijk` in its cell) for
+    /// the other cells around it, as [`SampleCache::keep`] does samples.
+    pub(crate) fn keep_side(&mut self, key: LatticeKey, [i, j, k]: [usize; 3], inside: bool) {
+        let boundary = [i != 1, j != 1, k != 1];
+        let left = match boundary.iter().filter(|&&b| b).count() {
+            1 => 1,
+            2 => 3,
+            _ => return, // the centre, which no other cell has
+        };
+        if let Some(a) = self.ancestor_depth(key, boundary) {
+            self.sides.insert(key, (inside, left));
+            self.by_ancestor[a as usize].push(key);
+        }
+    }
+
     /// The cell of depth `depth` being built is done: every cell around the test points
     /// kept for it has been built, so they are dropped.
     pub(crate) fn finish(&mut self, depth: u8) {
         if let Some(keys) = self.by_ancestor.get_mut(depth as usize) {
             for key in keys.drain(..) {
-                self.samples.remove(&key);
+                if self.samples.remove(&key).is_none() {
+                    self.sides.remove(&key);
+                }
             }
         }
     }
@@ -341,6 +379,48 @@ mod tests {
             let table: Vec<usize> = super::CORNERS_BY_DISTANCE[l].iter().map(|&b| b as usize).collect();
             assert_eq!(table, order, "lattice point {l}");
         }
+    }
+
+    /// A side kept at a face centre serves the one other cell across the face and is then
+    /// gone; at an edge midpoint it serves three; the centre is not kept; a sampled point
+    /// answers with its sample's sign and keeps its entry; and a cell's end drops what is
+    /// left.
+    #[test]
+    fn sides_are_shared_with_the_cells_around_their_point_and_then_dropped() {
+        use super::LatticeKey;
+        use crate::source::Sample;
+        // Root depth 1, maximum depth 3: lattice unit 1, cells of depth 2 have side 4.
+        let mut cache = SampleCache::new(1, 3);
+        // A face centre at x = 4 (the mid-plane of a depth-1 cell, 2 trailing zeros).
+        let face = LatticeKey::new([4, 2, 2]);
+        cache.keep_side(face, [2, 1, 1], true);
+        assert_eq!(cache.side(face), Some(true));
+        assert_eq!(cache.side(face), None, "one lookup across a face");
+        // An edge midpoint on the planes x = 4 and y = 4.
+        let edge = LatticeKey::new([4, 4, 2]);
+        cache.keep_side(edge, [2, 2, 1], false);
+        for _ in 0..3 {
+            assert_eq!(cache.side(edge), Some(false));
+        }
+        assert_eq!(cache.side(edge), None, "three lookups around an edge");
+        // The centre of a cell is no other cell's test point.
+        let centre = LatticeKey::new([2, 2, 2]);
+        cache.keep_side(centre, [1, 1, 1], true);
+        assert_eq!(cache.side(centre), None);
+        // A sampled point answers with its sample's sign.
+        let sampled = LatticeKey::new([4, 6, 2]);
+        let s = Sample {
+            value: -0.25,
+            region: Some(1),
+        };
+        cache.keep(sampled, [true, false, false], s, 1);
+        assert_eq!(cache.side(sampled), Some(true));
+        assert_eq!(cache.side(sampled), Some(true), "a sample is only read");
+        // Entries nobody looked up are dropped when their depth-1 cell is done.
+        cache.keep_side(face, [2, 1, 1], false);
+        cache.finish(1);
+        assert_eq!(cache.side(face), None);
+        assert!(cache.sides.is_empty() && cache.samples.is_empty());
     }
 
     /// Every test point of every cell of a small build, in every subtree: the depth at
