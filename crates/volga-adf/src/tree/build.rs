@@ -87,15 +87,14 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
         }
         let half = size * 0.5;
         // Keys as in `lattice`: a point's side is shared with the neighbours of this depth.
-        let base = self.lattice_key(min);
-        let step = (half / self.lattice_unit).round() as u32;
+        let keys = self.cell_keys(min, size);
         for k in 0..3 {
             for j in 0..3 {
                 for i in 0..3 {
                     if i % 2 == 0 && j % 2 == 0 && k % 2 == 0 {
                         continue; // a corner
                     }
-                    let key = base.offset([i as u32 * step, j as u32 * step, k as u32 * step]);
+                    let key = keys(i, j, k);
                     let known = cache.as_deref_mut().and_then(|c| c.side(key));
                     let side = known.or_else(|| {
                         let b = (i / 2) | ((j / 2) << 1) | ((k / 2) << 2);
@@ -156,12 +155,13 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
         let jump = if far && !one_sign {
             let mut w = [0f32; 8];
             let mut known = true;
+            let keys = self.cell_keys(min, size);
             for (b, w) in w.iter_mut().enumerate() {
                 let p = corner_position(min, size, b);
                 let value = match cache.as_deref_mut() {
                     Some(c) => *c
                         .sign_fields
-                        .entry(self.lattice_key(p))
+                        .entry(keys((b & 1) * 2, ((b >> 1) & 1) * 2, ((b >> 2) & 1) * 2))
                         .or_insert_with(|| self.source.sign_field_at(p, &samples[b])),
                     None => self.source.sign_field_at(p, &samples[b]),
                 };

@@ -263,9 +263,7 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
             lattice[corner_lattice(b)] = Some(samples[b]);
         }
         let half = size * 0.5;
-        // The lattice's keys from the minimum's: a half cell is a power of two of units.
-        let base = self.lattice_key(min);
-        let step = (half / self.lattice_unit).round() as u32;
+        let keys = self.cell_keys(min, size);
         for k in 0..3 {
             for j in 0..3 {
                 for i in 0..3 {
@@ -280,7 +278,7 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
                     // looked up nor kept.
                     let centre = l == lattice_index(1, 1, 1);
                     let mut cache_here = if centre { None } else { cache.as_deref_mut() };
-                    let key = base.offset([i as u32 * step, j as u32 * step, k as u32 * step]);
+                    let key = keys(i, j, k);
                     debug_assert_eq!(key, self.lattice_key(p));
                     if let Some(c) = cache_here.as_deref_mut() {
                         if let std::collections::hash_map::Entry::Occupied(mut e) = c.samples.entry(key) {
@@ -325,6 +323,16 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
     pub(super) fn lattice_key(&self, p: DVec3) -> LatticeKey {
         let k = ((p - self.lattice_origin) / self.lattice_unit).round();
         LatticeKey::new([k.x as u32, k.y as u32, k.z as u32])
+    }
+
+    /// The keys of a cell's 3×3×3 lattice by position `(i, j, k)` (in half cells): its
+    /// minimum's key plus integer steps, a half cell being a power of two of units (no
+    /// division or rounding per point).
+    #[inline]
+    pub(super) fn cell_keys(&self, min: DVec3, size: f64) -> impl Fn(usize, usize, usize) -> LatticeKey {
+        let base = self.lattice_key(min);
+        let step = (size * 0.5 / self.lattice_unit).round() as u32;
+        move |i, j, k| base.offset([i as u32 * step, j as u32 * step, k as u32 * step])
     }
 }
 
