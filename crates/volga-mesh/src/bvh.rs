@@ -52,7 +52,7 @@ pub struct Bvh {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Node {
+pub(crate) struct Node {
     bounds: Aabb,
     /// `Σ ½ (b − a) × (c − a)`: the area-weighted normal sum (dipole moment).
     area_normal: DVec3,
@@ -64,9 +64,9 @@ struct Node {
     /// `Σ ∫ |x − center|² dA` over the node's triangles: bounds the far field's error.
     second_moment: f64,
     /// Area-weighted centroid (box centre if the area is zero): the expansion point.
-    center: DVec3,
+    pub(crate) center: DVec3,
     /// An upper bound on the distance from `center` to any corner in the node.
-    radius: f64,
+    pub(crate) radius: f64,
     /// Leaf: index of the first triangle in tree order; internal: offset to the right child.
     first_or_right: u32,
     /// Leaf: number of triangles (≥ 1); internal: 0.
@@ -100,6 +100,11 @@ impl Bvh {
             triangles: order.iter().map(|&i| corners[i as usize]).collect(),
             triangle_ids: order,
         }
+    }
+
+    /// The root node: the whole mesh's far-field expansion (`None` when empty).
+    pub(crate) fn root(&self) -> Option<&Node> {
+        self.nodes.first()
     }
 
     /// Number of triangles indexed.
@@ -413,11 +418,7 @@ impl Bvh {
             let distance_squared = to_center.length_squared();
             if distance_squared > far_squared * node.radius * node.radius {
                 let approx = far_field(node, to_center, distance_squared);
-                let gap = distance_squared.sqrt() - node.radius;
-                let gap2 = gap * gap;
-                let unsigned = node.area / gap2;
-                let bound = (3.0 * node.second_moment / (gap2 * gap2)).min(unsigned + approx.abs())
-                    + 1e-12 * (unsigned + approx.abs());
+                let bound = far_bound(node, distance_squared, approx);
                 acc.sum.total += approx;
                 acc.far_error += bound;
                 acc.terms += 1;
@@ -562,12 +563,22 @@ fn outer(u: DVec3, v: DVec3) -> DMat3 {
 /// `N·r/|r|³ + tr(J M)` with `J = I/|r|³ − 3 r rᵀ/|r|⁵` the kernel's Jacobian and `M`
 /// the first moment (Barill et al. 2018, §3, the first two terms of the expansion).
 #[inline]
-fn far_field(node: &Node, r: DVec3, r_squared: f64) -> f64 {
+pub(crate) fn far_field(node: &Node, r: DVec3, r_squared: f64) -> f64 {
     let r_cubed = r_squared * r_squared.sqrt();
     let dipole = node.area_normal.dot(r) / r_cubed;
     let m = &node.first_moment;
     let trace = m.x_axis.x + m.y_axis.y + m.z_axis.z;
     dipole + trace / r_cubed - 3.0 * r.dot(*m * r) / (r_cubed * r_squared)
+}
+
+/// The certified bound on what [`far_field`]'s `approx` drops for a node `distance²`
+/// away (see [`Bvh::winding_number_bounded`]), in steradians.
+#[inline]
+pub(crate) fn far_bound(node: &Node, distance_squared: f64, approx: f64) -> f64 {
+    let gap = distance_squared.sqrt() - node.radius;
+    let gap2 = gap * gap;
+    let unsigned = node.area / gap2;
+    (3.0 * node.second_moment / (gap2 * gap2)).min(unsigned + approx.abs()) + 1e-12 * (unsigned + approx.abs())
 }
 
 /// Squared distance from `p` to the closed box (0 inside).

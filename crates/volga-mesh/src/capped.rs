@@ -22,7 +22,7 @@ use rustc_hash::FxHashMap;
 
 use glam::DVec3;
 
-use crate::{Bvh, SegmentTree, TriMesh};
+use crate::{Bvh, ConeCaps, SegmentTree, TriMesh, WindingBound};
 use volga_core::Aabb;
 
 /// The inside test `w(p) ≥ ½` of a mesh, proven per query (see the module doc).
@@ -34,6 +34,10 @@ pub struct CappedWinding {
     closed_triangles: Vec<[DVec3; 3]>,
     /// `C` alone (`None` for a closed mesh).
     caps: Option<Bvh>,
+    /// `C` summed cone by cone, for the side and range queries (`None` for a closed
+    /// mesh or caps of too many cones: `caps` answers then). The values the callers
+    /// keep ([`CappedWinding::winding_value`]) come from `caps` alone.
+    cones: Option<ConeCaps>,
     /// `M` alone, for the rare fallback on cap triangles.
     mesh: Bvh,
     cap_triangles: usize,
@@ -82,6 +86,7 @@ impl CappedWinding {
             closed: Bvh::build(&closed),
             closed_triangles: (0..closed.triangle_count()).map(|i| closed.triangle(i)).collect(),
             caps: (cap_count > 0).then(|| Bvh::build(&cap_mesh)),
+            cones: ConeCaps::build(&caps),
             mesh: Bvh::build(mesh),
             cap_triangles: cap_count,
             cap_area: caps
@@ -135,7 +140,7 @@ impl CappedWinding {
             return (integer >= 1, Some(integer), cost);
         };
         let threshold = integer as f64 - 0.5;
-        let cap = caps.winding_number_bounded(p, None, |v, e| (v - threshold).abs() > e);
+        let cap = self.cap_bounded(caps, p, |v, e| (v - threshold).abs() > e);
         cost.terms += cap.terms as u64;
         // w_M = I − w_C ≥ ½  ⇔  w_C ≤ I − ½ (undecided only at the rounding allowance:
         // then the summed value decides).
@@ -280,8 +285,17 @@ impl CappedWinding {
         }
         let variation = self.cap_variation(centre, radius, r);
         let threshold = integer as f64 - 0.5;
-        let cap = caps.winding_number_bounded(centre, None, |v, e| (v - threshold).abs() > e + variation);
+        let cap = self.cap_bounded(caps, centre, |v, e| (v - threshold).abs() > e + variation);
         ((cap.value - threshold).abs() > cap.error + variation).then_some(cap.value < threshold)
+    }
+
+    /// `w_C(p)` certified, refined until `done` accepts it: cone by cone when the caps
+    /// have few cones, else through their tree.
+    fn cap_bounded(&self, caps: &Bvh, p: DVec3, done: impl FnMut(f64, f64) -> bool) -> WindingBound {
+        match &self.cones {
+            Some(cones) => cones.winding_number_bounded(p, done),
+            None => caps.winding_number_bounded(p, None, done),
+        }
     }
 
     /// How much `w_C` can vary over the ball `|x − centre| ≤ radius`, `r > 0` away from
@@ -314,7 +328,7 @@ impl CappedWinding {
         if variation > 0.25 {
             return None;
         }
-        let cap = caps.winding_number_bounded(centre, None, |_, e| e <= 0.01);
+        let cap = self.cap_bounded(caps, centre, |_, e| e <= 0.01);
         let spread = cap.error + variation;
         Some((cap.value - spread, cap.value + spread))
     }

@@ -58,6 +58,7 @@
 mod bvh;
 mod capped;
 mod closest;
+mod cones;
 mod error;
 pub mod extract;
 mod gradient;
@@ -78,6 +79,7 @@ pub use closest::{
     closest_point_on_segment, closest_point_on_triangle, closest_point_with_frame, point_triangle_distance_squared,
     FaceFrame, Feature,
 };
+pub use cones::ConeCaps;
 pub use error::{InvalidMesh, MeshError};
 pub use extract::{
     extract_surface, extract_surface_bounded, extract_surface_with, extract_tree_cells, CellExtraction, ExtractError,

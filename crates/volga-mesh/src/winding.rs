@@ -77,6 +77,13 @@ impl SolidAngleSum {
     #[inline]
     pub(crate) fn add(&mut self, p: DVec3, triangle: [DVec3; 3]) {
         let (numerator, denominator) = half_angle_tangent(p, triangle);
+        self.add_half_angle(numerator, denominator);
+    }
+
+    /// Adds the solid angle `2 arg(denominator + i·numerator)`: [`half_angle_tangent`]'s
+    /// terms, computed by the caller.
+    #[inline]
+    pub(crate) fn add_half_angle(&mut self, numerator: f64, denominator: f64) {
         if numerator == 0.0 {
             return;
         }

@@ -177,7 +177,7 @@ impl MeshVoxelizer {
                 i
             });
             if let Some(i) = i {
-                let c = cap.winding_number_bounded(p, None, |w, e| stop(i - w, e));
+                let c = self.sign.cap_bounded(cap, p, |w, e| stop(i - w, e));
                 return volga_mesh::WindingBound {
                     value: i - c.value,
                     error: c.error,

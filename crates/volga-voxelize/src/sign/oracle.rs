@@ -6,7 +6,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use volga_core::Aabb;
-use volga_mesh::{Bvh, TriMesh};
+use volga_mesh::{Bvh, ConeCaps, TriMesh};
 
 use super::clean::{adjacent_pair_crosses, candidate_pairs, TOUCH};
 use super::SignStats;
@@ -48,6 +48,9 @@ pub(crate) struct SignOracle {
     pub(crate) boundary: SegmentTree,
     /// Cones closing the boundary cycle (`None` when it is empty).
     pub(crate) cap: Option<Bvh>,
+    /// The same cones summed cone by cone, for the side queries near the caps (`None`
+    /// when there are too many: the tree answers then).
+    pub(crate) cones: Option<ConeCaps>,
     /// The cap triangles, indexed as in `cap`.
     pub(crate) cap_triangles: Vec<[DVec3; 3]>,
     /// Per triangle: trusted (clean, in a certified region); `I⁺` of its region; `w̄_M`
@@ -313,6 +316,7 @@ impl SignOracle {
             closed,
             boundary,
             cap,
+            cones: ConeCaps::build(&caps.iter().map(|(t, _)| *t).collect::<Vec<_>>()),
             cap_triangles: caps.iter().map(|(t, _)| *t).collect(),
             trusted: per_triangle.iter().map(|p| p.0).collect(),
             front: per_triangle.iter().map(|p| p.1).collect(),
@@ -327,7 +331,7 @@ impl SignOracle {
     /// `w_C(p)` certified against `threshold` (0 with no caps).
     pub(crate) fn cap_winding(&self, p: DVec3, threshold: f64) -> volga_mesh::WindingBound {
         match &self.cap {
-            Some(cap) => cap.winding_number_bounded(p, None, |w, e| (w - threshold).abs() > e),
+            Some(cap) => self.cap_bounded(cap, p, |w, e| (w - threshold).abs() > e),
             None => volga_mesh::WindingBound {
                 value: 0.0,
                 error: 0.0,
@@ -335,6 +339,20 @@ impl SignOracle {
                 refinements: 0,
                 terms: 0,
             },
+        }
+    }
+
+    /// `w_C(p)` refined until `done` accepts it: cone by cone when the caps have few
+    /// cones, else through their tree (`cap`).
+    pub(crate) fn cap_bounded(
+        &self,
+        cap: &Bvh,
+        p: DVec3,
+        done: impl FnMut(f64, f64) -> bool,
+    ) -> volga_mesh::WindingBound {
+        match &self.cones {
+            Some(cones) => cones.winding_number_bounded(p, done),
+            None => cap.winding_number_bounded(p, None, done),
         }
     }
 
