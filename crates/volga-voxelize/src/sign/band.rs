@@ -141,7 +141,7 @@ impl MeshVoxelizer {
         let Some(cap) = self.sign.cap.as_ref() else {
             return (None, 0);
         };
-        let c0 = cap.winding_number_bounded(p, None, |_, e| e < 0.05);
+        let c0 = self.sign.cap_bounded(cap, p, |_, e| e < 0.05);
         let m = self.bvh.winding_number_bounded(p, None, |w, e| {
             let x = w + c0.value;
             let off = (x - x.round()).abs();

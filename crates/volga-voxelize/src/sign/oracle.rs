@@ -239,9 +239,12 @@ impl SignOracle {
             let [a, b, c] = mesh.triangles[t];
             (a + b + c) / 3.0
         };
+        let cones = ConeCaps::build(&caps.iter().map(|(t, _)| *t).collect::<Vec<_>>());
         let cap_winding = |p: DVec3, tolerance: f64| {
-            cap.as_ref()
-                .map(|c| c.winding_number_bounded(p, None, |_, e| e <= tolerance))
+            cap.as_ref().map(|c| match &cones {
+                Some(cones) => cones.winding_number_bounded(p, |_, e| e <= tolerance),
+                None => c.winding_number_bounded(p, None, |_, e| e <= tolerance),
+            })
         };
         let mut region_queries = 0u64;
         let front_of_region: FxHashMap<u32, Option<i64>> = representatives
@@ -278,7 +281,10 @@ impl SignOracle {
                 let (centre, reach) = (run_box.center(), 0.5 * run_box.size().length());
                 let shared = cap.as_ref().and_then(|c| {
                     c.closest_within(centre, reach).is_none().then(|| {
-                        let b = c.winding_number_bounded(centre, None, |_, e| e <= 0.005);
+                        let b = match &cones {
+                            Some(cones) => cones.winding_number_bounded(centre, |_, e| e <= 0.005),
+                            None => c.winding_number_bounded(centre, None, |_, e| e <= 0.005),
+                        };
                         (b.value, b.error, boundary.gradient_bound(&run_box))
                     })
                 });
@@ -316,7 +322,7 @@ impl SignOracle {
             closed,
             boundary,
             cap,
-            cones: ConeCaps::build(&caps.iter().map(|(t, _)| *t).collect::<Vec<_>>()),
+            cones,
             cap_triangles: caps.iter().map(|(t, _)| *t).collect(),
             trusted: per_triangle.iter().map(|p| p.0).collect(),
             front: per_triangle.iter().map(|p| p.1).collect(),
