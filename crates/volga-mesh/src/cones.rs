@@ -31,11 +31,13 @@ pub const MAX_PATCHES: usize = 64;
 #[derive(Debug, Clone)]
 pub struct ConeCaps {
     patches: Vec<Patch>,
-    /// Rim vertices, each patch's in one run.
-    rim: Vec<DVec3>,
-    /// Each patch's edges as indices into its run of `rim`: the triangle
-    /// `(rim[a], rim[b], apex)`.
-    edges: Vec<[u16; 2]>,
+    /// Each patch's rim as polylines, coordinates apart (so the per-vertex work of a
+    /// query runs over plain arrays): points `k` and `k + 1` of a patch form the
+    /// triangle `(rim[k], rim[k + 1], apex)` where `linked[k]`.
+    rim_x: Vec<f64>,
+    rim_y: Vec<f64>,
+    rim_z: Vec<f64>,
+    linked: Vec<bool>,
     triangles: usize,
 }
 
@@ -44,29 +46,49 @@ struct Patch {
     apex: DVec3,
     rim_start: u32,
     rim_end: u32,
-    edges_start: u32,
-    edges_end: u32,
+    edges: u32,
     /// The far-field expansion of the patch's triangles (the root of their BVH).
     expansion: Node,
 }
 
-/// Per query and rim vertex `r`, with `v = r − p` and `c = apex − p`.
-#[derive(Debug, Clone, Copy, Default)]
-struct RimPoint {
-    v: DVec3,
-    /// `v × c`.
-    cross: DVec3,
-    /// `|v|`.
-    length: f64,
-    /// `v · c`.
-    along: f64,
+/// Per query, a patch's rim vertices `r` (with `v = r − p`, `c = apex − p`) and the
+/// terms of its triangles, in arrays of [`RIM_POINTS`].
+struct Scratch {
+    /// `v`, `v × c`, `|v|`, `v · c`.
+    v: [Vec<f64>; 3],
+    cross: [Vec<f64>; 3],
+    length: Vec<f64>,
+    along: Vec<f64>,
+    /// Per triangle `(k, k + 1)`: [`crate::solid_angle`]'s numerator and denominator.
+    numerator: Vec<f64>,
+    denominator: Vec<f64>,
+    /// `numerator / denominator`.
+    tangent: Vec<f64>,
+}
+
+/// Most polyline points of a patch: every edge's two ends.
+const RIM_POINTS: usize = 2 * PATCH_EDGES;
+
+impl Scratch {
+    fn new() -> Scratch {
+        let buffer = || vec![0.0; RIM_POINTS];
+        Scratch {
+            v: [buffer(), buffer(), buffer()],
+            cross: [buffer(), buffer(), buffer()],
+            length: buffer(),
+            along: buffer(),
+            numerator: buffer(),
+            denominator: buffer(),
+            tangent: buffer(),
+        }
+    }
 }
 
 /// A far patch of the first pass: its bound, its expansion's value, its index.
 type Far = (f64, f64, u32);
 
 thread_local! {
-    static SCRATCH: RefCell<(Vec<RimPoint>, Vec<Far>)> = const { RefCell::new((Vec::new(), Vec::new())) };
+    static SCRATCH: RefCell<(Scratch, Vec<Far>)> = RefCell::new((Scratch::new(), Vec::new()));
 }
 
 impl ConeCaps {
@@ -104,8 +126,10 @@ impl ConeCaps {
         }
         let mut caps = ConeCaps {
             patches: Vec::new(),
-            rim: Vec::new(),
-            edges: Vec::new(),
+            rim_x: Vec::new(),
+            rim_y: Vec::new(),
+            rim_z: Vec::new(),
+            linked: Vec::new(),
             triangles: triangles.len(),
         };
         for (apex, edges) in &cones {
@@ -121,20 +145,24 @@ impl ConeCaps {
     }
 
     fn push_patch(&mut self, apex: DVec3, run: &[[DVec3; 2]], key: impl Fn(DVec3) -> [u64; 3]) {
-        let rim_start = self.rim.len();
-        let edges_start = self.edges.len();
-        let mut local: FxHashMap<[u64; 3], u16> = FxHashMap::default();
+        let rim_start = self.rim_x.len();
         let mut positions = Vec::with_capacity(3 * run.len());
+        let mut last: Option<[u64; 3]> = None;
+        let push = |caps: &mut ConeCaps, r: DVec3| {
+            caps.rim_x.push(r.x);
+            caps.rim_y.push(r.y);
+            caps.rim_z.push(r.z);
+            caps.linked.push(false);
+        };
         for edge in run {
-            let ends = edge.map(|r| {
-                let next = (self.rim.len() - rim_start) as u16;
-                let i = *local.entry(key(r)).or_insert(next);
-                if i == next {
-                    self.rim.push(r);
-                }
-                i
-            });
-            self.edges.push(ends);
+            // Continue the polyline where the edge starts at its last point; else start
+            // a new one (unlinked from the last).
+            if last != Some(key(edge[0])) {
+                push(self, edge[0]);
+            }
+            *self.linked.last_mut().expect("a point was pushed") = true;
+            push(self, edge[1]);
+            last = Some(key(edge[1]));
             positions.extend_from_slice(&[edge[0], edge[1], apex]);
         }
         let mesh = TriMesh {
@@ -152,9 +180,8 @@ impl ConeCaps {
         self.patches.push(Patch {
             apex,
             rim_start: rim_start as u32,
-            rim_end: self.rim.len() as u32,
-            edges_start: edges_start as u32,
-            edges_end: self.edges.len() as u32,
+            rim_end: self.rim_x.len() as u32,
+            edges: run.len() as u32,
             expansion,
         });
     }
@@ -179,7 +206,7 @@ impl ConeCaps {
     /// [`crate::solid_angle`]'s, bit for bit; the sum carries the same rounding
     /// allowance, 1e-13 per term.
     pub fn winding_number_bounded(&self, p: DVec3, mut done: impl FnMut(f64, f64) -> bool) -> WindingBound {
-        SCRATCH.with_borrow_mut(|(rim, far)| {
+        SCRATCH.with_borrow_mut(|(scratch, far)| {
             far.clear();
             let mut sum = SolidAngleSum::default();
             let (mut far_error, mut terms, mut exact, mut refinements) = (0.0f64, 0u32, 0u32, 0u32);
@@ -196,7 +223,7 @@ impl ConeCaps {
                     terms += 1;
                     far.push((bound, approx, k as u32));
                 } else {
-                    let n = self.sum_patch(patch, p, &mut sum, rim);
+                    let n = self.sum_patch(patch, p, &mut sum, scratch);
                     exact += n;
                     terms += n;
                 }
@@ -223,7 +250,7 @@ impl ConeCaps {
                 sum.total -= approx;
                 far_error -= bound;
                 refinements += 1;
-                let n = self.sum_patch(&self.patches[k as usize], p, &mut sum, rim);
+                let n = self.sum_patch(&self.patches[k as usize], p, &mut sum, scratch);
                 exact += n;
                 terms += n;
             }
@@ -238,36 +265,64 @@ impl ConeCaps {
     }
 
     /// Adds the exact solid angles of `patch`'s triangles at `p`; returns how many.
-    fn sum_patch(&self, patch: &Patch, p: DVec3, sum: &mut SolidAngleSum, rim: &mut Vec<RimPoint>) -> u32 {
+    fn sum_patch(&self, patch: &Patch, p: DVec3, sum: &mut SolidAngleSum, scratch: &mut Scratch) -> u32 {
         let c = patch.apex - p;
         let lc = c.length();
-        let edges = &self.edges[patch.edges_start as usize..patch.edges_end as usize];
-        rim.clear();
-        rim.extend(
-            self.rim[patch.rim_start as usize..patch.rim_end as usize]
-                .iter()
-                .map(|&r| {
-                    let v = r - p;
-                    RimPoint {
-                        v,
-                        cross: v.cross(c),
-                        length: v.length(),
-                        along: v.dot(c),
-                    }
-                }),
+        let range = patch.rim_start as usize..patch.rim_end as usize;
+        let n = range.len();
+        let (rx, ry, rz) = (
+            &self.rim_x[range.clone()],
+            &self.rim_y[range.clone()],
+            &self.rim_z[range.clone()],
         );
-        // `solid_angle`'s terms for the triangle (a, b, c), in its order of operations.
-        let term = |[i, j]: [u16; 2]| {
-            let (a, b) = (&rim[i as usize], &rim[j as usize]);
-            let numerator = a.v.dot(b.cross);
-            let denominator = a.length * b.length * lc + a.v.dot(b.v) * lc + a.along * b.length + b.along * a.length;
-            (numerator, denominator)
-        };
-        for &edge in edges {
-            let (numerator, denominator) = term(edge);
-            sum.add_half_angle(numerator, denominator);
+        let Scratch {
+            v: [vx, vy, vz],
+            cross: [wx, wy, wz],
+            length,
+            along,
+            numerator,
+            denominator,
+            tangent,
+        } = scratch;
+        let (vx, vy, vz) = (&mut vx[..n], &mut vy[..n], &mut vz[..n]);
+        let (wx, wy, wz) = (&mut wx[..n], &mut wy[..n], &mut wz[..n]);
+        let (length, along) = (&mut length[..n], &mut along[..n]);
+        // Per rim vertex, `glam`'s operations written out (the same roundings as
+        // `solid_angle`'s vectors), over plain arrays.
+        for k in 0..n {
+            let (x, y, z) = (rx[k] - p.x, ry[k] - p.y, rz[k] - p.z);
+            vx[k] = x;
+            vy[k] = y;
+            vz[k] = z;
+            wx[k] = y * c.z - c.y * z;
+            wy[k] = z * c.x - c.z * x;
+            wz[k] = x * c.y - c.x * y;
+            length[k] = ((x * x) + (y * y) + (z * z)).sqrt();
+            along[k] = (x * c.x) + (y * c.y) + (z * c.z);
         }
-        edges.len() as u32
+        // Per pair of consecutive points, the triangle `(a, b, c)`'s terms in
+        // `solid_angle`'s order of operations: `a · (b × c)` and
+        // `|a||b||c| + (a·b)|c| + (a·c)|b| + (b·c)|a|`.
+        let pairs = n.saturating_sub(1);
+        let (numerator, denominator, tangent) = (
+            &mut numerator[..pairs],
+            &mut denominator[..pairs],
+            &mut tangent[..pairs],
+        );
+        for k in 0..pairs {
+            numerator[k] = (vx[k] * wx[k + 1]) + (vy[k] * wy[k + 1]) + (vz[k] * wz[k + 1]);
+            let ab = (vx[k] * vx[k + 1]) + (vy[k] * vy[k + 1]) + (vz[k] * vz[k + 1]);
+            denominator[k] =
+                length[k] * length[k + 1] * lc + ab * lc + along[k] * length[k + 1] + along[k + 1] * length[k];
+            tangent[k] = numerator[k] / denominator[k];
+        }
+        let linked = &self.linked[patch.rim_start as usize..patch.rim_start as usize + pairs];
+        for k in 0..pairs {
+            if linked[k] {
+                sum.add_half_angle_with(numerator[k], denominator[k], tangent[k]);
+            }
+        }
+        patch.edges
     }
 }
 

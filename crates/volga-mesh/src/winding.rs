@@ -84,6 +84,13 @@ impl SolidAngleSum {
     /// terms, computed by the caller.
     #[inline]
     pub(crate) fn add_half_angle(&mut self, numerator: f64, denominator: f64) {
+        self.add_half_angle_with(numerator, denominator, numerator / denominator);
+    }
+
+    /// [`SolidAngleSum::add_half_angle`] given `tangent = numerator / denominator`
+    /// (computed by the caller, e.g. for many terms at once).
+    #[inline]
+    pub(crate) fn add_half_angle_with(&mut self, numerator: f64, denominator: f64, tangent: f64) {
         if numerator == 0.0 {
             return;
         }
@@ -94,7 +101,6 @@ impl SolidAngleSum {
         }
         // The factor `1 + i·tan(Ω/2)`: of modulus 1 to 2²⁰ whatever the scale of the
         // coordinates, so the product neither underflows nor (rescaled) overflows.
-        let tangent = numerator / denominator;
         let re = self.re - self.im * tangent;
         let im = self.re * tangent + self.im;
         if re > HALF_PLANE * im.abs() {
