@@ -4,7 +4,7 @@
 //! triangle per boundary edge ([`crate::cap_triangles`]). A BVH over slivers is a poor
 //! one: every sliver runs from the rim to the apex, so near a cap every node is near
 //! and a certified query refines to the leaves through many far-field terms and heap
-//! operations. Here each cone (cut into patches of at most [`PATCH_EDGES`] edges along
+//! operations. Here each cone (cut into patches of at most [`ConeCaps::PATCH_EDGES`] edges along
 //! its loop) is one far-field term when the point is far from it and otherwise one
 //! exact sum whose per-vertex work (the vector to the rim vertex, its length, its cross
 //! and dot products with the apex's) is done once for the two edges that share it.
@@ -18,11 +18,6 @@ use rustc_hash::FxHashMap;
 use crate::bvh::{far_bound, far_field, Node};
 use crate::winding::SolidAngleSum;
 use crate::{Bvh, TriMesh, WindingBound, FAR_FIELD_BETA};
-
-/// Most boundary edges in one patch.
-pub const PATCH_EDGES: usize = 128;
-/// Most patches: beyond, a flat scan per query loses to a tree.
-pub const MAX_PATCHES: usize = 64;
 
 /// Cap triangles grouped into cones (see the module doc), for certified winding
 /// numbers of the caps alone: [`ConeCaps::winding_number_bounded`] answers as
@@ -67,7 +62,7 @@ struct Scratch {
 }
 
 /// Most polyline points of a patch: every edge's two ends.
-const RIM_POINTS: usize = 2 * PATCH_EDGES;
+const RIM_POINTS: usize = 2 * ConeCaps::PATCH_EDGES;
 
 impl Scratch {
     fn new() -> Scratch {
@@ -92,10 +87,16 @@ thread_local! {
 }
 
 impl ConeCaps {
+    /// Most boundary edges in one patch.
+    pub const PATCH_EDGES: usize = 128;
+    /// Most patches: beyond, a flat scan per query loses to a tree (and
+    /// [`ConeCaps::build`] returns `None`).
+    pub const MAX_PATCHES: usize = 64;
+
     /// Groups `triangles` by their apex (the corner position shared by the most
     /// triangles: of the three corners, the one with the fewest distinct positions) and
     /// each cone's edges into chains along its loop, cut into patches of at most
-    /// [`PATCH_EDGES`] edges. `None` for no triangles or more than [`MAX_PATCHES`]
+    /// [`ConeCaps::PATCH_EDGES`] edges. `None` for no triangles or more than [`ConeCaps::MAX_PATCHES`]
     /// patches (a tree is then the better index).
     pub fn build(triangles: &[[DVec3; 3]]) -> Option<ConeCaps> {
         if triangles.is_empty() {
@@ -134,8 +135,8 @@ impl ConeCaps {
         };
         for (apex, edges) in &cones {
             let chained = chain(edges, key);
-            for run in chained.chunks(PATCH_EDGES) {
-                if caps.patches.len() == MAX_PATCHES {
+            for run in chained.chunks(Self::PATCH_EDGES) {
+                if caps.patches.len() == Self::MAX_PATCHES {
                     return None;
                 }
                 caps.push_patch(*apex, run, key);
@@ -191,7 +192,7 @@ impl ConeCaps {
         self.triangles
     }
 
-    /// Patches (cones, or runs of [`PATCH_EDGES`] edges of one).
+    /// Patches (cones, or runs of [`ConeCaps::PATCH_EDGES`] edges of one).
     pub fn patch_count(&self) -> usize {
         self.patches.len()
     }

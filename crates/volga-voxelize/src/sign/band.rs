@@ -159,8 +159,8 @@ impl MeshVoxelizer {
     /// With a boundary, `w = I − w_C` where `I = w_M + w_C` is an integer off the
     /// surface and the caps: `I` needs only an error below ½ (a few refinements of the
     /// mesh's tree; or it is `known`, constant over a region free of both), and the
-    /// precision near ½ is bought on the caps' small tree. Where `I` cannot be proven an
-    /// integer (a point on a cap), the mesh's tree is refined directly.
+    /// precision near ½ is bought on the caps alone (cone by cone). Where `I` cannot be
+    /// proven an integer (a point on a cap), the mesh's tree is refined directly.
     fn certified(
         &self,
         p: DVec3,

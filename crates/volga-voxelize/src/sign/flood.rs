@@ -136,7 +136,7 @@ impl MeshVoxelizer {
                 // from one voxel whose `I` is carried from a trusted triangle (or,
                 // failing that, queried). Voxels farther than a step from every cap
                 // are proven box by box with their `I`, the rest one by one, both
-                // asking only the caps' small tree.
+                // asking only the caps.
                 let integers = self.carry_integers(component, reference, &centre, stats);
                 let step = grid.max_spacing();
                 // The cap triangles that can lie within `step` of a voxel of the
