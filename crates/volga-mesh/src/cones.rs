@@ -83,7 +83,9 @@ impl Scratch {
 type Far = (f64, f64, u32);
 
 thread_local! {
-    static SCRATCH: RefCell<(Scratch, Vec<Far>)> = RefCell::new((Scratch::new(), Vec::new()));
+    /// The thread's buffers, kept between queries (taken out for a query's duration, so
+    /// a query asked from inside `done` finds none and makes its own).
+    static SCRATCH: RefCell<Option<(Scratch, Vec<Far>)>> = const { RefCell::new(None) };
 }
 
 impl ConeCaps {
@@ -207,8 +209,12 @@ impl ConeCaps {
     /// [`crate::solid_angle`]'s, bit for bit; the sum carries the same rounding
     /// allowance, 1e-13 per term.
     pub fn winding_number_bounded(&self, p: DVec3, mut done: impl FnMut(f64, f64) -> bool) -> WindingBound {
-        SCRATCH.with_borrow_mut(|(scratch, far)| {
-            far.clear();
+        let (mut scratch, mut far) = SCRATCH
+            .with_borrow_mut(Option::take)
+            .unwrap_or_else(|| (Scratch::new(), Vec::new()));
+        far.clear();
+        let bound = {
+            let (scratch, far) = (&mut scratch, &mut far);
             let mut sum = SolidAngleSum::default();
             let (mut far_error, mut terms, mut exact, mut refinements) = (0.0f64, 0u32, 0u32, 0u32);
             let far_squared = FAR_FIELD_BETA * FAR_FIELD_BETA;
@@ -262,7 +268,9 @@ impl ConeCaps {
                 refinements,
                 terms,
             }
-        })
+        };
+        SCRATCH.with_borrow_mut(|kept| *kept = Some((scratch, far)));
+        bound
     }
 
     /// Adds the exact solid angles of `patch`'s triangles at `p`; returns how many.

@@ -265,3 +265,20 @@ fn cones_are_cut_into_patches_along_their_loops() {
         .collect();
     assert!(ConeCaps::build(&many).is_none());
 }
+
+/// A query asked from inside another's `done` (the thread's buffers are taken by the
+/// outer one) answers as it does alone, and so does the outer query.
+#[test]
+fn cone_queries_nest() {
+    let caps = cap_triangles(&shared("stanford-bunny.obj"));
+    let cones = ConeCaps::build(&caps).unwrap();
+    let (p, q) = (caps[0][2] + DVec3::splat(1e-3), caps[40][2] - DVec3::splat(2e-3));
+    let alone = cones.winding_number_bounded(q, |_, _| false);
+    let mut nested = None;
+    let outer = cones.winding_number_bounded(p, |_, _| {
+        nested.get_or_insert_with(|| cones.winding_number_bounded(q, |_, _| false));
+        false
+    });
+    assert_eq!(nested, Some(alone));
+    assert_eq!(outer, cones.winding_number_bounded(p, |_, _| false));
+}

@@ -48,8 +48,8 @@ pub(crate) struct SignOracle {
     pub(crate) boundary: SegmentTree,
     /// Cones closing the boundary cycle (`None` when it is empty).
     pub(crate) cap: Option<Bvh>,
-    /// The same cones summed cone by cone, for the side queries near the caps (`None`
-    /// when there are too many: the tree answers then).
+    /// The same cones summed cone by cone, for every certified `w_C` (`None` when there
+    /// are too many: the tree answers then).
     pub(crate) cones: Option<ConeCaps>,
     /// The cap triangles, indexed as in `cap`.
     pub(crate) cap_triangles: Vec<[DVec3; 3]>,
@@ -241,10 +241,8 @@ impl SignOracle {
         };
         let cones = ConeCaps::build(&caps.iter().map(|(t, _)| *t).collect::<Vec<_>>());
         let cap_winding = |p: DVec3, tolerance: f64| {
-            cap.as_ref().map(|c| match &cones {
-                Some(cones) => cones.winding_number_bounded(p, |_, e| e <= tolerance),
-                None => c.winding_number_bounded(p, None, |_, e| e <= tolerance),
-            })
+            cap.as_ref()
+                .map(|c| cap_query(c, cones.as_ref(), p, |_, e| e <= tolerance))
         };
         let mut region_queries = 0u64;
         let front_of_region: FxHashMap<u32, Option<i64>> = representatives
@@ -281,10 +279,7 @@ impl SignOracle {
                 let (centre, reach) = (run_box.center(), 0.5 * run_box.size().length());
                 let shared = cap.as_ref().and_then(|c| {
                     c.closest_within(centre, reach).is_none().then(|| {
-                        let b = match &cones {
-                            Some(cones) => cones.winding_number_bounded(centre, |_, e| e <= 0.005),
-                            None => c.winding_number_bounded(centre, None, |_, e| e <= 0.005),
-                        };
+                        let b = cap_query(c, cones.as_ref(), centre, |_, e| e <= 0.005);
                         (b.value, b.error, boundary.gradient_bound(&run_box))
                     })
                 });
@@ -356,10 +351,7 @@ impl SignOracle {
         p: DVec3,
         done: impl FnMut(f64, f64) -> bool,
     ) -> volga_mesh::WindingBound {
-        match &self.cones {
-            Some(cones) => cones.winding_number_bounded(p, done),
-            None => cap.winding_number_bounded(p, None, done),
-        }
+        cap_query(cap, self.cones.as_ref(), p, done)
     }
 
     /// Whether a cap triangle lies within `distance` of `p`.
@@ -422,4 +414,18 @@ fn close_cycle(directed: &[(u32, u32)], mesh: &MeshTopology) -> Vec<([DVec3; 3],
         }
     }
     caps
+}
+
+/// The caps' certified winding number at `p`, refined until `done` accepts it: cone by
+/// cone when `cones` is given, else through the caps' tree.
+fn cap_query(
+    cap: &Bvh,
+    cones: Option<&ConeCaps>,
+    p: DVec3,
+    done: impl FnMut(f64, f64) -> bool,
+) -> volga_mesh::WindingBound {
+    match cones {
+        Some(cones) => cones.winding_number_bounded(p, done),
+        None => cap.winding_number_bounded(p, None, done),
+    }
 }
