@@ -239,7 +239,8 @@ impl SignOracle {
             let [a, b, c] = mesh.triangles[t];
             (a + b + c) / 3.0
         };
-        let cones = ConeCaps::build(&caps.iter().map(|(t, _)| *t).collect::<Vec<_>>());
+        let cap_triangles: Vec<[DVec3; 3]> = caps.iter().map(|(t, _)| *t).collect();
+        let cones = ConeCaps::build(&cap_triangles);
         let cap_winding = |p: DVec3, tolerance: f64| {
             cap.as_ref()
                 .map(|c| cap_query(c, cones.as_ref(), p, |_, e| e <= tolerance))
@@ -318,7 +319,7 @@ impl SignOracle {
             boundary,
             cap,
             cones,
-            cap_triangles: caps.iter().map(|(t, _)| *t).collect(),
+            cap_triangles,
             trusted: per_triangle.iter().map(|p| p.0).collect(),
             front: per_triangle.iter().map(|p| p.1).collect(),
             w_bar: per_triangle.iter().map(|p| p.2).collect(),
