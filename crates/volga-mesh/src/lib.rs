@@ -10,7 +10,8 @@
 //! * Predicates over single triangles, written here with their sources cited:
 //!   [`closest_point_on_triangle`] (with the [`Feature`] it lands on),
 //!   [`triangle_box_overlap`] (separating axes), [`segment_crosses_triangle`]
-//!   (signed volumes), [`solid_angle`] and the exact [`winding_number`].
+//!   (signed volumes, exact signs by Shewchuk's adaptive predicates via `robust`),
+//!   [`solid_angle`] and the exact [`winding_number`].
 //! * [`Bvh`] accelerates them over a whole mesh: exact nearest point (branch and
 //!   bound), triangles touching a box, the fast winding number of Barill et al., and
 //!   [`Bvh::winding_number_bounded`], the same with a certified error bound, refined

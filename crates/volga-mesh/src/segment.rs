@@ -1,4 +1,4 @@
-//! Segment–triangle intersection by signed volumes.
+//! Segment–triangle intersection by signed volumes, with exact signs.
 
 use glam::{DVec2, DVec3};
 
@@ -13,91 +13,90 @@ use glam::{DVec2, DVec3};
 /// Collision Detection*, §5.3.4–5.3.6; the orientation reading of Möller–Trumbore):
 /// `p` and `q` must not lie strictly on one side of the triangle's plane, and the line
 /// `pq` must pass on the same side (or on) each of the three edges, measured by the
-/// triple products `((u − p) × (v − p)) · (q − p)` for edge `uv`. That product is
-/// exactly antisymmetric in `u, v` in floating point, so two triangles sharing an edge
-/// see it with exactly opposite signs. When everything is coplanar the question is
-/// answered in 2D by orientation tests on a projection that keeps the triangle
-/// non-degenerate; a zero-area triangle is its longest side, met in 2D on the common
-/// plane or in 1D on a common line. Signs are those of plain `f64` determinants, not
-/// an adaptive-precision predicate, so only exact contact at a corner is guaranteed to
-/// count; contact along an edge or the face is decided up to rounding.
+/// triple products `((u − p) × (v − p)) · (q − p)` for edge `uv`. Two triangles sharing
+/// an edge see it with exactly opposite signs. When everything is coplanar the question
+/// is answered in 2D on a projection that keeps the triangle non-degenerate; a
+/// zero-area triangle is the segment between its extreme corners, met where the two
+/// segments are coplanar and meet in every axis projection.
+///
+/// **Exact.** Every sign comes from Shewchuk's adaptive orientation predicates (the
+/// `robust` crate; Shewchuk 1997), which return the sign of the exact determinant of
+/// the `f64` inputs, and every other decision is a comparison of input coordinates. So
+/// the answer is the exact one for the given coordinates: contact along an edge or the
+/// face, or a segment a few ulps off the triangle's plane, is decided without rounding.
 pub fn segment_crosses_triangle(p: DVec3, q: DVec3, [a, b, c]: [DVec3; 3]) -> bool {
-    // An endpoint on a corner touches; decided here exactly, since the rounded triple
-    // products below need not vanish for it.
     if [a, b, c].contains(&p) || [a, b, c].contains(&q) {
         return true;
     }
-    let normal = (b - a).cross(c - a);
-    if normal == DVec3::ZERO {
-        let (u, v) = longest_side([a, b, c]);
+    let Some(k) = plane_axis([a, b, c]) else {
+        let (u, v) = extreme_corners([a, b, c]);
         return segments_meet(p, q, u, v);
-    }
+    };
     let side_p = orient_3d(a, b, c, p);
     let side_q = orient_3d(a, b, c, q);
     if (side_p > 0.0 && side_q > 0.0) || (side_p < 0.0 && side_q < 0.0) {
         return false;
     }
     if side_p == 0.0 && side_q == 0.0 {
-        let k = largest_axis(normal);
         return segment_meets_triangle_2d(drop_axis(p, k), drop_axis(q, k), [a, b, c].map(|x| drop_axis(x, k)));
     }
     let edge_sides = [line_side(p, q, a, b), line_side(p, q, b, c), line_side(p, q, c, a)];
     edge_sides.iter().all(|&s| s >= 0.0) || edge_sides.iter().all(|&s| s <= 0.0)
 }
 
-/// Six times the signed volume of the tetrahedron `(a, b, c, d)`, anchored at `d` so
-/// it is exactly zero when `d` is one of the corners.
+fn coord3(x: DVec3) -> robust::Coord3D<f64> {
+    robust::Coord3D { x: x.x, y: x.y, z: x.z }
+}
+
+/// A value with the exact sign of `(a − d)·((b − d) × (c − d))`, six times the signed
+/// volume of the tetrahedron `(a, b, c, d)`.
 #[inline]
 fn orient_3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
-    (a - d).dot((b - d).cross(c - d))
+    robust::orient3d(coord3(a), coord3(b), coord3(c), coord3(d))
 }
 
-/// Six times the signed volume of `(u, v, q)` seen from `p`: the side of the directed
-/// line `p → q` on which edge `u → v` passes. Exactly antisymmetric in `u, v`.
+/// A value with the exact sign of `((u − p) × (v − p)) · (q − p)`: the side of the
+/// directed line `p → q` on which edge `u → v` passes. Exactly antisymmetric in `u, v`.
 #[inline]
 fn line_side(p: DVec3, q: DVec3, u: DVec3, v: DVec3) -> f64 {
-    (u - p).cross(v - p).dot(q - p)
+    orient_3d(u, v, q, p)
 }
 
-/// The two corners farthest apart: a degenerate triangle is that segment.
-fn longest_side(t: [DVec3; 3]) -> (DVec3, DVec3) {
-    let sides = [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])];
-    sides.into_iter().fold((t[0], t[0]), |best, (u, v)| {
-        if (v - u).length_squared() > (best.1 - best.0).length_squared() {
-            (u, v)
-        } else {
-            best
+/// An axis along which the triangle projects to a triangle of non-zero area (exactly),
+/// trying the axis of the largest rounded normal component first; `None` when the
+/// three corners are collinear.
+fn plane_axis(t: [DVec3; 3]) -> Option<usize> {
+    let first = largest_axis((t[1] - t[0]).cross(t[2] - t[0]));
+    [first, (first + 1) % 3, (first + 2) % 3]
+        .into_iter()
+        .find(|&k| orient_2d(drop_axis(t[0], k), drop_axis(t[1], k), drop_axis(t[2], k)) != 0.0)
+}
+
+/// The lexicographically smallest and largest corners: for collinear corners, the
+/// segment that is their union.
+fn extreme_corners(t: [DVec3; 3]) -> (DVec3, DVec3) {
+    let key = |x: &DVec3| x.to_array();
+    let lt = |x: &DVec3, y: &DVec3| key(x).partial_cmp(&key(y)) == Some(std::cmp::Ordering::Less);
+    let (mut lo, mut hi) = (t[0], t[0]);
+    for x in &t[1..] {
+        if lt(x, &lo) {
+            lo = *x;
         }
-    })
+        if lt(&hi, x) {
+            hi = *x;
+        }
+    }
+    (lo, hi)
 }
 
-/// Whether two closed 3D segments share a point.
+/// Whether two closed 3D segments share a point: they must be coplanar (an exact zero
+/// volume), and then they meet exactly when their projections along all three axes
+/// meet. (Meeting segments meet in every projection; segments that do not meet stay
+/// apart in a projection that is one-to-one on a plane holding both, and one of the
+/// three axis projections is.)
 fn segments_meet(p: DVec3, q: DVec3, u: DVec3, v: DVec3) -> bool {
-    if line_side(p, q, u, v) != 0.0 {
-        return false; // not coplanar
-    }
-    let normal = (q - p).cross(v - u);
-    if normal != DVec3::ZERO {
-        let k = largest_axis(normal);
-        return segments_meet_2d(drop_axis(p, k), drop_axis(q, k), drop_axis(u, k), drop_axis(v, k));
-    }
-    // Parallel, or one or both segments are points: they meet only on a common line.
-    let (origin, direction) = if (q - p).length_squared() >= (v - u).length_squared() {
-        (p, q - p)
-    } else {
-        (u, v - u)
-    };
-    if direction == DVec3::ZERO {
-        return p == u;
-    }
-    if [p, q, u, v]
-        .iter()
-        .any(|&x| (x - origin).cross(direction) != DVec3::ZERO)
-    {
-        return false;
-    }
-    let k = largest_axis(direction);
-    p[k].min(q[k]) <= u[k].max(v[k]) && u[k].min(v[k]) <= p[k].max(q[k])
+    orient_3d(p, q, u, v) == 0.0
+        && (0..3).all(|k| segments_meet_2d(drop_axis(p, k), drop_axis(q, k), drop_axis(u, k), drop_axis(v, k)))
 }
 
 /// The axis of the largest `|component|` (the first on ties).
@@ -122,10 +121,11 @@ fn drop_axis(x: DVec3, axis: usize) -> DVec2 {
     }
 }
 
-/// Twice the signed area of `(a, b, c)`.
+/// A value with the exact sign of twice the signed area of `(a, b, c)`.
 #[inline]
 fn orient_2d(a: DVec2, b: DVec2, c: DVec2) -> f64 {
-    (b - a).perp_dot(c - a)
+    let coord = |x: DVec2| robust::Coord { x: x.x, y: x.y };
+    robust::orient2d(coord(a), coord(b), coord(c))
 }
 
 /// Closed 2D segment against a closed 2D triangle of non-zero area.
@@ -207,6 +207,51 @@ mod tests {
         check(v(1.0, 1.0, 0.0), v(2.0, 2.0, 0.0), TRI, false);
         check(v(-1.0, 0.0, 0.0), v(-0.5, 0.0, 0.0), TRI, false); // on the edge's line, short of it
         check(v(-1.0, 0.0, 0.0), v(0.0, 0.0, 0.0), TRI, true); // reaching the vertex
+    }
+
+    #[test]
+    fn signs_follow_the_triple_product() {
+        let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
+        assert!(orient_3d(x, y, z, DVec3::ZERO) > 0.0); // x · (y × z) = 1
+        assert!(orient_3d(y, x, z, DVec3::ZERO) < 0.0);
+        assert!(line_side(DVec3::ZERO, z, x, y) > 0.0); // (x × y) · z = 1
+        assert!(orient_2d(DVec2::ZERO, DVec2::X, DVec2::Y) > 0.0);
+    }
+
+    /// Segments in the plane of a triangle whose corner sits one ulp off the lattice
+    /// (a lattice triangle carried to a non-dyadic grid and back): the rounded triple
+    /// products of the segment are not zero, and their signs say "crosses". Exactly,
+    /// the segments lie in the plane on the line `x = 1, z = 0`, which holds only the
+    /// corner: the segment through it touches, the one beside it does not.
+    #[test]
+    fn coplanar_up_to_rounding_is_decided_exactly() {
+        let corner = v(1.0, 1.0000000000000002, 0.0);
+        let tri = [v(5.5, 0.0, 3.25), v(5.5, 4.0, 3.25), corner];
+        assert_eq!(orient_3d(tri[0], tri[1], tri[2], v(1.0, 2.0, 0.0)), 0.0);
+        check(v(1.0, 2.0, 0.0), v(1.0, 3.0, 0.0), tri, false);
+        check(v(1.0, 3.0, 0.0), v(1.0, 4.0, 0.0), tri, false);
+        check(v(1.0, 1.0, 0.0), v(1.0, 2.0, 0.0), tri, true);
+        check(v(1.0, 0.0, 0.0), v(1.0, 1.0, 0.0), tri, false); // stops one ulp short
+                                                               // Off the plane by one ulp in z: a crossing near the corner, decided exactly.
+        let up = v(1.0, 1.0000000000000002, f64::EPSILON);
+        check(up, v(1.0, 1.0000000000000002, -1.0), tri, true);
+    }
+
+    /// Exactly collinear corners (`a`, `4a`, `2a`: doubling is exact) whose rounded
+    /// cross product is not zero: the triangle is the segment between its extremes.
+    #[test]
+    fn collinear_corners_that_round_to_an_area() {
+        let a = v(0.1, 0.2, 0.3);
+        let tri = [a, 4.0 * a, 2.0 * a];
+        assert_ne!((tri[1] - tri[0]).cross(tri[2] - tri[0]), DVec3::ZERO);
+        assert_eq!(plane_axis(tri), None);
+        // Vertical through the middle corner (0.2, 0.4, 0.6), and one ulp beside it.
+        check(v(0.2, 0.4, 1.6), v(0.2, 0.4, -0.4), tri, true);
+        let beside = f64::from_bits(0.2f64.to_bits() + 1);
+        check(v(beside, 0.4, 1.6), v(beside, 0.4, -0.4), tri, false);
+        // Along the common line: overlapping, and beyond the far corner.
+        check(8.0 * a, -8.0 * a, tri, true);
+        check(8.0 * a, 16.0 * a, tri, false);
     }
 
     #[test]

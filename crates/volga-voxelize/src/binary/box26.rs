@@ -7,7 +7,7 @@ use volga_core::IndexBox;
 
 use super::raster::VoxelSink;
 use super::separating::Axis;
-use super::{canonical, dominant_axis, lower, upper, upper_f, voxel_range, Separability};
+use super::{canonical, dominant_axis, lower, plane_window, upper, upper_f, voxel_range, Separability};
 use crate::tri_distance::ceil_i32;
 
 /// The three edge axes `e_m × x̂_k` of one `k` (lane `m`), which have a zero component
@@ -106,17 +106,13 @@ impl Prepared26 {
         let unit = 64.0 * f64::EPSILON * scale;
         let n = canonical(n);
         let h = Separability::TwentySix.support(n);
-        let d = n.dot(a);
         let eps_n = unit * (n.x.abs() + n.y.abs() + n.z.abs());
+        let (lo, hi) = plane_window(tri, n, h, eps_n);
         let (min, max) = voxel_range(a, b, c);
         Some(Prepared26 {
             tri,
             unit,
-            plane: Axis {
-                dir: n,
-                lo: d - h - eps_n,
-                hi: d + h - eps_n,
-            },
+            plane: Axis { dir: n, lo, hi },
             min,
             max,
         })

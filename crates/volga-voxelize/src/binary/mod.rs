@@ -31,7 +31,9 @@
 //! (lowest axis among equals) is positive, and keep `−h ≤ n·(v − a) < h`. An axis-aligned
 //! plane through voxel centres or exactly on voxel faces then gives one layer. No tie rule
 //! is invariant under reflections (the face plane `z = ½` must pick `z = 0` or `z = 1`), so
-//! exact ties follow this orientation; everything else is symmetric under the grid's
+//! exact ties follow this orientation, except that a triangle lying exactly in the grid's
+//! lower boundary face plane `x_k = −½` takes the layer `x_k = 0` inside the grid instead
+//! of `x_k = −1` outside it; everything else is symmetric under the grid's
 //! symmetries, and all comparisons use the unnormalized normal so inputs on a dyadic
 //! lattice are decided in exact arithmetic.
 //!
@@ -129,6 +131,21 @@ pub(crate) fn dominant_axis(n: DVec3) -> usize {
     }
 }
 
+/// The half-open plane window `lo ≤ n·v < hi` for a triangle with canonical normal `n`,
+/// plane threshold `h` and rounding guard `eps`: `d − h − ε ≤ n·v < d + h − ε` with
+/// `d = n·a`. One exception to the tie rule: a triangle lying exactly in the plane
+/// `x_k = −½` (index space) lies on the grid's lower boundary face, and the rule would
+/// put its one layer at `x_k = −1`, outside every grid, leaving it uncovered. It takes
+/// the layer `x_k = 0` instead: its window moves up by `2h`, one layer (its normal is
+/// `|n_k| e_k`, so `2h = |n_k|` for every `N`). The upper boundary face `x_k = dims − ½`
+/// already takes the layer inside.
+fn plane_window(tri: [DVec3; 3], n: DVec3, h: f64, eps: f64) -> (f64, f64) {
+    let d = n.dot(tri[0]);
+    let on_lower_face = (0..3).any(|k| tri.iter().all(|p| p[k] == -0.5));
+    let shift = if on_lower_face { 2.0 * h } else { 0.0 };
+    (d - h - eps + shift, d + h - eps + shift)
+}
+
 /// The normal with its largest-magnitude component (lowest axis among equals) positive.
 fn canonical(n: DVec3) -> DVec3 {
     let d = dominant_axis(n);
@@ -163,6 +180,40 @@ mod tests {
         assert_eq!(Separability::Six.support(n), 0.45);
         assert!((Separability::Eighteen.support(n) - 0.7).abs() < 1e-15);
         assert!((Separability::TwentySix.support(n) - 0.85).abs() < 1e-15);
+    }
+
+    /// A triangle lying in a face plane takes one layer: the one below by the tie rule,
+    /// except on the grid's lower boundary face `x_k = −½`, where it takes layer 0
+    /// (the layer below is outside the grid). Every separability, every axis, both
+    /// the specialised 26-path and the general one (a degenerate triangle's segment is
+    /// not affected).
+    #[test]
+    fn face_plane_triangles_take_one_layer_inside_the_grid() {
+        use volga_core::{Grid, Transform};
+        let grid = Grid::new(Transform::new(DVec3::ZERO, DVec3::ONE).unwrap(), glam::UVec3::splat(8)).unwrap();
+        for k in 0..3 {
+            for (plane, layer) in [(-0.5, 0), (3.5, 3), (7.5, 7)] {
+                let corner = |u: f64, w: f64| {
+                    let mut p = DVec3::ZERO;
+                    p[k] = plane;
+                    p[(k + 1) % 3] = u;
+                    p[(k + 2) % 3] = w;
+                    p
+                };
+                let tri = [corner(1.0, 1.0), corner(5.0, 1.0), corner(1.0, 5.0)];
+                for sep in [Separability::Six, Separability::Eighteen, Separability::TwentySix] {
+                    let volume = voxelize_triangles(&grid, &[tri], sep, &volga_core::NoProgress);
+                    let mut layers = std::collections::BTreeSet::new();
+                    for ijk in grid.index_box().iter() {
+                        if volume.density.get(ijk) > 0.5 {
+                            layers.insert(ijk[k]);
+                        }
+                    }
+                    let expected: std::collections::BTreeSet<i32> = [layer].into();
+                    assert_eq!(layers, expected, "axis {k}, plane {plane}, {sep}");
+                }
+            }
+        }
     }
 
     #[test]

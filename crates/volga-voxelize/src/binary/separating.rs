@@ -5,7 +5,7 @@
 use glam::{DVec3, IVec3};
 use volga_core::IndexBox;
 
-use super::{canonical, dominant_axis, voxel_range, Separability};
+use super::{canonical, dominant_axis, plane_window, voxel_range, Separability};
 use crate::tri_distance::{ceil_i32, floor_i32};
 
 /// Face normals and edge directions of `K_N` (the hull of the half-steps of the
@@ -110,14 +110,8 @@ impl PreparedTriangle {
         let n = edges[0].cross(c - a);
         let plane = (n != DVec3::ZERO).then(|| {
             let n = canonical(n);
-            let h = sep.support(n);
-            let d = n.dot(a);
-            let eps = eps_of(n);
-            Axis {
-                dir: n,
-                lo: d - h - eps,
-                hi: d + h - eps,
-            }
+            let (lo, hi) = plane_window(tri, n, sep.support(n), eps_of(n));
+            Axis { dir: n, lo, hi }
         });
         let (min, max) = voxel_range(a, b, c);
         PreparedTriangle {
