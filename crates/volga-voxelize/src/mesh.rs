@@ -535,23 +535,163 @@ impl MeshVoxelizer {
         if let Some(profile) = profile.as_deref_mut() {
             stage = profile.serial("slack", stage);
         }
-        let band_bricks: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = (0..bins.bricks.len())
-            .into_par_iter()
+        // Distances in blocks of 4×4×4 bricks: a triangle's band reaches about six bricks
+        // at N = 256, and one pass over its feature regions per block instead of one per
+        // brick cuts the regions' enumeration (the bunny's distances: 85 → 65 ms at N =
+        // 256). Each triangle is clipped to the bricks it is binned in, and a block's
+        // triangles run in index order, so every voxel sees the same candidates in the
+        // same order as brick by brick: the same nearest triangle, ties included.
+        const BLOCK: i32 = 4;
+        let block_of = |b: IVec3| b.div_euclid(IVec3::splat(BLOCK));
+        let mut block_keys: Vec<([i32; 3], usize)> = (0..bins.bricks.len())
             .map(|k| {
-                let mut lap = Lap::new(timing);
-                let mut clock = BrickClock::default();
-                let brick = bins.bricks[k];
-                let region = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
-                // Start at the band: farther candidates are never needed.
-                let mut best = Nearest {
-                    d2: [band2 * (1.0 + 1e-9); BRICK_VOXELS],
-                    id: [u32::MAX; BRICK_VOXELS],
+                let c = block_of(bins.bricks[k]);
+                ([c.z, c.y, c.x], k)
+            })
+            .collect();
+        block_keys.sort_unstable();
+        let blocks: Vec<&[([i32; 3], usize)]> = block_keys.chunk_by(|x, y| x.0 == y.0).collect();
+        let brick_dim = IVec3::splat(BRICK_DIM);
+        // One brick's band signs, flood and output from its nearest triangles.
+        let finish = |k: usize, best: &Nearest, lap: &mut Lap, clock: &mut BrickClock| {
+            let brick = bins.bricks[k];
+            let region = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
+            let (best_d2, best_tri) = (&best.d2, &best.id);
+            // Band voxels: exact distance and sign. Voxels beyond the band: their sign
+            // flows from band voxels through 6-neighbours (a 6-step is shorter than the
+            // band, so it cannot cross the surface); a pocket no band voxel reaches asks
+            // the winding number once.
+            let in_band = |o: usize| best_tri[o] != u32::MAX && best_d2[o] <= band2;
+            // A trusted triangle whose band reaches the brick: `I` is carried from it to
+            // voxels whose nearest triangle cannot carry it.
+            let bin_reference = bins
+                .items(k)
+                .iter()
+                .map(|&i| i as usize)
+                .find(|&i| signed && self.sign.trusted[i]);
+            let mut data = [background; BRICK_VOXELS];
+            let mut stats = SignStats::default();
+            let mut margin = [0.0f64; BRICK_VOXELS];
+            let (mut inside_band, mut outside_band) = (BrickMask::EMPTY, BrickMask::EMPTY);
+            for z in region.min.z..region.max.z {
+                for y in region.min.y..region.max.y {
+                    let row = IVec3::new(region.min.x, y, z);
+                    let first = Brick::<f32>::local_offset(row);
+                    for (o, x) in (first..).zip(region.min.x..region.max.x) {
+                        if in_band(o) {
+                            let p = t.voxel_center(IVec3::new(x, y, z));
+                            let tri = best_tri[o] as usize;
+                            let inside = signed && {
+                                let (inside, m) =
+                                    self.decide(p, tri, best_d2[o], slack[tri], bin_reference, &mut stats);
+                                margin[o] = m;
+                                inside
+                            };
+                            if inside {
+                                inside_band.insert(o);
+                            } else {
+                                outside_band.insert(o);
+                            }
+                            data[o] = value(best_d2[o].sqrt(), inside);
+                        }
+                    }
+                }
+            }
+            clock.band_signs = lap.lap();
+            if signed {
+                let region_mask = BrickMask::of_region(brick, &region);
+                let unknown = region_mask.and_not(&inside_band.or(&outside_band));
+                // A trusted triangle near the brick, to carry `I` from.
+                let reference = if self.sign.closed {
+                    None
+                } else {
+                    let mut band_voxels = inside_band.or(&outside_band);
+                    let mut found = None;
+                    while let Some(o) = band_voxels.first() {
+                        band_voxels.remove(o);
+                        if self.sign.trusted[best_tri[o] as usize] {
+                            found = Some(best_tri[o] as usize);
+                            break;
+                        }
+                    }
+                    found.or_else(|| {
+                        bins.items(k)
+                            .iter()
+                            .map(|&i| i as usize)
+                            .find(|&i| self.sign.trusted[i])
+                    })
                 };
+                let inside = self.flood_signs(
+                    brick,
+                    inside_band,
+                    outside_band,
+                    &margin,
+                    unknown,
+                    reference,
+                    grid,
+                    &mut stats,
+                );
+                let mut fill = inside.and(&unknown);
+                while let Some(o) = fill.first() {
+                    data[o] = inside_value;
+                    fill.remove(o);
+                }
+            }
+            clock.flood_signs = lap.lap();
+            progress.inc(1);
+            let brick_data = Brick::from_voxels(&data);
+            clock.output = lap.lap();
+            (brick, brick_data, stats)
+        };
+        let band_bricks: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = blocks
+            .par_iter()
+            .flat_map_iter(|group| {
+                let mut lap = Lap::new(timing);
+                let block = block_of(bins.bricks[group[0].1]);
+                let block_box =
+                    IndexBox::new(block * BLOCK * BRICK_DIM, (block + 1) * BLOCK * BRICK_DIM).intersection(&grid_box);
+                // The block's bricks in the bins, each with its nearest triangles so far
+                // (starting at the band: farther candidates are never needed).
+                let mut slot_of = [u16::MAX; (BLOCK * BLOCK * BLOCK) as usize];
+                let local = |b: IVec3| {
+                    let l = b - block * BLOCK;
+                    (l.x + BLOCK * (l.y + BLOCK * l.z)) as usize
+                };
+                for (j, &(_, k)) in group.iter().enumerate() {
+                    slot_of[local(bins.bricks[k])] = j as u16;
+                }
+                let slot = |b: IVec3| slot_of[local(b)] as usize;
+                let mut nearest = vec![
+                    Nearest {
+                        d2: [band2 * (1.0 + 1e-9); BRICK_VOXELS],
+                        id: [u32::MAX; BRICK_VOXELS],
+                    };
+                    group.len()
+                ];
+                let mut items: Vec<u32> = group.iter().flat_map(|&(_, k)| bins.items(k).iter().copied()).collect();
+                items.sort_unstable();
+                items.dedup();
                 // Triangles in index order: among equally near ones the first stays, so
                 // the result is independent of threads.
-                for &i in bins.items(k) {
+                for &i in &items {
+                    // The bricks `i` is binned in (its band range's bricks), within the block.
+                    let range = &ranges[i as usize];
+                    let (lo, hi) = (
+                        range.min.div_euclid(brick_dim),
+                        (range.max - 1).div_euclid(brick_dim) + 1,
+                    );
+                    let region = IndexBox::new(lo * BRICK_DIM, hi * BRICK_DIM).intersection(&block_box);
                     let dist = &self.distance[i as usize];
-                    let mut update = |start, axis, count| dist.column_min(t, start, axis, count, &mut best, i);
+                    let mut update = |mut start: IVec3, axis: usize, mut count: i32| {
+                        // A run is cut at the brick faces it crosses.
+                        while count > 0 {
+                            let b = start.div_euclid(brick_dim);
+                            let n = count.min((b[axis] + 1) * BRICK_DIM - start[axis]);
+                            dist.column_min(t, start, axis, n, &mut nearest[slot(b)], i);
+                            start[axis] += n;
+                            count -= n;
+                        }
+                    };
                     if self.regions.is_fallback(i as usize) {
                         let tri_index = self.triangles[i as usize].map(|p| t.world_to_index(p));
                         BandColumns::new(tri_index, band_index).for_each(&region, update);
@@ -559,93 +699,20 @@ impl MeshVoxelizer {
                         prepared.for_each_run(i as usize, &region, &mut update);
                     }
                 }
-                clock.distances = lap.lap();
-                let (best_d2, best_tri) = (&best.d2, &best.id);
-                // Band voxels: exact distance and sign. Voxels beyond the band: their sign
-                // flows from band voxels through 6-neighbours (a 6-step is shorter than the
-                // band, so it cannot cross the surface); a pocket no band voxel reaches asks
-                // the winding number once.
-                let in_band = |o: usize| best_tri[o] != u32::MAX && best_d2[o] <= band2;
-                // A trusted triangle whose band reaches the brick: `I` is carried from it to
-                // voxels whose nearest triangle cannot carry it.
-                let bin_reference = bins
-                    .items(k)
+                let distances = lap.lap();
+                let out: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = group
                     .iter()
-                    .map(|&i| i as usize)
-                    .find(|&i| signed && self.sign.trusted[i]);
-                let mut data = [background; BRICK_VOXELS];
-                let mut stats = SignStats::default();
-                let mut margin = [0.0f64; BRICK_VOXELS];
-                let (mut inside_band, mut outside_band) = (BrickMask::EMPTY, BrickMask::EMPTY);
-                for z in region.min.z..region.max.z {
-                    for y in region.min.y..region.max.y {
-                        let row = IVec3::new(region.min.x, y, z);
-                        let first = Brick::<f32>::local_offset(row);
-                        for (o, x) in (first..).zip(region.min.x..region.max.x) {
-                            if in_band(o) {
-                                let p = t.voxel_center(IVec3::new(x, y, z));
-                                let tri = best_tri[o] as usize;
-                                let inside = signed && {
-                                    let (inside, m) =
-                                        self.decide(p, tri, best_d2[o], slack[tri], bin_reference, &mut stats);
-                                    margin[o] = m;
-                                    inside
-                                };
-                                if inside {
-                                    inside_band.insert(o);
-                                } else {
-                                    outside_band.insert(o);
-                                }
-                                data[o] = value(best_d2[o].sqrt(), inside);
-                            }
-                        }
-                    }
-                }
-                clock.band_signs = lap.lap();
-                if signed {
-                    let region_mask = BrickMask::of_region(brick, &region);
-                    let unknown = region_mask.and_not(&inside_band.or(&outside_band));
-                    // A trusted triangle near the brick, to carry `I` from.
-                    let reference = if self.sign.closed {
-                        None
-                    } else {
-                        let mut band_voxels = inside_band.or(&outside_band);
-                        let mut found = None;
-                        while let Some(o) = band_voxels.first() {
-                            band_voxels.remove(o);
-                            if self.sign.trusted[best_tri[o] as usize] {
-                                found = Some(best_tri[o] as usize);
-                                break;
-                            }
-                        }
-                        found.or_else(|| {
-                            bins.items(k)
-                                .iter()
-                                .map(|&i| i as usize)
-                                .find(|&i| self.sign.trusted[i])
-                        })
-                    };
-                    let inside = self.flood_signs(
-                        brick,
-                        inside_band,
-                        outside_band,
-                        &margin,
-                        unknown,
-                        reference,
-                        grid,
-                        &mut stats,
-                    );
-                    let mut fill = inside.and(&unknown);
-                    while let Some(o) = fill.first() {
-                        data[o] = inside_value;
-                        fill.remove(o);
-                    }
-                }
-                clock.flood_signs = lap.lap();
-                progress.inc(1);
-                let brick_data = Brick::from_voxels(&data);
-                clock.output = lap.lap();
-                (brick, brick_data, stats, clock)
+                    .enumerate()
+                    .map(|(j, &(_, k))| {
+                        let mut clock = BrickClock {
+                            distances: if j == 0 { distances } else { 0.0 },
+                            ..BrickClock::default()
+                        };
+                        let (brick, data, stats) = finish(k, &nearest[j], &mut lap, &mut clock);
+                        (brick, data, stats, clock)
+                    })
+                    .collect();
+                out
             })
             .collect();
         progress.finish();

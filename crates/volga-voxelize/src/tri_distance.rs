@@ -32,6 +32,7 @@ const BRICK_DIM: usize = volga_core::BRICK_DIM as usize;
 
 /// Per voxel of one brick: the squared distance to the nearest triangle so far and
 /// that triangle's index (`u32::MAX` for none).
+#[derive(Clone)]
 pub(crate) struct Nearest {
     pub(crate) d2: [f64; volga_core::BRICK_VOXELS],
     pub(crate) id: [u32; volga_core::BRICK_VOXELS],
