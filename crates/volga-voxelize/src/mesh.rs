@@ -500,12 +500,54 @@ impl MeshVoxelizer {
             })
             .collect();
 
+        // Distances run in blocks of 4×4×4 bricks: a triangle's band reaches about six
+        // bricks at N = 256, and one pass over its feature regions per block instead of
+        // one per brick cuts the regions' enumeration and the binning (the bunny at N =
+        // 256: distances 85 → 65 ms, bins 19 → 12 ms). Each triangle is clipped to the
+        // bricks its band range reaches, and a block's triangles run in index order, so
+        // every voxel sees the same candidates in the same order as brick by brick: the
+        // same nearest triangle, ties included.
+        const BLOCK: i32 = 4;
+        let brick_dim = IVec3::splat(BRICK_DIM);
+        let block_extent = (volga_core::brick_extent(grid.dims()) + (BLOCK - 1)).div_euclid(IVec3::splat(BLOCK));
         // The bins and the regions laid out for this grid, side by side.
-        let (bins, prepared) = rayon::join(
-            || crate::pairs::bin_by_brick(&ranges, volga_core::brick_extent(grid.dims())),
+        let (blocks, prepared) = rayon::join(
+            || crate::pairs::bin_by_cell(&ranges, BLOCK * BRICK_DIM, block_extent),
             || self.regions.prepare(t, &grid_box, band),
         );
-        progress.start("voxelize", bins.bricks.len() as u64);
+        // Each block's bricks that some band range reaches, in storage order, with the
+        // first (lowest) trusted triangle whose band range reaches each.
+        let block_bricks: Vec<Vec<(IVec3, Option<usize>)>> = (0..blocks.bricks.len())
+            .into_par_iter()
+            .map(|kb| {
+                let first_brick = blocks.bricks[kb] * BLOCK;
+                let mut reached = [false; (BLOCK * BLOCK * BLOCK) as usize];
+                let mut trusted = [None; (BLOCK * BLOCK * BLOCK) as usize];
+                for &i in blocks.items(kb) {
+                    let r = &ranges[i as usize];
+                    let lo = r.min.div_euclid(brick_dim).max(first_brick);
+                    let hi = ((r.max - 1).div_euclid(brick_dim) + 1).min(first_brick + BLOCK);
+                    let is_trusted = self.sign.trusted[i as usize];
+                    for b in IndexBox::new(lo, hi).iter() {
+                        let l = b - first_brick;
+                        let slot = (l.x + BLOCK * (l.y + BLOCK * l.z)) as usize;
+                        reached[slot] = true;
+                        if is_trusted && trusted[slot].is_none() {
+                            trusted[slot] = Some(i as usize);
+                        }
+                    }
+                }
+                (0..reached.len())
+                    .filter(|&slot| reached[slot])
+                    .map(|slot| {
+                        let s = slot as i32;
+                        let l = IVec3::new(s % BLOCK, (s / BLOCK) % BLOCK, s / (BLOCK * BLOCK));
+                        (first_brick + l, trusted[slot])
+                    })
+                    .collect()
+            })
+            .collect();
+        progress.start("voxelize", block_bricks.iter().map(|b| b.len() as u64).sum());
         let band2 = band * band;
         // The band in index units on the finest axis (a superset on anisotropic grids).
         let band_index = band / grid.min_spacing();
@@ -535,130 +577,105 @@ impl MeshVoxelizer {
         if let Some(profile) = profile.as_deref_mut() {
             stage = profile.serial("slack", stage);
         }
-        // Distances in blocks of 4×4×4 bricks: a triangle's band reaches about six bricks
-        // at N = 256, and one pass over its feature regions per block instead of one per
-        // brick cuts the regions' enumeration (the bunny's distances: 85 → 65 ms at N =
-        // 256). Each triangle is clipped to the bricks it is binned in, and a block's
-        // triangles run in index order, so every voxel sees the same candidates in the
-        // same order as brick by brick: the same nearest triangle, ties included.
-        const BLOCK: i32 = 4;
-        let block_of = |b: IVec3| b.div_euclid(IVec3::splat(BLOCK));
-        let mut block_keys: Vec<([i32; 3], usize)> = (0..bins.bricks.len())
-            .map(|k| {
-                let c = block_of(bins.bricks[k]);
-                ([c.z, c.y, c.x], k)
-            })
-            .collect();
-        block_keys.sort_unstable();
-        let blocks: Vec<&[([i32; 3], usize)]> = block_keys.chunk_by(|x, y| x.0 == y.0).collect();
-        let brick_dim = IVec3::splat(BRICK_DIM);
         // One brick's band signs, flood and output from its nearest triangles.
-        let finish = |k: usize, best: &Nearest, lap: &mut Lap, clock: &mut BrickClock| {
-            let brick = bins.bricks[k];
-            let region = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
-            let (best_d2, best_tri) = (&best.d2, &best.id);
-            // Band voxels: exact distance and sign. Voxels beyond the band: their sign
-            // flows from band voxels through 6-neighbours (a 6-step is shorter than the
-            // band, so it cannot cross the surface); a pocket no band voxel reaches asks
-            // the winding number once.
-            let in_band = |o: usize| best_tri[o] != u32::MAX && best_d2[o] <= band2;
-            // A trusted triangle whose band reaches the brick: `I` is carried from it to
-            // voxels whose nearest triangle cannot carry it.
-            let bin_reference = bins
-                .items(k)
-                .iter()
-                .map(|&i| i as usize)
-                .find(|&i| signed && self.sign.trusted[i]);
-            let mut data = [background; BRICK_VOXELS];
-            let mut stats = SignStats::default();
-            let mut margin = [0.0f64; BRICK_VOXELS];
-            let (mut inside_band, mut outside_band) = (BrickMask::EMPTY, BrickMask::EMPTY);
-            for z in region.min.z..region.max.z {
-                for y in region.min.y..region.max.y {
-                    let row = IVec3::new(region.min.x, y, z);
-                    let first = Brick::<f32>::local_offset(row);
-                    for (o, x) in (first..).zip(region.min.x..region.max.x) {
-                        if in_band(o) {
-                            let p = t.voxel_center(IVec3::new(x, y, z));
-                            let tri = best_tri[o] as usize;
-                            let inside = signed && {
-                                let (inside, m) =
-                                    self.decide(p, tri, best_d2[o], slack[tri], bin_reference, &mut stats);
-                                margin[o] = m;
-                                inside
-                            };
-                            if inside {
-                                inside_band.insert(o);
-                            } else {
-                                outside_band.insert(o);
+        let finish =
+            |brick: IVec3, first_trusted: Option<usize>, best: &Nearest, lap: &mut Lap, clock: &mut BrickClock| {
+                let region = IndexBox::new(brick * BRICK_DIM, (brick + 1) * BRICK_DIM).intersection(&grid_box);
+                let (best_d2, best_tri) = (&best.d2, &best.id);
+                // Band voxels: exact distance and sign. Voxels beyond the band: their sign
+                // flows from band voxels through 6-neighbours (a 6-step is shorter than the
+                // band, so it cannot cross the surface); a pocket no band voxel reaches asks
+                // the winding number once.
+                let in_band = |o: usize| best_tri[o] != u32::MAX && best_d2[o] <= band2;
+                // A trusted triangle whose band reaches the brick: `I` is carried from it to
+                // voxels whose nearest triangle cannot carry it.
+                let bin_reference = first_trusted.filter(|_| signed);
+                let mut data = [background; BRICK_VOXELS];
+                let mut stats = SignStats::default();
+                let mut margin = [0.0f64; BRICK_VOXELS];
+                let (mut inside_band, mut outside_band) = (BrickMask::EMPTY, BrickMask::EMPTY);
+                for z in region.min.z..region.max.z {
+                    for y in region.min.y..region.max.y {
+                        let row = IVec3::new(region.min.x, y, z);
+                        let first = Brick::<f32>::local_offset(row);
+                        for (o, x) in (first..).zip(region.min.x..region.max.x) {
+                            if in_band(o) {
+                                let p = t.voxel_center(IVec3::new(x, y, z));
+                                let tri = best_tri[o] as usize;
+                                let inside = signed && {
+                                    let (inside, m) =
+                                        self.decide(p, tri, best_d2[o], slack[tri], bin_reference, &mut stats);
+                                    margin[o] = m;
+                                    inside
+                                };
+                                if inside {
+                                    inside_band.insert(o);
+                                } else {
+                                    outside_band.insert(o);
+                                }
+                                data[o] = value(best_d2[o].sqrt(), inside);
                             }
-                            data[o] = value(best_d2[o].sqrt(), inside);
                         }
                     }
                 }
-            }
-            clock.band_signs = lap.lap();
-            if signed {
-                let region_mask = BrickMask::of_region(brick, &region);
-                let unknown = region_mask.and_not(&inside_band.or(&outside_band));
-                // A trusted triangle near the brick, to carry `I` from.
-                let reference = if self.sign.closed {
-                    None
-                } else {
-                    let mut band_voxels = inside_band.or(&outside_band);
-                    let mut found = None;
-                    while let Some(o) = band_voxels.first() {
-                        band_voxels.remove(o);
-                        if self.sign.trusted[best_tri[o] as usize] {
-                            found = Some(best_tri[o] as usize);
-                            break;
+                clock.band_signs = lap.lap();
+                if signed {
+                    let region_mask = BrickMask::of_region(brick, &region);
+                    let unknown = region_mask.and_not(&inside_band.or(&outside_band));
+                    // A trusted triangle near the brick, to carry `I` from.
+                    let reference = if self.sign.closed {
+                        None
+                    } else {
+                        let mut band_voxels = inside_band.or(&outside_band);
+                        let mut found = None;
+                        while let Some(o) = band_voxels.first() {
+                            band_voxels.remove(o);
+                            if self.sign.trusted[best_tri[o] as usize] {
+                                found = Some(best_tri[o] as usize);
+                                break;
+                            }
                         }
+                        found.or(first_trusted)
+                    };
+                    let inside = self.flood_signs(
+                        brick,
+                        inside_band,
+                        outside_band,
+                        &margin,
+                        unknown,
+                        reference,
+                        grid,
+                        &mut stats,
+                    );
+                    let mut fill = inside.and(&unknown);
+                    while let Some(o) = fill.first() {
+                        data[o] = inside_value;
+                        fill.remove(o);
                     }
-                    found.or_else(|| {
-                        bins.items(k)
-                            .iter()
-                            .map(|&i| i as usize)
-                            .find(|&i| self.sign.trusted[i])
-                    })
-                };
-                let inside = self.flood_signs(
-                    brick,
-                    inside_band,
-                    outside_band,
-                    &margin,
-                    unknown,
-                    reference,
-                    grid,
-                    &mut stats,
-                );
-                let mut fill = inside.and(&unknown);
-                while let Some(o) = fill.first() {
-                    data[o] = inside_value;
-                    fill.remove(o);
                 }
-            }
-            clock.flood_signs = lap.lap();
-            progress.inc(1);
-            let brick_data = Brick::from_voxels(&data);
-            clock.output = lap.lap();
-            (brick, brick_data, stats)
-        };
-        let band_bricks: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = blocks
-            .par_iter()
-            .flat_map_iter(|group| {
+                clock.flood_signs = lap.lap();
+                progress.inc(1);
+                let brick_data = Brick::from_voxels(&data);
+                clock.output = lap.lap();
+                (brick, brick_data, stats)
+            };
+        let band_bricks: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = (0..blocks.bricks.len())
+            .into_par_iter()
+            .flat_map_iter(|kb| {
                 let mut lap = Lap::new(timing);
-                let block = block_of(bins.bricks[group[0].1]);
+                let bricks = &block_bricks[kb];
+                let first_brick = blocks.bricks[kb] * BLOCK;
                 let block_box =
-                    IndexBox::new(block * BLOCK * BRICK_DIM, (block + 1) * BLOCK * BRICK_DIM).intersection(&grid_box);
-                // The block's bricks in the bins, each with its nearest triangles so far
-                // (starting at the band: farther candidates are never needed).
+                    IndexBox::new(first_brick * BRICK_DIM, (first_brick + BLOCK) * BRICK_DIM).intersection(&grid_box);
+                // Each brick's nearest triangles so far, starting at the band: farther
+                // candidates are never needed.
                 let mut slot_of = [u16::MAX; (BLOCK * BLOCK * BLOCK) as usize];
                 let local = |b: IVec3| {
-                    let l = b - block * BLOCK;
+                    let l = b - first_brick;
                     (l.x + BLOCK * (l.y + BLOCK * l.z)) as usize
                 };
-                for (j, &(_, k)) in group.iter().enumerate() {
-                    slot_of[local(bins.bricks[k])] = j as u16;
+                for (j, &(b, _)) in bricks.iter().enumerate() {
+                    slot_of[local(b)] = j as u16;
                 }
                 let slot = |b: IVec3| slot_of[local(b)] as usize;
                 let mut nearest = vec![
@@ -666,15 +683,12 @@ impl MeshVoxelizer {
                         d2: [band2 * (1.0 + 1e-9); BRICK_VOXELS],
                         id: [u32::MAX; BRICK_VOXELS],
                     };
-                    group.len()
+                    bricks.len()
                 ];
-                let mut items: Vec<u32> = group.iter().flat_map(|&(_, k)| bins.items(k).iter().copied()).collect();
-                items.sort_unstable();
-                items.dedup();
                 // Triangles in index order: among equally near ones the first stays, so
                 // the result is independent of threads.
-                for &i in &items {
-                    // The bricks `i` is binned in (its band range's bricks), within the block.
+                for &i in blocks.items(kb) {
+                    // The bricks `i`'s band range reaches, within the block.
                     let range = &ranges[i as usize];
                     let (lo, hi) = (
                         range.min.div_euclid(brick_dim),
@@ -700,15 +714,16 @@ impl MeshVoxelizer {
                     }
                 }
                 let distances = lap.lap();
-                let out: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = group
+                let out: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = bricks
                     .iter()
+                    .zip(&nearest)
                     .enumerate()
-                    .map(|(j, &(_, k))| {
+                    .map(|(j, (&(brick, first_trusted), best))| {
                         let mut clock = BrickClock {
                             distances: if j == 0 { distances } else { 0.0 },
                             ..BrickClock::default()
                         };
-                        let (brick, data, stats) = finish(k, &nearest[j], &mut lap, &mut clock);
+                        let (brick, data, stats) = finish(brick, first_trusted, best, &mut lap, &mut clock);
                         (brick, data, stats, clock)
                     })
                     .collect();

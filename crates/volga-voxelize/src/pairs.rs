@@ -43,8 +43,8 @@ pub(crate) fn sort_brick_pairs(pairs: &mut Vec<(IVec3, u32)>) {
     }));
 }
 
-/// Items binned by the bricks their index ranges touch, bricks in storage order (z, y, x)
-/// with their items ascending.
+/// Items binned by the bricks (or larger cells, [`bin_by_cell`]) their index ranges
+/// touch, bricks in storage order (z, y, x) with their items ascending.
 pub(crate) struct BrickBins {
     pub(crate) bricks: Vec<IVec3>,
     /// Items of brick `k`: `items[starts[k]..starts[k + 1]]`.
@@ -61,8 +61,15 @@ impl BrickBins {
 /// Bins item `i` into every brick its (index-space) range `ranges[i]` touches. Pairs are
 /// packed as `linear brick index << 32 | item` and sorted as plain integers; grids of 2³²
 /// bricks or more take the tuple sort.
+#[cfg(test)]
 pub(crate) fn bin_by_brick(ranges: &[IndexBox], brick_extent: IVec3) -> BrickBins {
-    let dim = IVec3::splat(volga_core::BRICK_DIM);
+    bin_by_cell(ranges, volga_core::BRICK_DIM, brick_extent)
+}
+
+/// [`bin_by_brick`] for cubic cells of `cell_dim` voxels (a multiple of the brick's),
+/// `cell_extent` cells along each axis: `bricks` then holds cell coordinates.
+pub(crate) fn bin_by_cell(ranges: &[IndexBox], cell_dim: i32, cell_extent: IVec3) -> BrickBins {
+    let dim = IVec3::splat(cell_dim);
     let bricks_of = |r: &IndexBox| {
         if r.is_empty() {
             (IVec3::ZERO, IVec3::ZERO)
@@ -70,8 +77,8 @@ pub(crate) fn bin_by_brick(ranges: &[IndexBox], brick_extent: IVec3) -> BrickBin
             (r.min.div_euclid(dim), (r.max - 1).div_euclid(dim) + 1)
         }
     };
-    // Packed keys need the brick layout to index fewer than 2³² bricks.
-    let packed = Shape3::new(brick_extent.max(IVec3::ONE).as_uvec3())
+    // Packed keys need the cell layout to index fewer than 2³² cells.
+    let packed = Shape3::new(cell_extent.max(IVec3::ONE).as_uvec3())
         .ok()
         .filter(|shape| shape.len() <= u32::MAX as usize && ranges.len() <= u32::MAX as usize);
     let Some(shape) = packed else {
