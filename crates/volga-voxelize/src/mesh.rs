@@ -699,7 +699,7 @@ impl MeshVoxelizer {
                     let mut update = |mut start: IVec3, axis: usize, mut count: i32| {
                         // A run is cut at the brick faces it crosses.
                         while count > 0 {
-                            let b = start.div_euclid(brick_dim);
+                            let b = start >> volga_core::BRICK_LOG2; // floor division by the brick edge
                             let n = count.min((b[axis] + 1) * BRICK_DIM - start[axis]);
                             dist.column_min(t, start, axis, n, &mut nearest[slot(b)], i);
                             start[axis] += n;
