@@ -248,7 +248,10 @@ impl FeatureRegions {
 
         // Edges, grouped by welded endpoints; the owner is the lowest triangle index.
         let edges = || {
-            let mut part = Part::with_capacity(uses.len() / 2, 2 * uses.len());
+            // One side plane per use and two end planes per edge (a `Vec` that outgrows
+            // its capacity copies ~16 MB of planes for the bunny).
+            let edge_count = uses.chunk_by(|x, y| x.key == y.key).count();
+            let mut part = Part::with_capacity(edge_count, uses.len() + 2 * edge_count);
             for group in uses.chunk_by(|x, y| x.key == y.key) {
                 let (i, j, owner) = ((group[0].key >> 32) as u32, group[0].key as u32, group[0].triangle);
                 if fallback[owner as usize] {
