@@ -28,14 +28,16 @@ pub(super) fn adjacent_pair_crosses(t: [DVec3; 3], t_ids: [u32; 3], s: [DVec3; 3
             }
         }
     }
-    let scale = t
-        .iter()
-        .chain(&s)
-        .map(|v| (*v - t[0]).length())
-        .fold(0.0, f64::max)
-        .max(f64::MIN_POSITIVE);
     match count {
-        0 => triangles_may_intersect(t, s, TOUCH * scale),
+        0 => {
+            let scale = t
+                .iter()
+                .chain(&s)
+                .map(|v| (*v - t[0]).length())
+                .fold(0.0, f64::max)
+                .max(f64::MIN_POSITIVE);
+            triangles_may_intersect(t, s, TOUCH * scale)
+        }
         1 => {
             let (i, j) = shared[0];
             let v = t[i];
