@@ -233,24 +233,54 @@ impl MeshVoxelizer {
             .collect();
 
         // Edges: every use (welded endpoints, triangle, corner), sorted so that the uses
-        // of one edge are adjacent, lowest triangle first.
-        let mut uses: Vec<EdgeUse> = Vec::with_capacity(3 * triangles.len());
+        // of one edge are adjacent, lowest triangle first: a counting sort by the lower
+        // endpoint, then each vertex's few uses by the upper one (stable, so uses of one
+        // edge keep their (triangle, corner) order). The same order as sorting by
+        // (key, triangle, corner), at a fraction of the cost.
+        let n_welded = weld.len();
+        let edge_of = |t: usize, k: usize| {
+            let (i, j) = (corner(t, k), corner(t, (k + 1) % 3));
+            (i != j).then(|| (i.min(j) as u64) << 32 | i.max(j) as u64)
+        };
+        let mut start = vec![0u32; n_welded + 1];
         for t in 0..triangles.len() {
             for k in 0..3 {
-                let (i, j) = (corner(t, k), corner(t, (k + 1) % 3));
-                if i != j {
-                    uses.push(EdgeUse {
-                        key: (i.min(j) as u64) << 32 | i.max(j) as u64,
-                        triangle: t as u32,
-                        corner: k as u8,
-                    });
+                if let Some(key) = edge_of(t, k) {
+                    start[(key >> 32) as usize + 1] += 1;
                 }
             }
         }
-        uses.par_sort_unstable_by_key(|u| (u.key, u.triangle, u.corner));
+        for v in 0..n_welded {
+            start[v + 1] += start[v];
+        }
+        let mut next = start.clone();
+        let mut uses = vec![
+            EdgeUse {
+                key: 0,
+                triangle: 0,
+                corner: 0,
+            };
+            start[n_welded] as usize
+        ];
+        for t in 0..triangles.len() {
+            for k in 0..3 {
+                if let Some(key) = edge_of(t, k) {
+                    let slot = &mut next[(key >> 32) as usize];
+                    uses[*slot as usize] = EdgeUse {
+                        key,
+                        triangle: t as u32,
+                        corner: k as u8,
+                    };
+                    *slot += 1;
+                }
+            }
+        }
+        for v in 0..n_welded {
+            uses[start[v] as usize..start[v + 1] as usize].sort_by_key(|u| u.key);
+        }
+        debug_assert!(uses.is_sorted());
 
         // Per triangle edge: how many faces use it, and the sum of their normals.
-        let n_welded = weld.len();
         let mut edge_normal = vec![[DVec3::ZERO; 3]; triangles.len()];
         let mut boundary_edges = 0;
         for group in uses.chunk_by(|a, b| a.key == b.key) {

@@ -315,26 +315,43 @@ impl FeatureRegions {
 
         // Vertices: the owner is the lowest triangle index with an edge at the vertex.
         let vertices = || {
-            let mut neighbours: Vec<(u32, u32)> = Vec::with_capacity(uses.len() + 2);
-            let mut vertex_owner = vec![u32::MAX; welded_pos.len()];
+            // Each vertex's neighbours, ascending, by a counting sort: the edges come in
+            // key order, so a vertex first meets the lower neighbours it is the upper end
+            // for (ascending), then the upper ones (ascending).
+            let n_vertices = welded_pos.len();
+            let mut start = vec![0u32; n_vertices + 1];
+            let mut vertex_owner = vec![u32::MAX; n_vertices];
+            let edge_ends = |group: &[EdgeUse]| ((group[0].key >> 32) as usize, group[0].key as u32 as usize);
             for group in uses.chunk_by(|x, y| x.key == y.key) {
-                let (i, j, owner) = ((group[0].key >> 32) as u32, group[0].key as u32, group[0].triangle);
-                neighbours.push((i, j));
-                neighbours.push((j, i));
-                vertex_owner[i as usize] = vertex_owner[i as usize].min(owner);
-                vertex_owner[j as usize] = vertex_owner[j as usize].min(owner);
+                let (i, j) = edge_ends(group);
+                start[i + 1] += 1;
+                start[j + 1] += 1;
+                let owner = group[0].triangle;
+                vertex_owner[i] = vertex_owner[i].min(owner);
+                vertex_owner[j] = vertex_owner[j].min(owner);
             }
-            neighbours.sort_unstable();
-            let mut part = Part::with_capacity(welded_pos.len(), neighbours.len());
-            for group in neighbours.chunk_by(|x, y| x.0 == y.0) {
-                let v = group[0].0 as usize;
+            for v in 0..n_vertices {
+                start[v + 1] += start[v];
+            }
+            let mut next = start.clone();
+            let mut neighbours = vec![0u32; start[n_vertices] as usize];
+            for group in uses.chunk_by(|x, y| x.key == y.key) {
+                let (i, j) = edge_ends(group);
+                neighbours[next[i] as usize] = j as u32;
+                next[i] += 1;
+                neighbours[next[j] as usize] = i as u32;
+                next[j] += 1;
+            }
+            let mut part = Part::with_capacity(n_vertices, neighbours.len());
+            for v in 0..n_vertices {
+                let group = &neighbours[start[v] as usize..start[v + 1] as usize];
                 let owner = vertex_owner[v];
-                if owner == u32::MAX || fallback[owner as usize] {
+                if group.is_empty() || owner == u32::MAX || fallback[owner as usize] {
                     continue;
                 }
                 let p = welded_pos[v];
                 let first_plane = part.planes.len() as u32;
-                for &(_, w) in group {
+                for &w in group {
                     push_plane(&mut part.planes, welded_pos[w as usize] - p, p, 0.0);
                 }
                 part.push(
