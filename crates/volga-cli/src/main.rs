@@ -25,13 +25,6 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use volga_scene::{build, plan::plan, validate_scene, BuildOptions};
 
-/// mimalloc keeps freed memory for reuse where glibc's malloc returns the large
-/// blocks of a mesh's preparation (tens of MB) to the system and faults them in again
-/// on the next call: the bunny's signed distance at N = 256 took 274 ms with glibc and
-/// 256 ms with mimalloc (medians of four alternations, same code), N = 512 the same.
-#[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 #[derive(Parser)]
 #[command(name = "volga", version, about = "volga — a volume graphics modeling kernel")]
 struct Cli {
