@@ -744,11 +744,14 @@ impl MeshVoxelizer {
                     }
                 }
                 let distances = lap.lap();
+                // The bricks' signs in parallel again: a block's sign work can be most of
+                // a small mesh's (the teapot's self-crossings), too coarse to share out.
                 let out: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = bricks
-                    .iter()
-                    .zip(&nearest)
+                    .par_iter()
+                    .zip(nearest.par_iter())
                     .enumerate()
                     .map(|(j, (&(brick, first_trusted), best))| {
+                        let mut lap = Lap::new(timing);
                         let mut clock = BrickClock {
                             distances: if j == 0 { distances } else { 0.0 },
                             ..BrickClock::default()
