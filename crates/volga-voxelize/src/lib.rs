@@ -36,6 +36,7 @@
 #![warn(missing_docs)]
 
 pub mod binary;
+mod blocks;
 #[cfg(feature = "testing")]
 pub mod check;
 mod field;

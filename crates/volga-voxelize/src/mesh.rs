@@ -37,11 +37,12 @@ use rustc_hash::FxHashMap;
 use volga_core::{Brick, Grid, IndexBox, Progress, SparseVolume, BRICK_DIM, BRICK_VOXELS};
 use volga_mesh::{Bvh, FaceFrame, TriMesh};
 
+use crate::blocks::Blocks;
 use crate::mask::BrickMask;
 use crate::profile::{BrickClock, Lap, VoxelizeProfile};
 use crate::regions::{EdgeUse, FeatureRegions};
 use crate::sign::{MeshTopology, SignOracle, SignStats, Slack};
-use crate::tri_distance::{BandColumns, Nearest, TriDistance};
+use crate::tri_distance::{Nearest, TriDistance};
 use crate::{OrientedBoxFilter, SurfaceMode};
 
 /// A mesh prepared for distance voxelization: BVH, pseudo-normals, boundary flags and
@@ -64,9 +65,9 @@ pub struct MeshVoxelizer {
     pub(crate) vertex_normal: Vec<[DVec3; 3]>,
     pub(crate) vertex_ambiguous: Vec<[bool; 3]>,
     boundary_edges: usize,
-    distance: Vec<TriDistance>,
+    pub(crate) distance: Vec<TriDistance>,
     /// Face, edge and vertex regions that bound where each triangle can be nearest.
-    regions: FeatureRegions,
+    pub(crate) regions: FeatureRegions,
     /// Certified signs: per-triangle principal values, caps, gradient bounds.
     pub(crate) sign: SignOracle,
     /// Where [`MeshVoxelizer::new`]'s time went.
@@ -530,57 +531,14 @@ impl MeshVoxelizer {
             })
             .collect();
 
-        // Distances run in blocks of 4×4×4 bricks: a triangle's band reaches about six
-        // bricks at N = 256, and one pass over its feature regions per block instead of
-        // one per brick cuts the regions' enumeration and the binning (the bunny at N =
-        // 256: distances 85 → 65 ms, bins 19 → 12 ms). Each triangle is clipped to the
-        // bricks its band range reaches, and a block's triangles run in index order, so
-        // every voxel sees the same candidates in the same order as brick by brick: the
-        // same nearest triangle, ties included.
-        const BLOCK: i32 = 4;
-        let brick_dim = IVec3::splat(BRICK_DIM);
-        let block_extent = (volga_core::brick_extent(grid.dims()) + (BLOCK - 1)).div_euclid(IVec3::splat(BLOCK));
-        // The bins and the regions laid out for this grid, side by side.
+        // The triangles binned by block of bricks (`crate::blocks`) and the regions laid
+        // out for this grid, side by side.
         let (blocks, prepared) = rayon::join(
-            || crate::pairs::bin_by_cell(&ranges, BLOCK * BRICK_DIM, block_extent),
+            || Blocks::new(&ranges, grid, &self.sign.trusted),
             || self.regions.prepare(t, &grid_box, band),
         );
-        // Each block's bricks that some band range reaches, in storage order, with the
-        // first (lowest) trusted triangle whose band range reaches each.
-        let block_bricks: Vec<Vec<(IVec3, Option<usize>)>> = (0..blocks.bricks.len())
-            .into_par_iter()
-            .map(|kb| {
-                let first_brick = blocks.bricks[kb] * BLOCK;
-                let mut reached = [false; (BLOCK * BLOCK * BLOCK) as usize];
-                let mut trusted = [None; (BLOCK * BLOCK * BLOCK) as usize];
-                for &i in blocks.items(kb) {
-                    let r = &ranges[i as usize];
-                    let lo = r.min.div_euclid(brick_dim).max(first_brick);
-                    let hi = ((r.max - 1).div_euclid(brick_dim) + 1).min(first_brick + BLOCK);
-                    let is_trusted = self.sign.trusted[i as usize];
-                    for b in IndexBox::new(lo, hi).iter() {
-                        let l = b - first_brick;
-                        let slot = (l.x + BLOCK * (l.y + BLOCK * l.z)) as usize;
-                        reached[slot] = true;
-                        if is_trusted && trusted[slot].is_none() {
-                            trusted[slot] = Some(i as usize);
-                        }
-                    }
-                }
-                (0..reached.len())
-                    .filter(|&slot| reached[slot])
-                    .map(|slot| {
-                        let s = slot as i32;
-                        let l = IVec3::new(s % BLOCK, (s / BLOCK) % BLOCK, s / (BLOCK * BLOCK));
-                        (first_brick + l, trusted[slot])
-                    })
-                    .collect()
-            })
-            .collect();
-        progress.start("voxelize", block_bricks.iter().map(|b| b.len() as u64).sum());
+        progress.start("voxelize", blocks.brick_count());
         let band2 = band * band;
-        // The band in index units on the finest axis (a superset on anisotropic grids).
-        let band_index = band / grid.min_spacing();
         if let Some(profile) = profile.as_deref_mut() {
             stage = profile.serial("bins", stage);
         }
@@ -689,64 +647,16 @@ impl MeshVoxelizer {
                 clock.output = lap.lap();
                 (brick, brick_data, stats)
             };
-        let band_bricks: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = (0..blocks.bricks.len())
+        let band_bricks: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = (0..blocks.len())
             .into_par_iter()
             .flat_map_iter(|kb| {
                 let mut lap = Lap::new(timing);
-                let bricks = &block_bricks[kb];
-                let first_brick = blocks.bricks[kb] * BLOCK;
-                let block_box =
-                    IndexBox::new(first_brick * BRICK_DIM, (first_brick + BLOCK) * BRICK_DIM).intersection(&grid_box);
-                // Each brick's nearest triangles so far, starting at the band: farther
-                // candidates are never needed.
-                let mut slot_of = [u16::MAX; (BLOCK * BLOCK * BLOCK) as usize];
-                let local = |b: IVec3| {
-                    let l = b - first_brick;
-                    (l.x + BLOCK * (l.y + BLOCK * l.z)) as usize
-                };
-                for (j, &(b, _)) in bricks.iter().enumerate() {
-                    slot_of[local(b)] = j as u16;
-                }
-                let slot = |b: IVec3| slot_of[local(b)] as usize;
-                let mut nearest = vec![
-                    Nearest {
-                        d2: [band2 * (1.0 + 1e-9); BRICK_VOXELS],
-                        id: [u32::MAX; BRICK_VOXELS],
-                    };
-                    bricks.len()
-                ];
-                // Triangles in index order: among equally near ones the first stays, so
-                // the result is independent of threads.
-                for &i in blocks.items(kb) {
-                    // The bricks `i`'s band range reaches, within the block.
-                    let range = &ranges[i as usize];
-                    let (lo, hi) = (
-                        range.min.div_euclid(brick_dim),
-                        (range.max - 1).div_euclid(brick_dim) + 1,
-                    );
-                    let region = IndexBox::new(lo * BRICK_DIM, hi * BRICK_DIM).intersection(&block_box);
-                    let dist = &self.distance[i as usize];
-                    let mut update = |mut start: IVec3, axis: usize, mut count: i32| {
-                        // A run is cut at the brick faces it crosses.
-                        while count > 0 {
-                            let b = start >> volga_core::BRICK_LOG2; // floor division by the brick edge
-                            let n = count.min((b[axis] + 1) * BRICK_DIM - start[axis]);
-                            dist.column_min(t, start, axis, n, &mut nearest[slot(b)], i);
-                            start[axis] += n;
-                            count -= n;
-                        }
-                    };
-                    if self.regions.is_fallback(i as usize) {
-                        let tri_index = self.triangles[i as usize].map(|p| t.world_to_index(p));
-                        BandColumns::new(tri_index, band_index).for_each(&region, update);
-                    } else {
-                        prepared.for_each_run(i as usize, &region, &mut update);
-                    }
-                }
+                let nearest = self.block_nearest(&blocks, kb, &prepared, grid, band);
                 let distances = lap.lap();
                 // The bricks' signs in parallel again: a block's sign work can be most of
                 // a small mesh's (the teapot's self-crossings), too coarse to share out.
-                let out: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = bricks
+                let out: Vec<(IVec3, Brick<f32>, SignStats, BrickClock)> = blocks
+                    .bricks(kb)
                     .par_iter()
                     .zip(nearest.par_iter())
                     .enumerate()
