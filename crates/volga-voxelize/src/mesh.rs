@@ -531,12 +531,10 @@ impl MeshVoxelizer {
             })
             .collect();
 
-        // The triangles binned by block of bricks (`crate::blocks`) and the regions laid
-        // out for this grid, side by side.
-        let (blocks, prepared) = rayon::join(
-            || Blocks::new(&ranges, grid, &self.sign.trusted),
-            || self.regions.prepare(t, &grid_box, band),
-        );
+        // The triangles binned by block of bricks (`crate::blocks`), and the feature
+        // regions for this grid (laid out as the distance pass reaches them).
+        let blocks = Blocks::new(&ranges, grid, &self.sign.trusted);
+        let prepared = self.regions.prepare(t, &grid_box, band);
         progress.start("voxelize", blocks.brick_count());
         let band2 = band * band;
         if let Some(profile) = profile.as_deref_mut() {
