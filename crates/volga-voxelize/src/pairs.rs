@@ -58,16 +58,11 @@ impl BrickBins {
     }
 }
 
-/// Bins item `i` into every brick its (index-space) range `ranges[i]` touches. Pairs are
-/// packed as `linear brick index << 32 | item` and sorted as plain integers; grids of 2³²
-/// bricks or more take the tuple sort.
-#[cfg(test)]
-pub(crate) fn bin_by_brick(ranges: &[IndexBox], brick_extent: IVec3) -> BrickBins {
-    bin_by_cell(ranges, volga_core::BRICK_DIM, brick_extent)
-}
-
-/// [`bin_by_brick`] for cubic cells of `cell_dim` voxels (a multiple of the brick's),
-/// `cell_extent` cells along each axis: `bricks` then holds cell coordinates.
+/// Bins item `i` into every cubic cell of `cell_dim` voxels (a brick, or a block of
+/// bricks) its (index-space) range `ranges[i]` touches, `cell_extent` cells along each
+/// axis; `bricks` then holds cell coordinates. Pairs are packed as `linear cell index <<
+/// 32 | item` and sorted as plain integers; grids of 2³² cells or more take the tuple
+/// sort.
 pub(crate) fn bin_by_cell(ranges: &[IndexBox], cell_dim: i32, cell_extent: IVec3) -> BrickBins {
     let dim = IVec3::splat(cell_dim);
     let bricks_of = |r: &IndexBox| {
@@ -201,7 +196,7 @@ mod tests {
         sort_brick_pairs(&mut pairs);
         // The packed keys, and a brick extent of 2⁴⁰ bricks that takes the tuple sort.
         for extent in [extent, IVec3::new(1 << 20, 1 << 20, 3)] {
-            let bins = bin_by_brick(&ranges, extent);
+            let bins = bin_by_cell(&ranges, volga_core::BRICK_DIM, extent);
             let mut flat: Vec<(IVec3, u32)> = Vec::new();
             for (k, &brick) in bins.bricks.iter().enumerate() {
                 flat.extend(bins.items(k).iter().map(|&i| (brick, i)));
