@@ -76,7 +76,7 @@ pub fn run(command: BenchCommand) -> Result<(), Failure> {
     if let Some(out) = &args.out {
         output_format(out, binary)?;
     }
-    let job = job_args.prepare(&mut Stages::with_stage_start(volga_scene::reset_peak_rss))?;
+    let job = job_args.prepare(&mut Stages::with_stage_start(crate::heap::stage_start))?;
     let profiles = std::cell::RefCell::new(Vec::new());
     let once = || {
         let start = Instant::now();

@@ -2,7 +2,7 @@
 //! measure what accuracy costs in time.
 //!
 //! Exit codes: 0 success, 1 the build (or a check) failed, 2 bad input.
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 mod accuracy;
 mod adf;
@@ -13,6 +13,8 @@ mod bench_render;
 mod bench_sculpt;
 mod convert;
 mod failure;
+#[allow(unsafe_code)]
+mod heap;
 mod mesh_out;
 mod progress;
 mod sculpt;
@@ -118,6 +120,7 @@ pub(crate) fn max_threads(cores: usize) -> usize {
 }
 
 fn main() -> ExitCode {
+    heap::keep_freed_memory();
     // Interrupted (SIGINT, SIGTERM, SIGHUP): delete the temp files of outputs not yet
     // renamed, so existing outputs stay as they were and nothing half-written is left.
     // Exit 130, the shell's code for an interrupt.
@@ -157,7 +160,7 @@ fn main() -> ExitCode {
             let options = BuildOptions {
                 out_dir: out,
                 memory_limit,
-                stage_start: Some(volga_scene::reset_peak_rss),
+                stage_start: Some(heap::stage_start),
                 allow_outside_paths,
             };
             match build(&scene, &options, &progress) {

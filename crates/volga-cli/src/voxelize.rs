@@ -431,7 +431,7 @@ pub fn run(args: VoxelizeArgs, progress: &dyn Progress) -> Result<(), Failure> {
         }
         None => {}
     }
-    let mut stages = Stages::with_stage_start(volga_scene::reset_peak_rss);
+    let mut stages = Stages::with_stage_start(crate::heap::stage_start);
     let job = job_args.prepare(&mut stages)?;
     if format == VoxelFormat::Nrrd {
         // A NRRD's size is known from the grid: refuse before voxelizing.
