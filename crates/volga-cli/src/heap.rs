@@ -2,18 +2,20 @@
 //! kernel, and handed back at the start of each reported stage.
 //!
 //! glibc serves blocks above its mmap threshold (128 KiB, rising to at most 32 MiB)
-//! with fresh mappings and unmaps them when freed, and trims a heap's free top above
-//! 128 KiB. A voxelizer call allocates tens of MiB of tables in such blocks (the bunny
-//! at N = 256: about 16,000 pages), so every call faults them in and zeroes them again:
-//! about 40 ms of CPU per call of the bunny's narrow band at 256, a seventh of it
-//! (`perf`: `exc_page_fault`, `clear_page_erms`). Served repeatedly (`bench --serve`,
-//! builds with several nodes), the second and later calls reuse the first's pages.
+//! with fresh mappings and unmaps them when freed, trims a heap's free top above
+//! 128 KiB, and unmaps a worker thread's extra heap (64 MiB each) once it is empty. A
+//! voxelizer call allocates tens of MiB of tables in such blocks (the bunny at N = 256:
+//! about 16,000 pages), so every call faults them in and zeroes them again: about 40 ms
+//! of CPU per call of the bunny's narrow band at 256, a seventh of it (`perf`:
+//! `exc_page_fault`, `clear_page_erms`). Served repeatedly (`bench --serve`, builds with
+//! several nodes), the second and later calls reuse the first's pages.
 //!
 //! Each reported stage still measures its own peak: [`stage_start`] returns the free
 //! memory to the kernel before resetting the peak.
 
-/// Keeps freed blocks for reuse: blocks up to 32 MiB come from the heap, and a heap's
-/// free top is returned only above 1 GiB. Call once, before any thread allocates.
+/// Keeps freed blocks for reuse: blocks up to 32 MiB come from the heap, a heap's free
+/// top is returned only above 1 GiB, and an empty worker heap is kept while less than
+/// 64 MiB (the top pad) would be freed. Call once, before any thread allocates.
 pub fn keep_freed_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: `mallopt` only sets glibc allocator parameters, under the allocator's own
@@ -21,6 +23,7 @@ pub fn keep_freed_memory() {
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
         libc::mallopt(libc::M_TRIM_THRESHOLD, 1 << 30);
+        libc::mallopt(libc::M_TOP_PAD, 64 << 20);
     }
 }
 
