@@ -268,7 +268,10 @@ impl SignOracle {
         // triangles in (Morton) order share one query at the centre of their bounding
         // sphere when no cap reaches the sphere: `w_C` is smooth there, off by at most the
         // gradient bound times the distance; triangles the shared value does not pin
-        // within 0.02 ask their own.
+        // within 0.1 ask their own (to 0.02). The error only widens the triangle's band
+        // interval (`Slack`), whose margin far from the holes is near ½: on the bunny at
+        // N = 256, 0.1 instead of 0.02 sends 3 of 933 k band voxels to the caps and
+        // spares 29 k of 44 k own queries.
         let (clean_ref, root_ref, front_ref) = (&clean, &root, &front_of_region);
         let per_triangle: Vec<(bool, i64, f64, f64)> = (0..n)
             .into_par_iter()
@@ -295,7 +298,7 @@ impl SignOracle {
                         Some(i) => {
                             let near = shared.and_then(|(w, e, g)| {
                                 let e = e + g * (c - centre).length();
-                                (e <= 0.02).then_some((w, e))
+                                (e <= 0.1).then_some((w, e))
                             });
                             let (wc, ec) = near
                                 .or_else(|| cap_winding(c, 0.02).map(|b| (b.value, b.error)))
