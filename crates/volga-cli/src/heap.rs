@@ -6,7 +6,7 @@
 //! 128 KiB, and unmaps a worker thread's extra heap (64 MiB each) once it is empty. A
 //! voxelizer call allocates tens of MiB of tables in such blocks (the bunny at N = 256:
 //! about 16,000 pages), so every call faults them in and zeroes them again: about 40 ms
-//! of CPU per call of the bunny's narrow band at 256, a seventh of it (`perf`:
+//! of CPU per call of the bunny's narrow band at 256, about 7 % of it (`perf`:
 //! `exc_page_fault`, `clear_page_erms`). Served repeatedly (`bench --serve`, builds with
 //! several nodes), the second and later calls reuse the first's pages.
 //!
