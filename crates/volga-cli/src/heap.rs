@@ -28,7 +28,8 @@ pub fn keep_freed_memory() {
 }
 
 /// Hands the heap's free memory back to the kernel, then resets the peak resident set
-/// ([`volga_scene::reset_peak_rss`]): the stage hook the CLI passes to builds.
+/// ([`volga_scene::reset_peak_rss`]): the stage hook the CLI passes to `build`,
+/// `voxelize` and `bench`.
 pub fn stage_start() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: `malloc_trim` releases free pages of glibc's heaps under the allocator's
