@@ -179,13 +179,14 @@ impl SurfaceMeasures {
 /// What a source narrowed for one cell of the build ([`AdfSource::candidates`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CellCandidates {
-    /// Ids of the primitives (a mesh: triangle indices) that can hold the nearest surface
-    /// point of any point of the cell.
+    /// Ids of the primitives, or of groups of them, that can hold the nearest surface
+    /// point of any point of the cell (a mesh: clusters of triangles,
+    /// `MeshSource::triangles_of` gives their triangles).
     pub ids: Vec<u32>,
     /// When as long as `ids`: a lower bound, for every point of the cell, of the squared
     /// distance to each primitive, ascending (`ids` in that order), so a scan for the
     /// nearest one stops at the first bound above its best (a mesh: the squared gap
-    /// between the cell and the triangle's box, rounded down to `f32`). Empty: `ids` in no
+    /// between the cell and the cluster's box, rounded down to `f32`). Empty: `ids` in no
     /// particular order.
     pub lower: Vec<f64>,
     /// Certified bounds over the cell of a quantity the source decides signs with (a mesh
@@ -195,9 +196,9 @@ pub struct CellCandidates {
 
 impl CellCandidates {
     /// The ids whose bound is 0 when the list is sorted (`lower`), else all: with a
-    /// mesh, every triangle that meets the cell (its box meets the cell's), which is all
-    /// a segment inside the cell can cross. Exactly the listed triangles whose boxes meet
-    /// the cell, so a count of crossings filtered by the segment's box sees the same ones.
+    /// mesh, the clusters whose boxes meet the cell. Their triangles include every
+    /// triangle whose box meets the cell, which is all a segment inside the cell can
+    /// cross, so a count of crossings filtered by the segment's box sees the same ones.
     pub fn meeting_cell(&self) -> &[u32] {
         if self.lower.len() == self.ids.len() {
             &self.ids[..self.lower.partition_point(|&g| g <= 0.0)]

@@ -1,9 +1,10 @@
-//! The sorted candidate scan of `MeshSource::sample_among` (lists sorted by their boxes'
-//! gap to the cell, a scan that stops at the first gap above its best and skips triangles
-//! by box and plane bounds) answers exactly what the BVH answers: the same value bit for
-//! bit and the same carried winding integer, at random points of random cells, with lists
-//! taken from the BVH and narrowed from a parent's, on the unclean corpus (open,
-//! self-intersecting, overlapping, degenerate), a mesh of slivers and a mesh at 1e6.
+//! The sorted candidate scan of `MeshSource::sample_among` (lists of triangle clusters
+//! sorted by their boxes' gap to the cell, a scan that stops at the first gap above its
+//! best and skips clusters by box and triangles by box and plane bounds) answers exactly
+//! what the BVH answers: the same value bit for bit and the same carried winding integer,
+//! at random points of random cells, with lists of the whole mesh and narrowed from a
+//! parent's, on the unclean corpus (open, self-intersecting, overlapping, degenerate), a
+//! mesh of slivers and a mesh at 1e6. The lists hold every triangle within the reach.
 
 use glam::DVec3;
 use volga_adf::{AdfSource, MeshSource};
@@ -57,22 +58,37 @@ fn check(name: &str, mesh: &TriMesh, rng: &mut Rng) {
         let child_reach = corner.value.abs() + size * 0.5 * 3f64.sqrt();
         let narrowed = source.candidates(&child, child_reach, Some(&parent)).unwrap();
         for (list, cell) in [(&parent, &cell), (&narrowed, &child)] {
-            // The triangles meeting the cell are exactly the prefix of zero gaps.
-            let meeting: Vec<u32> = list
-                .ids
-                .iter()
-                .copied()
-                .filter(|&id| {
-                    let [a, b, c] = mesh.triangle(id as usize);
-                    let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
-                    lo.cmple(cell.max).all() && cell.min.cmple(hi).all()
-                })
-                .collect();
-            let mut prefix = list.meeting_cell().to_vec();
-            prefix.sort_unstable();
-            let mut meeting = meeting;
-            meeting.sort_unstable();
-            assert_eq!(prefix, meeting, "{name}: cell {cell_index}");
+            // The clusters of zero gap hold every triangle meeting the cell; no later one
+            // holds any.
+            let meets = |id: &u32| {
+                let [a, b, c] = mesh.triangle(*id as usize);
+                let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+                lo.cmple(cell.max).all() && cell.min.cmple(hi).all()
+            };
+            let prefix = list.meeting_cell();
+            let inside: Vec<u32> = source.triangles_of(prefix).collect();
+            let after: Vec<u32> = source.triangles_of(&list.ids[prefix.len()..]).collect();
+            assert!(!after.iter().any(meets), "{name}: cell {cell_index}");
+            let listed: std::collections::HashSet<u32> = inside.iter().copied().chain(after).collect();
+            let wanted = (0..mesh.triangle_count() as u32).filter(|id| meets(id));
+            for id in wanted {
+                assert!(inside.contains(&id), "{name}: cell {cell_index}: triangle {id}");
+            }
+            // Every triangle within the reach of the cell is listed.
+            let reach_here = if std::ptr::eq(list, &parent) {
+                reach
+            } else {
+                child_reach
+            };
+            for id in 0..mesh.triangle_count() as u32 {
+                let [a, b, c] = mesh.triangle(id as usize);
+                let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+                let gap = (lo - cell.max).max(cell.min - hi).max(DVec3::ZERO).length();
+                assert!(
+                    gap > reach_here || listed.contains(&id),
+                    "{name}: cell {cell_index}: triangle {id}"
+                );
+            }
             for _ in 0..12 {
                 // Points inside the cell, on its corners and faces (lattice-like points).
                 let p = if rng.next() < 0.3 {

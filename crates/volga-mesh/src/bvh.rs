@@ -109,6 +109,12 @@ impl Bvh {
         self.nodes.first()
     }
 
+    /// Mesh triangle indices in tree order: the triangles of a leaf, and of any subtree,
+    /// are consecutive, so runs of this order are spatially compact.
+    pub fn tree_order(&self) -> &[u32] {
+        &self.triangle_ids
+    }
+
     /// Number of triangles indexed.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()

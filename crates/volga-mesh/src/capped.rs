@@ -180,7 +180,7 @@ impl CappedWinding {
         from: DVec3,
         from_integer: i64,
         to: DVec3,
-        mesh_triangles: &[u32],
+        mesh_triangles: impl IntoIterator<Item = u32>,
     ) -> Option<i64> {
         if from == to {
             return Some(from_integer);
@@ -196,9 +196,8 @@ impl CappedWinding {
             !(a.min(b).min(c).cmpgt(query.max).any() || a.max(b).max(c).cmplt(query.min).any())
         };
         let ids = mesh_triangles
-            .iter()
-            .filter(|&id| *id < mesh_count && boxes(id))
-            .copied()
+            .into_iter()
+            .filter(|id| *id < mesh_count && boxes(id))
             .chain(caps.into_iter().map(|c| c + mesh_count));
         self.count_crossings(from, from_integer, to, ids)
     }

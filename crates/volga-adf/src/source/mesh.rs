@@ -22,14 +22,20 @@ use super::{AdfSource, CellCandidates, Sample, SurfaceMeasures};
 #[derive(Debug)]
 pub struct MeshSource {
     bvh: Bvh,
-    /// Triangle corners by mesh id, for the exact distances of a cell's candidate scans.
+    /// Mesh triangle ids in the BVH's tree order: the order of the three arrays below,
+    /// whose runs of [`CLUSTER`] are the clusters candidate lists hold.
+    order: Vec<u32>,
+    /// Triangle corners in tree order, for the exact distances of a cell's candidate scans.
     triangles: Vec<[DVec3; 3]>,
-    /// Each triangle's face test, prepared once for the scans (`None`: degenerate).
+    /// Each triangle's face test in tree order, prepared once for the scans (`None`:
+    /// degenerate).
     frames: Vec<Option<FaceFrame>>,
-    /// Each triangle's box and plane by mesh id, side by side: what a candidate list's
-    /// narrowing and a scan's lower bound read ([`MeshSource::candidates`],
-    /// [`MeshSource::sample_among`]).
+    /// Each triangle's box and plane in tree order, side by side: what a scan's lower
+    /// bound reads ([`MeshSource::sample_among`]).
     scan: Vec<ScanRecord>,
+    /// Each cluster's box (the union of its triangles' boxes): what a candidate list
+    /// holds, sorts by and narrows ([`MeshSource::candidates`]).
+    clusters: Vec<ClusterBox>,
     /// Absolute slack (world units) subtracted from the plane lower bounds: covers the
     /// rounding of the bound and of `closest_point_on_triangle` with a wide margin.
     plane_slack: f64,
@@ -51,8 +57,10 @@ impl MeshSource {
         if !(bounds.min.is_finite() && bounds.max.is_finite()) {
             return Err(crate::AdfError::EmptySource("the mesh has non-finite vertices".into()));
         }
-        let triangles: Vec<[DVec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.triangle(i)).collect();
-        let scan = triangles
+        let bvh = Bvh::build(mesh);
+        let order = bvh.tree_order().to_vec();
+        let triangles: Vec<[DVec3; 3]> = order.iter().map(|&i| mesh.triangle(i as usize)).collect();
+        let scan: Vec<ScanRecord> = triangles
             .iter()
             .map(|&t @ [a, b, c]| {
                 let normal = scan_normal(t);
@@ -64,14 +72,23 @@ impl MeshSource {
                 }
             })
             .collect();
+        let clusters = scan
+            .chunks(CLUSTER)
+            .map(|run| ClusterBox {
+                lo: run.iter().fold(DVec3::INFINITY, |m, r| m.min(r.lo)),
+                hi: run.iter().fold(DVec3::NEG_INFINITY, |m, r| m.max(r.hi)),
+            })
+            .collect();
         let frames = triangles.iter().map(|&t| FaceFrame::new(t)).collect();
         let extent = bounds.min.abs().max(bounds.max.abs()).max_element();
         let plane_slack = 1e-9 * bounds.size().length() + 1e-12 * extent;
         Ok(MeshSource {
-            bvh: Bvh::build(mesh),
+            bvh,
+            order,
             triangles,
             frames,
             scan,
+            clusters,
             plane_slack,
             winding: CappedWinding::new(mesh),
             bounds,
@@ -111,11 +128,10 @@ impl MeshSource {
     }
 }
 
-/// Candidate lists longer than this are narrowed with the BVH, not by filtering.
-const NARROW_FROM_BVH: usize = 1 << 16;
-/// Candidate lists longer than this are not scanned: the point asks the BVH. (Sorted
-/// scans stop early, so the whole narrowed list is worth scanning.)
-const SCAN_LIMIT: usize = 4096;
+/// Triangles per cluster: candidate lists hold runs of this many triangles of the BVH's
+/// tree order (spatially compact), so lists are this many times shorter to narrow and
+/// sort, and a scan reads each cluster's triangles side by side.
+const CLUSTER: usize = 8;
 
 /// The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
 #[inline]
@@ -146,7 +162,12 @@ impl MeshSource {
         }
         let known = near.and_then(|(q, s)| {
             s.region.and_then(|i| match candidates {
-                Some(c) => self.winding.integer_along_among(q, i, p, c.meeting_cell()),
+                Some(c) => self.winding.integer_along_among(
+                    q,
+                    i,
+                    p,
+                    self.triangles_meeting(c.meeting_cell(), q.min(p), q.max(p)),
+                ),
                 None => self.winding.integer_along(q, i, p),
             })
         });
@@ -199,6 +220,13 @@ struct ScanRecord {
     offset: f64,
 }
 
+/// A cluster's box: the union of its triangles' boxes.
+#[derive(Clone, Copy, Debug)]
+struct ClusterBox {
+    lo: DVec3,
+    hi: DVec3,
+}
+
 /// The unit normal of a triangle whose double area is at least 1e-3 of its longest edge
 /// squared, else zero (no plane bound: the nearest point of a thin triangle may lie off
 /// the plane computed from its corners by more than rounding).
@@ -223,8 +251,8 @@ impl MeshSource {
     /// `plane_slack` when that is larger. A candidate whose bound exceeds the best squared
     /// distance so far cannot lower it, so skipping it leaves the minimum unchanged.
     #[inline]
-    fn lower_bound_squared(&self, p: DVec3, id: u32) -> f64 {
-        let r = &self.scan[id as usize];
+    fn lower_bound_squared(&self, p: DVec3, t: usize) -> f64 {
+        let r = &self.scan[t];
         let gap = (r.lo - p).max(p - r.hi).max(DVec3::ZERO).length_squared();
         let plane = (r.normal.dot(p) - r.offset).abs() - self.plane_slack;
         if plane > 0.0 {
@@ -232,6 +260,39 @@ impl MeshSource {
         } else {
             gap
         }
+    }
+}
+
+impl MeshSource {
+    /// The positions in tree order of cluster `c`'s triangles.
+    #[inline]
+    fn cluster_range(&self, c: u32) -> std::ops::Range<usize> {
+        let start = c as usize * CLUSTER;
+        start..(start + CLUSTER).min(self.triangles.len())
+    }
+
+    /// The mesh ids of the triangles of `clusters` (ids of a [`CellCandidates`] list of
+    /// this source), cluster by cluster: what a list, or a prefix of it such as
+    /// [`CellCandidates::meeting_cell`], stands for.
+    pub fn triangles_of<'a>(&'a self, clusters: &'a [u32]) -> impl Iterator<Item = u32> + 'a {
+        clusters
+            .iter()
+            .flat_map(move |&c| self.order[self.cluster_range(c)].iter().copied())
+    }
+}
+
+impl MeshSource {
+    /// The mesh ids of the triangles of `clusters` whose boxes meet the box `lo..hi`
+    /// (closed), read in tree order: every triangle of theirs that can meet a segment
+    /// inside it.
+    fn triangles_meeting<'a>(&'a self, clusters: &'a [u32], lo: DVec3, hi: DVec3) -> impl Iterator<Item = u32> + 'a {
+        let meets = move |a: DVec3, b: DVec3| !(a.cmpgt(hi).any() || b.cmplt(lo).any());
+        clusters
+            .iter()
+            .filter(move |&&c| meets(self.clusters[c as usize].lo, self.clusters[c as usize].hi))
+            .flat_map(move |&c| self.cluster_range(c))
+            .filter(move |&t| meets(self.scan[t].lo, self.scan[t].hi))
+            .map(move |t| self.order[t])
     }
 }
 
@@ -275,16 +336,17 @@ impl AdfSource for MeshSource {
         self.signed(p, unsigned, near, None)
     }
 
-    /// The triangles whose boxes are within `reach` (Euclidean) of the cell: they hold
-    /// the nearest point of every point of the cell (its distance is at most `reach`).
-    /// From the BVH at the top of the tree (no parent, or a long parent list), else by
-    /// filtering the parent's list; sorted by their boxes' gap to the cell (`lower`).
+    /// The clusters of triangles ([`CLUSTER`] consecutive ones of the BVH's tree order)
+    /// whose boxes are within `reach` (Euclidean) of the cell: their triangles hold the
+    /// nearest point of every point of the cell (its distance is at most `reach`). All
+    /// clusters are filtered at the top of the tree (no parent), else the parent's list;
+    /// sorted by their boxes' gap to the cell (`lower`).
     fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
         // Slack for the rounding of `reach` and of the box distances.
         let reach = reach * (1.0 + 1e-9) + 1e-12 * cell.size().max_element();
         let reach_squared = reach * reach;
         let gap_squared = |id: u32| {
-            let r = &self.scan[id as usize];
+            let r = &self.clusters[id as usize];
             (r.lo - cell.max).max(cell.min - r.hi).max(DVec3::ZERO).length_squared()
         };
         // A candidate's sort key: its gap rounded down to f32 (still a lower bound), whose
@@ -295,7 +357,7 @@ impl AdfSource for MeshSource {
             (g <= reach_squared).then(|| (u64::from(f32_at_most(g).to_bits()) << 32) | u64::from(id))
         };
         let mut keys: Vec<u64> = match parent {
-            Some(list) if list.ids.len() <= NARROW_FROM_BVH => {
+            Some(list) => {
                 // The parent's gaps are lower bounds of this cell's (it lies inside the
                 // parent): a sorted list ends with the first one beyond the reach.
                 let end = if list.lower.len() == list.ids.len() {
@@ -305,12 +367,7 @@ impl AdfSource for MeshSource {
                 };
                 list.ids[..end].iter().filter_map(|&id| near(id)).collect()
             }
-            _ => {
-                let grown = Aabb::new(cell.min - DVec3::splat(reach), cell.max + DVec3::splat(reach));
-                let mut ids = Vec::new();
-                self.bvh.boxes_overlapping(&grown, &mut ids);
-                ids.into_iter().filter_map(near).collect()
-            }
+            None => (0..self.clusters.len() as u32).filter_map(near).collect(),
         };
         // Nearest boxes first.
         keys.sort_unstable();
@@ -335,20 +392,17 @@ impl AdfSource for MeshSource {
         })
     }
 
-    /// The nearest of the cell's candidates when the list is short, and the sheets
-    /// crossed from `near` counted among them; the BVH otherwise. The same distance as
+    /// The nearest of the cell's candidates, and the sheets crossed from `near` counted
+    /// among them (the BVH only when rounding left the scan empty). The same distance as
     /// [`MeshSource::sample`]: the minimum over a set that holds the nearest triangle.
     ///
-    /// The scan visits the candidates by their boxes' gap to the cell and stops at the
-    /// first gap above the best squared distance so far (every later triangle is farther
-    /// from any point of the cell); a candidate is skipped when its box or, for a
-    /// well-shaped triangle, its plane is farther from `p` than the best
-    /// (`MeshSource::lower_bound_squared`, private). Only triangles that cannot lower the minimum
-    /// are skipped, so the value is the plain scan's, bit for bit.
+    /// The scan visits the candidate clusters by their boxes' gap to the cell and stops at
+    /// the first gap above the best squared distance so far (every later triangle is
+    /// farther from any point of the cell); a cluster is skipped when its box is farther
+    /// from `p` than the best, and a triangle when its box or, for a well-shaped triangle,
+    /// its plane is (`MeshSource::lower_bound_squared`, private). Only triangles that
+    /// cannot lower the minimum are skipped, so the value is the plain scan's, bit for bit.
     fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
-        if candidates.ids.len() > SCAN_LIMIT {
-            return self.sample(p, near);
-        }
         self.queries.fetch_add(1, Ordering::Relaxed);
         let bound = near_bound(p, near);
         let mut best = if bound.is_finite() {
@@ -363,15 +417,21 @@ impl AdfSource for MeshSource {
             if sorted && candidates.lower[k] > best {
                 break;
             }
-            if self.lower_bound_squared(p, id) > best {
+            // The cluster's box holds its triangles' boxes: its gap is at most theirs.
+            let c = &self.clusters[id as usize];
+            if (c.lo - p).max(p - c.hi).max(DVec3::ZERO).length_squared() > best {
                 continue;
             }
-            let (q, _) =
-                volga_mesh::closest_point_with_frame(p, self.triangles[id as usize], self.frames[id as usize].as_ref());
-            let d2 = (p - q).length_squared();
-            if d2 <= best {
-                best = d2;
-                found = true;
+            for t in self.cluster_range(id) {
+                if self.lower_bound_squared(p, t) > best {
+                    continue;
+                }
+                let (q, _) = volga_mesh::closest_point_with_frame(p, self.triangles[t], self.frames[t].as_ref());
+                let d2 = (p - q).length_squared();
+                if d2 <= best {
+                    best = d2;
+                    found = true;
+                }
             }
         }
         if !found {
@@ -444,7 +504,7 @@ impl AdfSource for MeshSource {
     /// `near` and `p` (counted); `w_C` decides.
     fn inside_in_empty_cell(&self, p: DVec3, near: (DVec3, &Sample)) -> Option<bool> {
         let (q, s) = near;
-        let integer = self.winding.integer_along_among(q, s.region?, p, &[])?;
+        let integer = self.winding.integer_along_among(q, s.region?, p, std::iter::empty())?;
         let (inside, _, cost) = self.winding.inside_with(p, Some(integer));
         self.winding_terms.fetch_add(cost.terms, Ordering::Relaxed);
         Some(inside)
