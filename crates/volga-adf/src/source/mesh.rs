@@ -30,9 +30,9 @@ pub struct MeshSource {
     /// Each triangle's face test in tree order, prepared once for the scans (`None`:
     /// degenerate).
     frames: Vec<Option<FaceFrame>>,
-    /// Each triangle's box and plane in tree order, side by side: what a scan's lower
-    /// bound reads ([`MeshSource::sample_among`]).
-    scan: Vec<ScanRecord>,
+    /// Each cluster's triangles' boxes and planes, coordinate by coordinate: what a scan's
+    /// lower bounds read ([`MeshSource::sample_among`]).
+    blocks: Vec<ScanBlock>,
     /// Each cluster's box (the union of its triangles' boxes): what a candidate list
     /// holds, sorts by and narrows ([`MeshSource::candidates`]).
     clusters: Vec<ClusterBox>,
@@ -60,25 +60,29 @@ impl MeshSource {
         let bvh = Bvh::build(mesh);
         let order = bvh.tree_order().to_vec();
         let triangles: Vec<[DVec3; 3]> = order.iter().map(|&i| mesh.triangle(i as usize)).collect();
-        let scan: Vec<ScanRecord> = triangles
-            .iter()
-            .map(|&t @ [a, b, c]| {
+        let mut blocks = Vec::with_capacity(triangles.len().div_ceil(CLUSTER));
+        let mut clusters = Vec::with_capacity(blocks.capacity());
+        for run in triangles.chunks(CLUSTER) {
+            let mut block = ScanBlock::EMPTY;
+            let mut cluster = ClusterBox {
+                lo: DVec3::INFINITY,
+                hi: DVec3::NEG_INFINITY,
+            };
+            for (k, &t @ [a, b, c]) in run.iter().enumerate() {
+                let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
                 let normal = scan_normal(t);
-                ScanRecord {
-                    lo: a.min(b).min(c),
-                    hi: a.max(b).max(c),
-                    normal,
-                    offset: normal.dot(a),
+                for axis in 0..3 {
+                    block.lo[axis][k] = lo[axis];
+                    block.hi[axis][k] = hi[axis];
+                    block.normal[axis][k] = normal[axis];
                 }
-            })
-            .collect();
-        let clusters = scan
-            .chunks(CLUSTER)
-            .map(|run| ClusterBox {
-                lo: run.iter().fold(DVec3::INFINITY, |m, r| m.min(r.lo)),
-                hi: run.iter().fold(DVec3::NEG_INFINITY, |m, r| m.max(r.hi)),
-            })
-            .collect();
+                block.offset[k] = normal.dot(a);
+                cluster.lo = cluster.lo.min(lo);
+                cluster.hi = cluster.hi.max(hi);
+            }
+            blocks.push(block);
+            clusters.push(cluster);
+        }
         let frames = triangles.iter().map(|&t| FaceFrame::new(t)).collect();
         let extent = bounds.min.abs().max(bounds.max.abs()).max_element();
         let plane_slack = 1e-9 * bounds.size().length() + 1e-12 * extent;
@@ -87,7 +91,7 @@ impl MeshSource {
             order,
             triangles,
             frames,
-            scan,
+            blocks,
             clusters,
             plane_slack,
             winding: CappedWinding::new(mesh),
@@ -208,16 +212,29 @@ fn f32_at_most(x: f64) -> f32 {
     }
 }
 
-/// A triangle's box and plane, for the narrowing of candidate lists and the lower bounds
-/// of scans (one record per triangle, read together).
+/// The boxes and planes of a cluster's triangles, coordinate by coordinate (slot `k`:
+/// the cluster's `k`-th triangle), so a scan computes the lower bounds of all of them
+/// in one pass (`MeshSource::lower_bounds_squared`).
 #[derive(Clone, Copy, Debug)]
-struct ScanRecord {
-    lo: DVec3,
-    hi: DVec3,
+#[repr(C, align(64))]
+struct ScanBlock {
+    lo: [[f64; CLUSTER]; 3],
+    hi: [[f64; CLUSTER]; 3],
     /// [`scan_normal`]: unit, or zero for a triangle too thin for a plane bound.
-    normal: DVec3,
+    normal: [[f64; CLUSTER]; 3],
     /// `normal · a` for the triangle's first corner `a`: the plane is `normal · x = offset`.
-    offset: f64,
+    offset: [f64; CLUSTER],
+}
+
+impl ScanBlock {
+    /// Slots past a short cluster's last triangle are never read (the scan stops at
+    /// the cluster's length).
+    const EMPTY: ScanBlock = ScanBlock {
+        lo: [[0.0; CLUSTER]; 3],
+        hi: [[0.0; CLUSTER]; 3],
+        normal: [[0.0; CLUSTER]; 3],
+        offset: [0.0; CLUSTER],
+    };
 }
 
 /// A cluster's box: the union of its triangles' boxes.
@@ -245,21 +262,27 @@ fn scan_normal([a, b, c]: [DVec3; 3]) -> DVec3 {
 }
 
 impl MeshSource {
-    /// A lower bound of the squared distance `closest_point_on_triangle` computes from `p`
-    /// to triangle `id`, below it by more than rounding: the squared gap to the triangle's
-    /// box (what the scan always pruned by), or the squared distance to its plane less
-    /// `plane_slack` when that is larger. A candidate whose bound exceeds the best squared
-    /// distance so far cannot lower it, so skipping it leaves the minimum unchanged.
+    /// For each triangle of a cluster (its block), a lower bound of the squared distance
+    /// `closest_point_on_triangle` computes from `p` to it, below it by more than
+    /// rounding: the squared gap to the triangle's box (what the scan always pruned by),
+    /// or the squared distance to its plane less `plane_slack` when that is larger. A
+    /// candidate whose bound exceeds the best squared distance so far cannot lower it,
+    /// so skipping it leaves the minimum unchanged. Written slot by slot without branches,
+    /// so the compiler computes several slots at once.
     #[inline]
-    fn lower_bound_squared(&self, p: DVec3, t: usize) -> f64 {
-        let r = &self.scan[t];
-        let gap = (r.lo - p).max(p - r.hi).max(DVec3::ZERO).length_squared();
-        let plane = (r.normal.dot(p) - r.offset).abs() - self.plane_slack;
-        if plane > 0.0 {
-            gap.max(plane * plane * (1.0 - 1e-9))
-        } else {
-            gap
+    fn lower_bounds_squared(&self, block: &ScanBlock, p: DVec3) -> [f64; CLUSTER] {
+        let mut out = [0.0; CLUSTER];
+        let at_least = |a: f64, b: f64| if a > b { a } else { b };
+        for (k, out) in out.iter_mut().enumerate() {
+            let gap = |axis: usize, q: f64| at_least(at_least(block.lo[axis][k] - q, q - block.hi[axis][k]), 0.0);
+            let (gx, gy, gz) = (gap(0, p.x), gap(1, p.y), gap(2, p.z));
+            let gap = (gx * gx) + (gy * gy) + (gz * gz);
+            let dot = (block.normal[0][k] * p.x) + (block.normal[1][k] * p.y) + (block.normal[2][k] * p.z);
+            let plane = (dot - block.offset[k]).abs() - self.plane_slack;
+            let plane = if plane > 0.0 { plane * plane * (1.0 - 1e-9) } else { 0.0 };
+            *out = at_least(gap, plane);
         }
+        out
     }
 }
 
@@ -290,8 +313,14 @@ impl MeshSource {
         clusters
             .iter()
             .filter(move |&&c| meets(self.clusters[c as usize].lo, self.clusters[c as usize].hi))
-            .flat_map(move |&c| self.cluster_range(c))
-            .filter(move |&t| meets(self.scan[t].lo, self.scan[t].hi))
+            .flat_map(move |&c| {
+                let block = &self.blocks[c as usize];
+                self.cluster_range(c).enumerate().filter_map(move |(k, t)| {
+                    let lo = DVec3::new(block.lo[0][k], block.lo[1][k], block.lo[2][k]);
+                    let hi = DVec3::new(block.hi[0][k], block.hi[1][k], block.hi[2][k]);
+                    meets(lo, hi).then_some(t)
+                })
+            })
             .map(move |t| self.order[t])
     }
 }
@@ -400,7 +429,7 @@ impl AdfSource for MeshSource {
     /// the first gap above the best squared distance so far (every later triangle is
     /// farther from any point of the cell); a cluster is skipped when its box is farther
     /// from `p` than the best, and a triangle when its box or, for a well-shaped triangle,
-    /// its plane is (`MeshSource::lower_bound_squared`, private). Only triangles that
+    /// its plane is (`MeshSource::lower_bounds_squared`, private). Only triangles that
     /// cannot lower the minimum are skipped, so the value is the plain scan's, bit for bit.
     fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
         self.queries.fetch_add(1, Ordering::Relaxed);
@@ -422,8 +451,9 @@ impl AdfSource for MeshSource {
             if (c.lo - p).max(p - c.hi).max(DVec3::ZERO).length_squared() > best {
                 continue;
             }
-            for t in self.cluster_range(id) {
-                if self.lower_bound_squared(p, t) > best {
+            let bounds = self.lower_bounds_squared(&self.blocks[id as usize], p);
+            for (t, bound) in self.cluster_range(id).zip(bounds) {
+                if bound > best {
                     continue;
                 }
                 let (q, _) = volga_mesh::closest_point_with_frame(p, self.triangles[t], self.frames[t].as_ref());
