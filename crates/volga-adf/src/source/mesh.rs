@@ -36,7 +36,7 @@ pub struct MeshSource {
     /// Each cluster's box (the union of its triangles' boxes): what a candidate list
     /// holds, sorts by and narrows ([`MeshSource::candidates`]).
     clusters: Vec<ClusterBox>,
-    /// Absolute slack (world units) subtracted from the plane lower bounds: covers the
+    /// Absolute slack (world units) subtracted from the plane and edge lower bounds: covers the
     /// rounding of the bound and of `closest_point_on_triangle` with a wide margin.
     plane_slack: f64,
     winding: CappedWinding,
@@ -77,6 +77,13 @@ impl MeshSource {
                     block.normal[axis][k] = normal[axis];
                 }
                 block.offset[k] = normal.dot(a);
+                for (e, [from, to, other]) in [[a, b, c], [b, c, a], [c, a, b]].into_iter().enumerate() {
+                    let outward = edge_normal(from, to, other, normal);
+                    for axis in 0..3 {
+                        block.edge_normal[e][axis][k] = outward[axis];
+                    }
+                    block.edge_offset[e][k] = outward.dot(from);
+                }
                 cluster.lo = cluster.lo.min(lo);
                 cluster.hi = cluster.hi.max(hi);
             }
@@ -224,6 +231,11 @@ struct ScanBlock {
     normal: [[f64; CLUSTER]; 3],
     /// `normal · a` for the triangle's first corner `a`: the plane is `normal · x = offset`.
     offset: [f64; CLUSTER],
+    /// Per edge `(a, b)`, `(b, c)`, `(c, a)`: [`edge_normal`], the unit normal of the edge
+    /// in the triangle's plane pointing away from the triangle (zero without a plane).
+    edge_normal: [[[f64; CLUSTER]; 3]; 3],
+    /// `edge_normal · from` for the edge's first corner.
+    edge_offset: [[f64; CLUSTER]; 3],
 }
 
 impl ScanBlock {
@@ -234,6 +246,8 @@ impl ScanBlock {
         hi: [[0.0; CLUSTER]; 3],
         normal: [[0.0; CLUSTER]; 3],
         offset: [0.0; CLUSTER],
+        edge_normal: [[[0.0; CLUSTER]; 3]; 3],
+        edge_offset: [[0.0; CLUSTER]; 3],
     };
 }
 
@@ -261,11 +275,31 @@ fn scan_normal([a, b, c]: [DVec3; 3]) -> DVec3 {
     }
 }
 
+/// The unit vector in the plane of unit normal `normal` (zero: none) perpendicular to the
+/// edge `from → to` and pointing away from the triangle's third corner `other`; zero when
+/// there is no plane or the edge has no direction.
+fn edge_normal(from: DVec3, to: DVec3, other: DVec3, normal: DVec3) -> DVec3 {
+    let m = (to - from).cross(normal);
+    let length = m.length();
+    if normal == DVec3::ZERO || !(length > 0.0 && length.is_finite()) {
+        return DVec3::ZERO;
+    }
+    let m = m / length;
+    if m.dot(other - from) > 0.0 {
+        -m
+    } else {
+        m
+    }
+}
+
 impl MeshSource {
     /// For each triangle of a cluster (its block), a lower bound of the squared distance
     /// `closest_point_on_triangle` computes from `p` to it, below it by more than
     /// rounding: the squared gap to the triangle's box (what the scan always pruned by),
-    /// or the squared distance to its plane less `plane_slack` when that is larger. A
+    /// or, when larger, `h² + e²` with `h` the distance to its plane and `e` the largest
+    /// distance outside one of its edges' lines in that plane (each less `plane_slack`):
+    /// every point of the triangle lies inside all three edge lines, so its distance
+    /// from `p`'s foot on the plane is at least `e`. A
     /// candidate whose bound exceeds the best squared distance so far cannot lower it,
     /// so skipping it leaves the minimum unchanged. Written slot by slot without branches,
     /// so the compiler computes several slots at once.
@@ -277,9 +311,13 @@ impl MeshSource {
             let gap = |axis: usize, q: f64| at_least(at_least(block.lo[axis][k] - q, q - block.hi[axis][k]), 0.0);
             let (gx, gy, gz) = (gap(0, p.x), gap(1, p.y), gap(2, p.z));
             let gap = (gx * gx) + (gy * gy) + (gz * gz);
-            let dot = (block.normal[0][k] * p.x) + (block.normal[1][k] * p.y) + (block.normal[2][k] * p.z);
-            let plane = (dot - block.offset[k]).abs() - self.plane_slack;
-            let plane = if plane > 0.0 { plane * plane * (1.0 - 1e-9) } else { 0.0 };
+            let dot = |n: &[[f64; CLUSTER]; 3]| (n[0][k] * p.x) + (n[1][k] * p.y) + (n[2][k] * p.z);
+            let height = at_least((dot(&block.normal) - block.offset[k]).abs() - self.plane_slack, 0.0);
+            let outside = (0..3)
+                .map(|e| dot(&block.edge_normal[e]) - block.edge_offset[e][k])
+                .fold(0.0, at_least);
+            let aside = at_least(outside - self.plane_slack, 0.0);
+            let plane = ((height * height) + (aside * aside)) * (1.0 - 1e-9);
             *out = at_least(gap, plane);
         }
         out
