@@ -296,32 +296,54 @@ impl MeshSource {
     /// For each triangle of a cluster (its block), a lower bound of the squared distance
     /// `closest_point_on_triangle` computes from `p` to it, below it by more than
     /// rounding: the squared gap to the triangle's box (what the scan always pruned by),
-    /// or, when larger, `h² + e²` with `h` the distance to its plane and `e` the largest
-    /// distance outside one of its edges' lines in that plane (each less `plane_slack`):
-    /// every point of the triangle lies inside all three edge lines, so its distance
-    /// from `p`'s foot on the plane is at least `e`. A
-    /// candidate whose bound exceeds the best squared distance so far cannot lower it,
-    /// so skipping it leaves the minimum unchanged. Written slot by slot without branches,
-    /// so the compiler computes several slots at once.
+    /// or the squared distance `h²` to its plane less `plane_slack` when that is larger;
+    /// and `h`. Written slot by slot without branches, so the compiler computes several
+    /// slots at once. A candidate whose bound exceeds the best squared distance so far
+    /// cannot lower it, so skipping it leaves the minimum unchanged.
     #[inline]
-    fn lower_bounds_squared(&self, block: &ScanBlock, p: DVec3) -> [f64; CLUSTER] {
-        let mut out = [0.0; CLUSTER];
-        let at_least = |a: f64, b: f64| if a > b { a } else { b };
-        for (k, out) in out.iter_mut().enumerate() {
+    fn lower_bounds_squared(&self, block: &ScanBlock, p: DVec3) -> ([f64; CLUSTER], [f64; CLUSTER]) {
+        let mut bounds = [0.0; CLUSTER];
+        let mut heights = [0.0; CLUSTER];
+        for k in 0..CLUSTER {
             let gap = |axis: usize, q: f64| at_least(at_least(block.lo[axis][k] - q, q - block.hi[axis][k]), 0.0);
             let (gx, gy, gz) = (gap(0, p.x), gap(1, p.y), gap(2, p.z));
             let gap = (gx * gx) + (gy * gy) + (gz * gz);
-            let dot = |n: &[[f64; CLUSTER]; 3]| (n[0][k] * p.x) + (n[1][k] * p.y) + (n[2][k] * p.z);
-            let height = at_least((dot(&block.normal) - block.offset[k]).abs() - self.plane_slack, 0.0);
-            let outside = (0..3)
-                .map(|e| dot(&block.edge_normal[e]) - block.edge_offset[e][k])
-                .fold(0.0, at_least);
-            let aside = at_least(outside - self.plane_slack, 0.0);
-            let plane = ((height * height) + (aside * aside)) * (1.0 - 1e-9);
-            *out = at_least(gap, plane);
+            let height = at_least((dot_at(&block.normal, k, p) - block.offset[k]).abs() - self.plane_slack, 0.0);
+            heights[k] = height;
+            bounds[k] = at_least(gap, height * height * (1.0 - 1e-9));
         }
-        out
+        (bounds, heights)
     }
+
+    /// Triangle `k` of a block's bound [`MeshSource::lower_bounds_squared`] raised, where
+    /// larger, to `h² + e²` with `e` the largest distance of `p` outside one of its edges'
+    /// lines in its plane less `plane_slack` (`height`: `h`): every point of the triangle
+    /// lies inside all three edge lines, so its distance from `p`'s foot on the plane is
+    /// at least `e`.
+    #[inline]
+    fn edge_bound_squared(&self, block: &ScanBlock, k: usize, p: DVec3, bound: f64, height: f64) -> f64 {
+        let outside = (0..3)
+            .map(|e| dot_at(&block.edge_normal[e], k, p) - block.edge_offset[e][k])
+            .fold(0.0, at_least);
+        let aside = at_least(outside - self.plane_slack, 0.0);
+        at_least(bound, ((height * height) + (aside * aside)) * (1.0 - 1e-9))
+    }
+}
+
+/// The larger of two numbers (no NaN here: a branch the compiler turns into `max`).
+#[inline]
+fn at_least(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `n[k] · p` for a vector of a block stored coordinate by coordinate.
+#[inline]
+fn dot_at(n: &[[f64; CLUSTER]; 3], k: usize, p: DVec3) -> f64 {
+    (n[0][k] * p.x) + (n[1][k] * p.y) + (n[2][k] * p.z)
 }
 
 impl MeshSource {
@@ -489,9 +511,10 @@ impl AdfSource for MeshSource {
             if (c.lo - p).max(p - c.hi).max(DVec3::ZERO).length_squared() > best {
                 continue;
             }
-            let bounds = self.lower_bounds_squared(&self.blocks[id as usize], p);
-            for (t, bound) in self.cluster_range(id).zip(bounds) {
-                if bound > best {
+            let block = &self.blocks[id as usize];
+            let (bounds, heights) = self.lower_bounds_squared(block, p);
+            for (k, t) in self.cluster_range(id).enumerate() {
+                if bounds[k] > best || self.edge_bound_squared(block, k, p, bounds[k], heights[k]) > best {
                     continue;
                 }
                 let (q, _) = volga_mesh::closest_point_with_frame(p, self.triangles[t], self.frames[t].as_ref());
