@@ -192,6 +192,9 @@ pub struct CellCandidates {
     /// Certified bounds over the cell of a quantity the source decides signs with (a mesh
     /// with holes: the caps' winding number `w_C`), when it could bound it.
     pub sign_bounds: Option<(f64, f64)>,
+    /// Ids of further sheets a segment inside the cell may cross, found once for the
+    /// cell (a mesh with holes: the cap triangles whose boxes meet the cell).
+    pub sheets: Vec<u32>,
 }
 
 impl CellCandidates {

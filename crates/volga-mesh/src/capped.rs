@@ -182,15 +182,37 @@ impl CappedWinding {
         to: DVec3,
         mesh_triangles: impl IntoIterator<Item = u32>,
     ) -> Option<i64> {
+        let mut caps = Vec::new();
+        self.caps_overlapping(&volga_core::Aabb::new(from.min(to), from.max(to)), &mut caps);
+        self.integer_along_listed(from, from_integer, to, mesh_triangles, caps)
+    }
+
+    /// Appends to `out` the indices of the cap triangles whose boxes meet the closed box
+    /// `query` (what [`CappedWinding::integer_along_listed`] takes for a segment inside it).
+    pub fn caps_overlapping(&self, query: &volga_core::Aabb, out: &mut Vec<u32>) {
+        if let Some(c) = &self.caps {
+            c.boxes_overlapping(query, out);
+        }
+    }
+
+    /// [`CappedWinding::integer_along_among`] with the cap triangles given too:
+    /// `cap_triangles` (indices among the caps, as [`CappedWinding::caps_overlapping`]
+    /// gives them) must include every cap triangle whose box meets the segment's (e.g.
+    /// those meeting a box containing it). Both lists are filtered by the segment's box
+    /// here, so the triangles tested, and the answer, are `integer_along_among`'s.
+    pub fn integer_along_listed(
+        &self,
+        from: DVec3,
+        from_integer: i64,
+        to: DVec3,
+        mesh_triangles: impl IntoIterator<Item = u32>,
+        cap_triangles: impl IntoIterator<Item = u32>,
+    ) -> Option<i64> {
         if from == to {
             return Some(from_integer);
         }
         let query = volga_core::Aabb::new(from.min(to), from.max(to));
         let mesh_count = (self.closed_triangles.len() - self.cap_triangles) as u32;
-        let mut caps = Vec::new();
-        if let Some(c) = &self.caps {
-            c.boxes_overlapping(&query, &mut caps);
-        }
         let boxes = |id: &u32| {
             let [a, b, c] = self.closed_triangles[*id as usize];
             !(a.min(b).min(c).cmpgt(query.max).any() || a.max(b).max(c).cmplt(query.min).any())
@@ -198,7 +220,7 @@ impl CappedWinding {
         let ids = mesh_triangles
             .into_iter()
             .filter(|id| *id < mesh_count && boxes(id))
-            .chain(caps.into_iter().map(|c| c + mesh_count));
+            .chain(cap_triangles.into_iter().map(|c| c + mesh_count).filter(boxes));
         self.count_crossings(from, from_integer, to, ids)
     }
 

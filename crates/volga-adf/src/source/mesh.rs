@@ -156,7 +156,7 @@ impl MeshSource {
     /// The sample from its unsigned distance: the sign from the winding number
     /// `w = I − w_C` (`volga_mesh::CappedWinding`), the integer `I` carried over from
     /// `near` by counting the sheets crossed in between (among `candidates` when given:
-    /// they hold every mesh triangle meeting the segment) or computed when that count is
+    /// they hold every mesh and cap triangle meeting the segment) or computed when that count is
     /// not certain; `w_C` (the caps alone) is always computed, certified against `I − ½`.
     fn signed(
         &self,
@@ -173,11 +173,12 @@ impl MeshSource {
         }
         let known = near.and_then(|(q, s)| {
             s.region.and_then(|i| match candidates {
-                Some(c) => self.winding.integer_along_among(
+                Some(c) => self.winding.integer_along_listed(
                     q,
                     i,
                     p,
                     self.triangles_meeting(c.meeting_cell(), q.min(p), q.max(p)),
+                    c.sheets.iter().copied(),
                 ),
                 None => self.winding.integer_along(q, i, p),
             })
@@ -308,7 +309,10 @@ impl MeshSource {
             let gap = |axis: usize, q: f64| at_least(at_least(block.lo[axis][k] - q, q - block.hi[axis][k]), 0.0);
             let (gx, gy, gz) = (gap(0, p.x), gap(1, p.y), gap(2, p.z));
             let gap = (gx * gx) + (gy * gy) + (gz * gz);
-            let height = at_least((dot_at(&block.normal, k, p) - block.offset[k]).abs() - self.plane_slack, 0.0);
+            let height = at_least(
+                (dot_at(&block.normal, k, p) - block.offset[k]).abs() - self.plane_slack,
+                0.0,
+            );
             heights[k] = height;
             bounds[k] = at_least(gap, height * height * (1.0 - 1e-9));
         }
@@ -465,9 +469,12 @@ impl AdfSource for MeshSource {
             .map(|&k| f64::from(f32::from_bits((k >> 32) as u32)))
             .collect();
         let ids = keys.iter().map(|&k| k as u32).collect();
+        let mut sheets = Vec::new();
+        self.winding.caps_overlapping(cell, &mut sheets);
         Some(CellCandidates {
             ids,
             lower,
+            sheets,
             sign_bounds: match parent.and_then(|p| p.sign_bounds) {
                 // The parent's ball holds this cell's (a child's centre is half the
                 // parent's radius from the parent's, its radius half of it), so its
