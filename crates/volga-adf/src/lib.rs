@@ -115,6 +115,9 @@ pub enum AdfError {
     /// single point without a margin).
     #[error("nothing to build from: {0}")]
     EmptySource(String),
+    /// A mesh source with more triangles than its candidate lists can name.
+    #[error("the mesh has {0} triangles; a mesh source takes at most 2^31 - 1")]
+    TooManyTriangles(usize),
     /// The source is unbounded (an infinite cylinder, a half-space): an ADF covers a
     /// finite root cube around the source's bounds.
     #[error("the source is unbounded (its bounds reach {min:?}..{max:?}): an ADF needs a bounded source, e.g. intersect it with a box")]

@@ -39,6 +39,9 @@ pub struct MeshSource {
     /// Absolute slack (world units) subtracted from the plane and edge lower bounds: covers the
     /// rounding of the bound and of `closest_point_on_triangle` with a wide margin.
     plane_slack: f64,
+    /// Cells whose side is at most this list single triangles ([`SPLIT_BELOW`] times the
+    /// median cluster's largest extent).
+    split_below: f64,
     winding: CappedWinding,
     bounds: Aabb,
     measures: SurfaceMeasures,
@@ -52,6 +55,9 @@ impl MeshSource {
     pub fn new(mesh: &TriMesh) -> Result<Self, crate::AdfError> {
         if mesh.triangle_count() == 0 {
             return Err(crate::AdfError::EmptySource("the mesh has no triangles".into()));
+        }
+        if mesh.triangle_count() >= SINGLE as usize {
+            return Err(crate::AdfError::TooManyTriangles(mesh.triangle_count()));
         }
         let bounds = mesh.bounds();
         if !(bounds.min.is_finite() && bounds.max.is_finite()) {
@@ -90,6 +96,12 @@ impl MeshSource {
             blocks.push(block);
             clusters.push(cluster);
         }
+        let mut extents: Vec<f64> = clusters
+            .iter()
+            .map(|c: &ClusterBox| (c.hi - c.lo).max_element())
+            .collect();
+        extents.sort_unstable_by(f64::total_cmp);
+        let split_below = SPLIT_BELOW * extents[extents.len() / 2];
         let frames = triangles.iter().map(|&t| FaceFrame::new(t)).collect();
         let extent = bounds.min.abs().max(bounds.max.abs()).max_element();
         let plane_slack = 1e-9 * bounds.size().length() + 1e-12 * extent;
@@ -101,6 +113,7 @@ impl MeshSource {
             blocks,
             clusters,
             plane_slack,
+            split_below,
             winding: CappedWinding::new(mesh),
             bounds,
             measures: SurfaceMeasures::of_mesh(mesh),
@@ -143,6 +156,11 @@ impl MeshSource {
 /// tree order (spatially compact), so lists are this many times shorter to narrow and
 /// sort, and a scan reads each cluster's triangles side by side.
 const CLUSTER: usize = 8;
+/// The flag of a list entry that is one triangle (its position in tree order below the
+/// flag), not a cluster: cells no larger than a typical cluster list triangles apart.
+const SINGLE: u32 = 1 << 31;
+/// Cells up to this many times the median cluster's largest extent list triangles apart.
+const SPLIT_BELOW: f64 = 0.5;
 
 /// The neighbour's distance bounds this one (1-Lipschitz): a tighter search.
 #[inline]
@@ -306,17 +324,22 @@ impl MeshSource {
         let mut bounds = [0.0; CLUSTER];
         let mut heights = [0.0; CLUSTER];
         for k in 0..CLUSTER {
-            let gap = |axis: usize, q: f64| at_least(at_least(block.lo[axis][k] - q, q - block.hi[axis][k]), 0.0);
-            let (gx, gy, gz) = (gap(0, p.x), gap(1, p.y), gap(2, p.z));
-            let gap = (gx * gx) + (gy * gy) + (gz * gz);
-            let height = at_least(
-                (dot_at(&block.normal, k, p) - block.offset[k]).abs() - self.plane_slack,
-                0.0,
-            );
-            heights[k] = height;
-            bounds[k] = at_least(gap, height * height * (1.0 - 1e-9));
+            (bounds[k], heights[k]) = self.lower_bound_squared(block, k, p);
         }
         (bounds, heights)
+    }
+
+    /// [`MeshSource::lower_bounds_squared`] of slot `k` alone.
+    #[inline]
+    fn lower_bound_squared(&self, block: &ScanBlock, k: usize, p: DVec3) -> (f64, f64) {
+        let gap = |axis: usize, q: f64| at_least(at_least(block.lo[axis][k] - q, q - block.hi[axis][k]), 0.0);
+        let (gx, gy, gz) = (gap(0, p.x), gap(1, p.y), gap(2, p.z));
+        let gap = (gx * gx) + (gy * gy) + (gz * gz);
+        let height = at_least(
+            (dot_at(&block.normal, k, p) - block.offset[k]).abs() - self.plane_slack,
+            0.0,
+        );
+        (at_least(gap, height * height * (1.0 - 1e-9)), height)
     }
 
     /// Triangle `k` of a block's bound [`MeshSource::lower_bounds_squared`] raised, where
@@ -358,13 +381,41 @@ impl MeshSource {
         start..(start + CLUSTER).min(self.triangles.len())
     }
 
-    /// The mesh ids of the triangles of `clusters` (ids of a [`CellCandidates`] list of
-    /// this source), cluster by cluster: what a list, or a prefix of it such as
-    /// [`CellCandidates::meeting_cell`], stands for.
-    pub fn triangles_of<'a>(&'a self, clusters: &'a [u32]) -> impl Iterator<Item = u32> + 'a {
-        clusters
+    /// The positions in tree order of a list entry's triangles: a cluster's, or one
+    /// triangle's (an id with [`SINGLE`]).
+    #[inline]
+    fn entry_range(&self, entry: u32) -> std::ops::Range<usize> {
+        if entry & SINGLE != 0 {
+            let t = (entry & !SINGLE) as usize;
+            t..t + 1
+        } else {
+            self.cluster_range(entry)
+        }
+    }
+
+    /// A list entry's box: its cluster's, or its triangle's.
+    #[inline]
+    fn entry_box(&self, entry: u32) -> (DVec3, DVec3) {
+        if entry & SINGLE != 0 {
+            let t = (entry & !SINGLE) as usize;
+            let (block, k) = (&self.blocks[t / CLUSTER], t % CLUSTER);
+            (
+                DVec3::new(block.lo[0][k], block.lo[1][k], block.lo[2][k]),
+                DVec3::new(block.hi[0][k], block.hi[1][k], block.hi[2][k]),
+            )
+        } else {
+            let c = &self.clusters[entry as usize];
+            (c.lo, c.hi)
+        }
+    }
+
+    /// The mesh ids of the triangles of `entries` (ids of a [`CellCandidates`] list of
+    /// this source: clusters, or single triangles), entry by entry: what a list, or a
+    /// prefix of it such as [`CellCandidates::meeting_cell`], stands for.
+    pub fn triangles_of<'a>(&'a self, entries: &'a [u32]) -> impl Iterator<Item = u32> + 'a {
+        entries
             .iter()
-            .flat_map(move |&c| self.order[self.cluster_range(c)].iter().copied())
+            .flat_map(move |&e| self.order[self.entry_range(e)].iter().copied())
     }
 }
 
@@ -376,13 +427,14 @@ impl MeshSource {
         let meets = move |a: DVec3, b: DVec3| !(a.cmpgt(hi).any() || b.cmplt(lo).any());
         clusters
             .iter()
-            .filter(move |&&c| meets(self.clusters[c as usize].lo, self.clusters[c as usize].hi))
-            .flat_map(move |&c| {
-                let block = &self.blocks[c as usize];
-                self.cluster_range(c).enumerate().filter_map(move |(k, t)| {
-                    let lo = DVec3::new(block.lo[0][k], block.lo[1][k], block.lo[2][k]);
-                    let hi = DVec3::new(block.hi[0][k], block.hi[1][k], block.hi[2][k]);
-                    meets(lo, hi).then_some(t)
+            .filter(move |&&e| {
+                let (a, b) = self.entry_box(e);
+                meets(a, b)
+            })
+            .flat_map(move |&e| {
+                self.entry_range(e).filter(move |&t| {
+                    let (a, b) = self.entry_box(t as u32 | SINGLE);
+                    meets(a, b)
                 })
             })
             .map(move |t| self.order[t])
@@ -433,23 +485,41 @@ impl AdfSource for MeshSource {
     /// whose boxes are within `reach` (Euclidean) of the cell: their triangles hold the
     /// nearest point of every point of the cell (its distance is at most `reach`). All
     /// clusters are filtered at the top of the tree (no parent), else the parent's list;
-    /// sorted by their boxes' gap to the cell (`lower`).
+    /// a cell no larger than half the median cluster lists the triangles of its clusters
+    /// apart (entries with [`SINGLE`]), each kept when its own box is within `reach`.
+    /// Sorted by the boxes' gap to the cell (`lower`).
     fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
         // Slack for the rounding of `reach` and of the box distances.
         let reach = reach * (1.0 + 1e-9) + 1e-12 * cell.size().max_element();
         let reach_squared = reach * reach;
-        let gap_squared = |id: u32| {
-            let r = &self.clusters[id as usize];
-            (r.lo - cell.max).max(cell.min - r.hi).max(DVec3::ZERO).length_squared()
+        let gap_squared = |entry: u32| {
+            let (lo, hi) = self.entry_box(entry);
+            (lo - cell.max).max(cell.min - hi).max(DVec3::ZERO).length_squared()
         };
         // A candidate's sort key: its gap rounded down to f32 (still a lower bound), whose
         // bits order as the values do (gaps are ≥ 0), above its id (ties by id: the order
         // is a function of the cell alone).
-        let near = |id: u32| {
-            let g = gap_squared(id);
-            (g <= reach_squared).then(|| (u64::from(f32_at_most(g).to_bits()) << 32) | u64::from(id))
+        let mut keys: Vec<u64> = Vec::new();
+        let mut keep = |entry: u32| {
+            let g = gap_squared(entry);
+            if g <= reach_squared {
+                keys.push((u64::from(f32_at_most(g).to_bits()) << 32) | u64::from(entry));
+            }
         };
-        let mut keys: Vec<u64> = match parent {
+        // A cell no larger than a typical cluster lists its clusters' triangles apart.
+        let split = cell.size().max_element() <= self.split_below;
+        let mut narrow = |entry: u32| {
+            if split && entry & SINGLE == 0 {
+                if gap_squared(entry) <= reach_squared {
+                    for t in self.cluster_range(entry) {
+                        keep(t as u32 | SINGLE);
+                    }
+                }
+            } else {
+                keep(entry);
+            }
+        };
+        match parent {
             Some(list) => {
                 // The parent's gaps are lower bounds of this cell's (it lies inside the
                 // parent): a sorted list ends with the first one beyond the reach.
@@ -458,10 +528,10 @@ impl AdfSource for MeshSource {
                 } else {
                     list.ids.len()
                 };
-                list.ids[..end].iter().filter_map(|&id| near(id)).collect()
+                list.ids[..end].iter().for_each(|&e| narrow(e));
             }
-            None => (0..self.clusters.len() as u32).filter_map(near).collect(),
-        };
+            None => (0..self.clusters.len() as u32).for_each(narrow),
+        }
         // Nearest boxes first.
         keys.sort_unstable();
         let lower = keys
@@ -512,6 +582,21 @@ impl AdfSource for MeshSource {
         for (k, &id) in candidates.ids.iter().enumerate() {
             if sorted && candidates.lower[k] > best {
                 break;
+            }
+            if id & SINGLE != 0 {
+                let t = (id & !SINGLE) as usize;
+                let (block, k) = (&self.blocks[t / CLUSTER], t % CLUSTER);
+                let (bound, height) = self.lower_bound_squared(block, k, p);
+                if bound > best || self.edge_bound_squared(block, k, p, bound, height) > best {
+                    continue;
+                }
+                let (q, _) = volga_mesh::closest_point_with_frame(p, self.triangles[t], self.frames[t].as_ref());
+                let d2 = (p - q).length_squared();
+                if d2 <= best {
+                    best = d2;
+                    found = true;
+                }
+                continue;
             }
             // The cluster's box holds its triangles' boxes: its gap is at most theirs.
             let c = &self.clusters[id as usize];
