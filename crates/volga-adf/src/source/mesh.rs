@@ -329,6 +329,19 @@ impl MeshSource {
         (bounds, heights)
     }
 
+    /// Lowers `best` to the squared distance from `p` to triangle `t` (tree order) when
+    /// that is not above it; whether it did.
+    #[inline]
+    fn lower_to_triangle(&self, p: DVec3, t: usize, best: &mut f64) -> bool {
+        let (q, _) = volga_mesh::closest_point_with_frame(p, self.triangles[t], self.frames[t].as_ref());
+        let d2 = (p - q).length_squared();
+        let lowered = d2 <= *best;
+        if lowered {
+            *best = d2;
+        }
+        lowered
+    }
+
     /// [`MeshSource::lower_bounds_squared`] of slot `k` alone.
     #[inline]
     fn lower_bound_squared(&self, block: &ScanBlock, k: usize, p: DVec3) -> (f64, f64) {
@@ -481,12 +494,12 @@ impl AdfSource for MeshSource {
         self.signed(p, unsigned, near, None)
     }
 
-    /// The clusters of triangles ([`CLUSTER`] consecutive ones of the BVH's tree order)
+    /// The clusters of triangles (8 consecutive ones of the BVH's tree order)
     /// whose boxes are within `reach` (Euclidean) of the cell: their triangles hold the
     /// nearest point of every point of the cell (its distance is at most `reach`). All
     /// clusters are filtered at the top of the tree (no parent), else the parent's list;
     /// a cell no larger than half the median cluster lists the triangles of its clusters
-    /// apart (entries with [`SINGLE`]), each kept when its own box is within `reach`.
+    /// apart (entries flagged by the top bit), each kept when its own box is within `reach`.
     /// Sorted by the boxes' gap to the cell (`lower`).
     fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
         // Slack for the rounding of `reach` and of the box distances.
@@ -587,14 +600,8 @@ impl AdfSource for MeshSource {
                 let t = (id & !SINGLE) as usize;
                 let (block, k) = (&self.blocks[t / CLUSTER], t % CLUSTER);
                 let (bound, height) = self.lower_bound_squared(block, k, p);
-                if bound > best || self.edge_bound_squared(block, k, p, bound, height) > best {
-                    continue;
-                }
-                let (q, _) = volga_mesh::closest_point_with_frame(p, self.triangles[t], self.frames[t].as_ref());
-                let d2 = (p - q).length_squared();
-                if d2 <= best {
-                    best = d2;
-                    found = true;
+                if !(bound > best || self.edge_bound_squared(block, k, p, bound, height) > best) {
+                    found |= self.lower_to_triangle(p, t, &mut best);
                 }
                 continue;
             }
@@ -606,14 +613,8 @@ impl AdfSource for MeshSource {
             let block = &self.blocks[id as usize];
             let (bounds, heights) = self.lower_bounds_squared(block, p);
             for (k, t) in self.cluster_range(id).enumerate() {
-                if bounds[k] > best || self.edge_bound_squared(block, k, p, bounds[k], heights[k]) > best {
-                    continue;
-                }
-                let (q, _) = volga_mesh::closest_point_with_frame(p, self.triangles[t], self.frames[t].as_ref());
-                let d2 = (p - q).length_squared();
-                if d2 <= best {
-                    best = d2;
-                    found = true;
+                if !(bounds[k] > best || self.edge_bound_squared(block, k, p, bounds[k], heights[k]) > best) {
+                    found |= self.lower_to_triangle(p, t, &mut best);
                 }
             }
         }
