@@ -258,8 +258,8 @@ struct ScanBlock {
 }
 
 impl ScanBlock {
-    /// Slots past a short cluster's last triangle are never read (the scan stops at
-    /// the cluster's length).
+    /// Slots past a short cluster's last triangle are bounded with the others but their
+    /// bounds are never used (the scan stops at the cluster's length).
     const EMPTY: ScanBlock = ScanBlock {
         lo: [[0.0; CLUSTER]; 3],
         hi: [[0.0; CLUSTER]; 3],
