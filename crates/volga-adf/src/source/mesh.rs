@@ -433,12 +433,12 @@ impl MeshSource {
 }
 
 impl MeshSource {
-    /// The mesh ids of the triangles of `clusters` whose boxes meet the box `lo..hi`
+    /// The mesh ids of the triangles of list `entries` whose boxes meet the box `lo..hi`
     /// (closed), read in tree order: every triangle of theirs that can meet a segment
     /// inside it.
-    fn triangles_meeting<'a>(&'a self, clusters: &'a [u32], lo: DVec3, hi: DVec3) -> impl Iterator<Item = u32> + 'a {
+    fn triangles_meeting<'a>(&'a self, entries: &'a [u32], lo: DVec3, hi: DVec3) -> impl Iterator<Item = u32> + 'a {
         let meets = move |a: DVec3, b: DVec3| !(a.cmpgt(hi).any() || b.cmplt(lo).any());
-        clusters
+        entries
             .iter()
             .filter(move |&&e| {
                 let (a, b) = self.entry_box(e);
@@ -575,12 +575,14 @@ impl AdfSource for MeshSource {
     /// among them (the BVH only when rounding left the scan empty). The same distance as
     /// [`MeshSource::sample`]: the minimum over a set that holds the nearest triangle.
     ///
-    /// The scan visits the candidate clusters by their boxes' gap to the cell and stops at
-    /// the first gap above the best squared distance so far (every later triangle is
-    /// farther from any point of the cell); a cluster is skipped when its box is farther
-    /// from `p` than the best, and a triangle when its box or, for a well-shaped triangle,
-    /// its plane is (`MeshSource::lower_bounds_squared`, private). Only triangles that
-    /// cannot lower the minimum are skipped, so the value is the plain scan's, bit for bit.
+    /// The scan visits the list's entries (clusters, or single triangles) by their boxes'
+    /// gap to the cell and stops at the first gap above the best squared distance so far
+    /// (every later triangle is farther from any point of the cell); a cluster is skipped
+    /// when its box is farther from `p` than the best, and a triangle when its lower bound
+    /// is: its box, or for a well-shaped triangle its plane and edge lines
+    /// (`MeshSource::lower_bounds_squared` and `edge_bound_squared`, private). Only
+    /// triangles that cannot lower the minimum are skipped, so the value is the plain
+    /// scan's, bit for bit.
     fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
         self.queries.fetch_add(1, Ordering::Relaxed);
         let bound = near_bound(p, near);
