@@ -34,9 +34,8 @@ pub struct CappedWinding {
     closed_triangles: Vec<[DVec3; 3]>,
     /// `C` alone (`None` for a closed mesh).
     caps: Option<Bvh>,
-    /// `C` summed cone by cone, for the side and range queries (`None` for a closed
-    /// mesh or caps of too many cones: `caps` answers then). The values the callers
-    /// keep ([`CappedWinding::winding_value`]) come from `caps` alone.
+    /// `C` summed cone by cone, for every query of `w_C` (`None` for a closed mesh or
+    /// caps of too many cones: `caps` answers then).
     cones: Option<ConeCaps>,
     /// `M` alone, for the rare fallback on cap triangles.
     mesh: Bvh,
@@ -267,7 +266,8 @@ impl CappedWinding {
     }
 
     /// The winding number `w(p) = I − w_C(p)` with `w_C` summed to within `tolerance`
-    /// (the mesh's own certified sum on a sheet of `M + C`).
+    /// (cone by cone when the caps have few cones, else through their tree; the mesh's
+    /// own certified sum on a sheet of `M + C`).
     pub fn winding_value(&self, p: DVec3, tolerance: f64) -> f64 {
         let mut cost = InsideCost::default();
         match self.integer_part(p, &mut cost) {
@@ -275,7 +275,7 @@ impl CappedWinding {
                 let cap = self
                     .caps
                     .as_ref()
-                    .map_or(0.0, |c| c.winding_number_bounded(p, None, |_, e| e <= tolerance).value);
+                    .map_or(0.0, |c| self.cap_bounded(c, p, |_, e| e <= tolerance).value);
                 i as f64 - cap
             }
             None => self.mesh.winding_number_bounded(p, None, |_, e| e <= tolerance).value,
@@ -361,7 +361,7 @@ impl CappedWinding {
         let cap = self
             .caps
             .as_ref()
-            .map_or(0.0, |c| c.winding_number_bounded(p, None, |_, e| e <= tolerance).value);
+            .map_or(0.0, |c| self.cap_bounded(c, p, |_, e| e <= tolerance).value);
         integer as f64 - cap
     }
 }
