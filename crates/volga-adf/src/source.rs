@@ -43,6 +43,18 @@ pub trait AdfSource: DistanceSource {
         None
     }
 
+    /// A model of the sign over `cell` for its `candidates`
+    /// ([`CellCandidates::sign_model`]), given a corner and its sample; the builder asks
+    /// after [`AdfSource::candidates`]. `None` (the default): no model.
+    fn sign_model(
+        &self,
+        _cell: &Aabb,
+        _corner: (DVec3, &Sample),
+        _candidates: &CellCandidates,
+    ) -> Option<volga_mesh::WindingModel> {
+        None
+    }
+
     /// [`AdfSource::sample`] at a point of a cell whose [`AdfSource::candidates`]
     /// are `candidates`, with `near` in the same cell. Must return exactly what `sample`
     /// returns (the default calls it).
@@ -195,6 +207,11 @@ pub struct CellCandidates {
     /// Ids of further sheets a segment inside the cell may cross, found once for the
     /// cell (a mesh with holes: the cap triangles whose boxes meet the cell).
     pub sheets: Vec<u32>,
+    /// A certified first-order model over the cell of the winding number the sign is
+    /// the side of ½ of, when no surface meets the cell and `sign_bounds` could not be
+    /// had (a mesh with holes: `CappedWinding::winding_model`), so most points of a
+    /// cell the surface spanning a hole passes through get their side without a query.
+    pub sign_model: Option<volga_mesh::WindingModel>,
 }
 
 impl CellCandidates {
@@ -232,6 +249,14 @@ macro_rules! forward_adf_source {
             }
             fn candidates(&self, cell: &Aabb, reach: f64, parent: Option<&CellCandidates>) -> Option<CellCandidates> {
                 (**self).candidates(cell, reach, parent)
+            }
+            fn sign_model(
+                &self,
+                cell: &Aabb,
+                corner: (DVec3, &Sample),
+                candidates: &CellCandidates,
+            ) -> Option<volga_mesh::WindingModel> {
+                (**self).sign_model(cell, corner, candidates)
             }
             fn sample_among(&self, p: DVec3, near: Option<(DVec3, &Sample)>, candidates: &CellCandidates) -> Sample {
                 (**self).sample_among(p, near, candidates)

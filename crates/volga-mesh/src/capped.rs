@@ -45,6 +45,9 @@ pub struct CappedWinding {
     /// The caps' boundary cycle (the mesh's, reversed): a second, usually much tighter,
     /// bound on the gradient of `w_C` away from the caps.
     cap_boundary: SegmentTree,
+    /// The mesh's boundary cycle `∂M`, oriented, each edge with its net multiplicity: the
+    /// gradient of `w_M` (its Biot–Savart field, [`CappedWinding::winding_model`]).
+    rim: Vec<(DVec3, DVec3, f64)>,
     /// Size of the mesh (its box's diagonal plus its distance from the origin): the scale
     /// of "on a cap" tests.
     scale: f64,
@@ -57,6 +60,67 @@ pub struct InsideCost {
     pub terms: u64,
     /// Whether the direct query of the whole mesh was needed.
     pub fallback: bool,
+}
+
+/// A certified first-order model of the winding number `w` over a box no triangle of
+/// the mesh meets ([`CappedWinding::winding_model`]): at `x` in the box,
+/// `|w(x) − value − gradient·(x − c)| ≤ error + slope_error |x − c| + curvature |x − c|²`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindingModel {
+    /// The box it holds in.
+    bounds: Aabb,
+    /// The box's centre `c`.
+    centre: DVec3,
+    /// `w(c)`, within `error`.
+    value: f64,
+    error: f64,
+    /// `∇w(c)`, within `slope_error` (the length of the difference).
+    gradient: DVec3,
+    slope_error: f64,
+    /// Half a bound on the Hessian's norm over the box.
+    curvature: f64,
+}
+
+impl WindingModel {
+    /// Whether `w ≥ ½` (inside) at `x`, proven: `None` when the model cannot tell, or
+    /// `x` is outside its box.
+    pub fn side_at(&self, x: DVec3) -> Option<bool> {
+        self.side_near(x, 0.0)
+    }
+
+    /// Whether `w ≥ ½` at every point of `cell`, proven: `None` when the model cannot
+    /// tell, or `cell` is not inside its box.
+    pub fn side_in(&self, cell: &Aabb) -> Option<bool> {
+        let inside = self.bounds.min.cmple(cell.min).all() && cell.max.cmple(self.bounds.max).all();
+        if !inside {
+            return None;
+        }
+        self.side_near(cell.center(), 0.5 * cell.size().length())
+    }
+
+    /// The side at every point of the model's box within `radius` of `x` (whose box is
+    /// checked: `x` must lie in it).
+    fn side_near(&self, x: DVec3, radius: f64) -> Option<bool> {
+        if !self.bounds.contains(x) {
+            return None;
+        }
+        let offset = x - self.centre;
+        let linear = self.value + self.gradient.dot(offset);
+        let reach = offset.length() + radius;
+        // The model's terms, then slack for this evaluation's rounding (`w` and its
+        // linear part are of order 1 here: 1e-12 of them is far above it).
+        let spread =
+            (self.gradient.length() * radius + self.error + self.slope_error * reach + self.curvature * reach * reach)
+                * (1.0 + 1e-9)
+                + 1e-12 * (1.0 + linear.abs());
+        if linear - spread > 0.5 {
+            Some(true)
+        } else if linear + spread < 0.5 {
+            Some(false)
+        } else {
+            None
+        }
+    }
 }
 
 impl CappedWinding {
@@ -93,6 +157,11 @@ impl CappedWinding {
                 .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
                 .sum(),
             cap_boundary: boundary_of(&caps),
+            // ∂M = −∂C: the caps' boundary reversed.
+            rim: boundary_edges(&caps)
+                .into_iter()
+                .map(|(a, b, m)| (a, b, -(m as f64)))
+                .collect(),
             scale: {
                 let b = mesh.bounds();
                 b.size().length() + b.min.abs().max(b.max.abs()).max_element()
@@ -354,6 +423,82 @@ impl CappedWinding {
         Some((cap.value - spread, cap.value + spread))
     }
 
+    /// A certified first-order model of the mesh's winding number `w = w_M` over `cell`,
+    /// a box that **no triangle of the mesh meets** (the caller's to know, e.g. from the
+    /// triangles' boxes): `w` is then smooth in it, even across the caps (only `I` and
+    /// `w_C` jump there, together), its gradient the Biot–Savart field of the boundary
+    /// cycle `∂M` and its Hessian bounded by [`SegmentTree::hessian_bound`]. So with `c`
+    /// the box's centre, `w(x) = w(c) + ∇w(c)·(x − c) + R` with `|R| ≤ ½ H |x − c|²`
+    /// along the segment, which stays in the box. `w(c)` is `I − w_C` certified to 1e-6,
+    /// `∇w(c)` summed exactly over `∂M`'s edges with a bound on its rounding.
+    ///
+    /// `None` for a closed mesh (no boundary: `w = I` is constant off the mesh, asked
+    /// directly), caps of too many cones (the sum over `∂M` would cost more than the
+    /// queries it saves), a centre on a cap sheet (`I` undefined), or a box a boundary
+    /// edge's box touches. `integer`: the integer part `I` at the box's centre when the
+    /// caller knows it (certified, e.g. carried from a corner by
+    /// [`CappedWinding::integer_along_listed`]), else it is computed. Also returns the
+    /// winding-number terms it summed.
+    pub fn winding_model(&self, cell: &Aabb, integer: Option<i64>) -> (Option<WindingModel>, u64) {
+        let (Some(caps), Some(_)) = (&self.caps, &self.cones) else {
+            return (None, 0);
+        };
+        let curvature = 0.5 * self.cap_boundary.hessian_bound(cell) * (1.0 + 1e-9);
+        if !curvature.is_finite() {
+            return (None, 0);
+        }
+        let centre = cell.center();
+        let mut cost = InsideCost::default();
+        let Some(integer) = integer.or_else(|| self.integer_part(centre, &mut cost)) else {
+            return (None, cost.terms);
+        };
+        let cap = self.cap_bounded(caps, centre, |_, e| e <= 1e-6);
+        let terms = cost.terms + cap.terms as u64;
+        let Some((gradient, slope_error)) = self.rim_gradient(centre) else {
+            return (None, terms);
+        };
+        let model = WindingModel {
+            bounds: *cell,
+            centre,
+            value: integer as f64 - cap.value,
+            error: cap.error,
+            gradient,
+            slope_error,
+            curvature,
+        };
+        (Some(model), terms + self.rim.len() as u64)
+    }
+
+    /// `∇w_M(x)` for `x` off the boundary cycle: `Σ m_e K_e(x) / 4π` over `∂M`'s edges
+    /// `a → b`, with the segment's Biot–Savart integral in its stable closed form
+    /// `K = (r₁ × r₂)(|r₁| + |r₂|) / (|r₁||r₂|(|r₁||r₂| + r₁·r₂))`, `r₁ = a − x`,
+    /// `r₂ = b − x`; and a bound on the sum's rounding. Each term is at most
+    /// `S = |m|(|r₁| + |r₂|)/den` (`den = |r₁||r₂| + r₁·r₂`) and off by at most about
+    /// `14 ε S (1 + |r₁||r₂|/den)` (the cross product's components and `den` lose up to
+    /// a few `ε |r₁||r₂|` to cancellation), the sum by `n ε Σ S` more; the bound allows
+    /// `1e-13 + 1e-15 n` of `Σ S (1 + |r₁||r₂|/den)`, 45× the first and 4.5× the second.
+    /// `None` when `x` is within `den ≤ 1e-6 |r₁||r₂|` of an edge (the analysis needs
+    /// `den`'s relative error small).
+    fn rim_gradient(&self, x: DVec3) -> Option<(DVec3, f64)> {
+        let mut gradient = DVec3::ZERO;
+        let mut scale = 0.0;
+        for &(a, b, m) in &self.rim {
+            let (r1, r2) = (a - x, b - x);
+            let (l1, l2) = (r1.length(), r2.length());
+            let product = l1 * l2;
+            let den = product + r1.dot(r2);
+            // (NaN refused too.)
+            if den.partial_cmp(&(1e-6 * product)) != Some(std::cmp::Ordering::Greater) {
+                return None;
+            }
+            gradient += r1.cross(r2) * (m * (l1 + l2) / (product * den));
+            scale += m.abs() * (l1 + l2) / den * (1.0 + product / den);
+        }
+        let allowance = 1e-13 + 1e-15 * self.rim.len() as f64;
+        let error = allowance * scale / (4.0 * std::f64::consts::PI);
+        (gradient.is_finite() && error.is_finite()).then(|| (gradient / (4.0 * std::f64::consts::PI), error))
+    }
+
     /// [`CappedWinding::winding_value`] given the integer part `I` at `p` (certified by the
     /// caller, e.g. from [`CappedWinding::inside_with`]): `I − w_C(p)` with `w_C` summed to
     /// within `tolerance`. The same value as `winding_value` off the sheets of `M + C`.
@@ -513,11 +658,11 @@ pub fn cap_triangles(mesh: &TriMesh) -> Vec<[DVec3; 3]> {
     caps
 }
 
-/// The boundary cycle of `triangles` (each edge with its net multiplicity: the
-/// triangles running along it forwards minus backwards, endpoints equal bit for bit),
-/// as a [`SegmentTree`]. For the caps, the cones' inner edges cancel and the mesh's
-/// boundary cycle, reversed, is left.
-fn boundary_of(triangles: &[[DVec3; 3]]) -> SegmentTree {
+/// The boundary cycle of `triangles`: each edge whose net multiplicity (the triangles
+/// running along it forwards minus backwards, endpoints equal bit for bit) is not zero,
+/// from its lower endpoint (by the bits of its coordinates) to its higher, with that
+/// multiplicity, in that order of endpoints.
+fn boundary_edges(triangles: &[[DVec3; 3]]) -> Vec<(DVec3, DVec3, i64)> {
     let key = |p: DVec3| p.to_array().map(|c| (c + 0.0).to_bits());
     // Per edge (endpoints' bits, lower first): the endpoints and the net multiplicity.
     type Key = ([u64; 3], [u64; 3]);
@@ -533,12 +678,20 @@ fn boundary_of(triangles: &[[DVec3; 3]]) -> SegmentTree {
             net.entry((key(lo), key(hi))).or_insert((lo, hi, 0)).2 += sign;
         }
     }
-    let mut segments: Vec<(DVec3, DVec3, f64)> = net
-        .into_values()
-        .filter(|&(_, _, m)| m != 0)
-        .map(|(a, b, m)| (a, b, m.unsigned_abs() as f64))
-        .collect();
+    let mut edges: Vec<(DVec3, DVec3, i64)> = net.into_values().filter(|&(_, _, m)| m != 0).collect();
     // A fixed order (the map's is arbitrary): the tree, and its sums, are then one.
-    segments.sort_unstable_by(|x, y| key(x.0).cmp(&key(y.0)).then_with(|| key(x.1).cmp(&key(y.1))));
-    SegmentTree::build(segments)
+    edges.sort_unstable_by(|x, y| key(x.0).cmp(&key(y.0)).then_with(|| key(x.1).cmp(&key(y.1))));
+    edges
+}
+
+/// The boundary cycle of `triangles` ([`boundary_edges`], multiplicities as weights) as a
+/// [`SegmentTree`]. For the caps, the cones' inner edges cancel and the mesh's boundary
+/// cycle, reversed, is left.
+fn boundary_of(triangles: &[[DVec3; 3]]) -> SegmentTree {
+    SegmentTree::build(
+        boundary_edges(triangles)
+            .into_iter()
+            .map(|(a, b, m)| (a, b, m.unsigned_abs() as f64))
+            .collect(),
+    )
 }

@@ -80,6 +80,41 @@ impl SegmentTree {
     /// An upper bound on `|∇w|` over the box: `Σ_e |m_e| min(|e|/D², π/D) / 4π` with `D`
     /// the gap between the box and the segment's box; infinite when a segment touches it.
     pub fn gradient_bound(&self, query: &Aabb) -> f64 {
+        self.kernel_bound(
+            query,
+            false,
+            |length, gap| length / (gap * gap),
+            |length, d| (length / (d * d)).min(PI / d),
+        )
+    }
+
+    /// An upper bound on the norm of the Hessian of `w` over the box:
+    /// `Σ_e |m_e| min(2|e|/D³, 4/D²) / 4π` with `D` as in
+    /// [`SegmentTree::gradient_bound`]. The derivative of the Biot–Savart kernel
+    /// `(x − y)/|x − y|³` is `(I − 3 r̂ r̂ᵀ)/|r|³`, of norm `2/|r|³`, and its integral along
+    /// a whole line at distance `D` is `4/D²`. Infinite when a segment touches the box.
+    pub fn hessian_bound(&self, query: &Aabb) -> f64 {
+        self.kernel_bound(
+            query,
+            true,
+            |length, gap| 2.0 * length / (gap * gap * gap),
+            |length, d| (2.0 * length / (d * d * d)).min(4.0 / (d * d)),
+        )
+    }
+
+    /// `Σ_e |m_e| segment(|e|, D_e) / 4π` over the segments, a node whose box is farther
+    /// from the query than its own diagonal taken at once as `node(Σ |m_e| |e|, gap)`
+    /// (both decreasing in the distance, so each term bounds its segments'); infinite when
+    /// a segment's box touches the query. With `by_centre`, a segment's distance `D_e` is
+    /// also bounded below by its distance from the query's centre less the query's
+    /// half-diagonal (tighter for a small query near a long oblique segment).
+    fn kernel_bound(
+        &self,
+        query: &Aabb,
+        by_centre: bool,
+        node_term: impl Fn(f64, f64) -> f64,
+        segment_term: impl Fn(f64, f64) -> f64,
+    ) -> f64 {
         if self.nodes.is_empty() {
             return 0.0;
         }
@@ -94,15 +129,22 @@ impl SegmentTree {
             let node = &self.nodes[i];
             let gap = box_gap(&node.bounds, query);
             if gap > 0.0 && gap >= node.bounds.size().length() {
-                total += node.weighted_length / (gap * gap);
+                total += node_term(node.weighted_length, gap);
             } else if node.count > 0 {
                 let first = node.first as usize;
                 for &(s, e, w) in &self.segments[first..first + node.count as usize] {
-                    let d = box_gap(&Aabb::new(s.min(e), s.max(e)), query);
+                    let mut d = box_gap(&Aabb::new(s.min(e), s.max(e)), query);
+                    if by_centre {
+                        let centre = query.center();
+                        let to_segment = crate::closest_point_on_segment(centre, s, e).0 - centre;
+                        // Slack for the rounding of both lengths.
+                        let d_centre = to_segment.length() * (1.0 - 1e-9) - 0.5 * query.size().length() * (1.0 + 1e-9);
+                        d = d.max(d_centre);
+                    }
                     if d == 0.0 {
                         return f64::INFINITY;
                     }
-                    total += w * ((e - s).length() / (d * d)).min(PI / d);
+                    total += w * segment_term((e - s).length(), d);
                 }
             } else {
                 stack[top] = node.right;

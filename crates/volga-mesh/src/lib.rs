@@ -75,7 +75,7 @@ mod winding;
 mod write;
 
 pub use bvh::{Bvh, Closest, WindingBound, FAR_FIELD_BETA};
-pub use capped::{cap_triangles, signed_crossing, CappedWinding, InsideCost};
+pub use capped::{cap_triangles, signed_crossing, CappedWinding, InsideCost, WindingModel};
 pub use closest::{
     closest_point_on_segment, closest_point_on_triangle, closest_point_with_frame, point_triangle_distance_squared,
     FaceFrame, Feature,

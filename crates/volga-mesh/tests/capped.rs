@@ -3,6 +3,9 @@
 //! planes and mesh planes pass through samples), and carrying `I` along segments agrees
 //! with computing it afresh.
 //!
+//! `WindingModel`: the first-order model of `w` over a box no triangle meets decides only
+//! the side the brute-force winding number has.
+//!
 //! `ConeCaps`: the caps' certified winding number summed cone by cone holds the exact sum
 //! (every cap triangle's solid angle, summed one by one) within its certified error, at
 //! points near the holes, on the caps' planes, far away and at every scale, for the caps
@@ -10,6 +13,7 @@
 //! the rounding allowance when never satisfied.
 
 use glam::DVec3;
+use volga_core::Aabb;
 use volga_mesh::{cap_triangles, solid_angle, unclean, Bvh, CappedWinding, ConeCaps, TriMesh};
 
 struct Rng(u64);
@@ -111,6 +115,80 @@ fn the_caps_range_over_a_ball_holds_at_every_point_of_it() {
         }
     }
     assert!(proven * 3 > asked, "{proven} of {asked} balls bounded");
+}
+
+/// `winding_model`'s side holds at every point of its box, and over any box inside it:
+/// checked against the brute-force winding number at points of boxes no triangle meets
+/// (their circumscribed ball is farther from the mesh than its radius), of many sizes,
+/// near the holes' rims and away from them, on every open mesh of the unclean corpus and
+/// the shared bunny.
+#[test]
+fn the_winding_model_holds_in_every_box_no_triangle_meets() {
+    let mut meshes = unclean::corpus();
+    meshes.push(("stanford-bunny", shared("stanford-bunny.obj")));
+    let (mut modelled, mut decided, mut asked) = (0, 0, 0);
+    for (name, mesh) in meshes {
+        let caps = cap_triangles(&mesh);
+        if caps.is_empty() {
+            continue;
+        }
+        let capped = CappedWinding::new(&mesh);
+        let bvh = Bvh::build(&mesh);
+        let b = mesh.bounds();
+        let size = b.size().max_element().max(1e-3);
+        let mut rng = Rng(11);
+        let boxes = if name == "stanford-bunny" { 40 } else { 120 };
+        for k in 0..boxes {
+            // Centres near rim corners (the caps' outer corners) or over the mesh's box;
+            // edges from 1e-4 to 0.3 of it.
+            let centre = if k % 2 == 0 {
+                let corner = caps[(rng.next() * caps.len() as f64) as usize % caps.len()][k % 2];
+                corner + (DVec3::new(rng.next(), rng.next(), rng.next()) - 0.5) * 0.1 * size
+            } else {
+                b.min - 0.1 * size + DVec3::new(rng.next(), rng.next(), rng.next()) * 1.2 * size
+            };
+            let half = 0.5 * size * 1e-4 * 3000f64.powf(rng.next());
+            let cell = Aabb::new(centre - DVec3::splat(half), centre + DVec3::splat(half));
+            if bvh.closest(centre).unwrap().distance <= 0.5 * cell.size().length() {
+                continue; // a triangle may meet the box
+            }
+            let (Some(model), _) = capped.winding_model(&cell, None) else {
+                continue;
+            };
+            modelled += 1;
+            let points = if name == "stanford-bunny" { 8 } else { 24 };
+            for j in 0..points {
+                let t = DVec3::new(rng.next(), rng.next(), rng.next());
+                // Some points on the box's faces and corners.
+                let t = if j % 4 == 0 { t.round() } else { t };
+                let x = cell.min + t * cell.size();
+                let w = bvh.winding_number_exact(x);
+                asked += 1;
+                if let Some(inside) = model.side_at(x) {
+                    decided += 1;
+                    assert_eq!(
+                        inside,
+                        w >= 0.5,
+                        "{name}: w = {w} at {x}, in the box at {centre} of half-edge {half}"
+                    );
+                }
+            }
+            // A sub-box: its side, when proven, holds at its points.
+            let sub_min = cell.min + DVec3::new(rng.next(), rng.next(), rng.next()) * cell.size() * 0.5;
+            let sub = Aabb::new(sub_min, sub_min + cell.size() * 0.5 * rng.next());
+            if let Some(inside) = model.side_in(&sub) {
+                for _ in 0..4 {
+                    let x = sub.min + DVec3::new(rng.next(), rng.next(), rng.next()) * sub.size();
+                    let w = bvh.winding_number_exact(x);
+                    assert_eq!(inside, w >= 0.5, "{name}: w = {w} at {x}, in the sub-box {sub:?}");
+                }
+            }
+            // Outside its box the model answers nothing.
+            assert_eq!(model.side_at(cell.max + DVec3::splat(half)), None);
+        }
+    }
+    assert!(modelled > 100, "{modelled} boxes modelled");
+    assert!(decided * 2 > asked, "{decided} of {asked} points decided");
 }
 
 fn shared(name: &str) -> TriMesh {

@@ -211,6 +211,9 @@ impl MeshSource {
             (Some((lo, _)), Some(t)) if lo > t => Some(false),
             _ => None,
         };
+        // Else by the cell's model of `w` (no triangle meets the cell).
+        // (When `I` is known: a sample's region is then kept for its neighbours.)
+        let by_bounds = by_bounds.or_else(|| candidates?.sign_model.as_ref()?.side_at(p).filter(|_| known.is_some()));
         let (inside, integer) = match by_bounds {
             Some(inside) => (inside, known),
             None => {
@@ -554,20 +557,22 @@ impl AdfSource for MeshSource {
         let ids = keys.iter().map(|&k| k as u32).collect();
         let mut sheets = Vec::new();
         self.winding.caps_overlapping(cell, &mut sheets);
+        let sign_bounds = match parent.and_then(|p| p.sign_bounds) {
+            // The parent's ball holds this cell's (a child's centre is half the
+            // parent's radius from the parent's, its radius half of it), so its
+            // bounds hold here; they decide every threshold `I − ½` its own would
+            // decide when they hold no half-integer.
+            Some((lo, hi)) if (lo + 0.5).ceil() > hi + 0.5 => Some((lo, hi)),
+            _ => self
+                .winding
+                .caps_range_over_ball(cell.center(), 0.5 * cell.size().length() * (1.0 + 1e-9)),
+        };
         Some(CellCandidates {
             ids,
             lower,
             sheets,
-            sign_bounds: match parent.and_then(|p| p.sign_bounds) {
-                // The parent's ball holds this cell's (a child's centre is half the
-                // parent's radius from the parent's, its radius half of it), so its
-                // bounds hold here; they decide every threshold `I − ½` its own would
-                // decide when they hold no half-integer.
-                Some((lo, hi)) if (lo + 0.5).ceil() > hi + 0.5 => Some((lo, hi)),
-                _ => self
-                    .winding
-                    .caps_range_over_ball(cell.center(), 0.5 * cell.size().length() * (1.0 + 1e-9)),
-            },
+            sign_bounds,
+            sign_model: None,
         })
     }
 
@@ -627,6 +632,31 @@ impl AdfSource for MeshSource {
         self.signed(p, best.sqrt(), near, Some(candidates))
     }
 
+    /// `CappedWinding::winding_model` over the cell when its bounds of `w_C` are missing
+    /// (the cell is near a cap) and no triangle meets it (every listed box has a positive
+    /// gap, the rest are beyond the reach), with `I` at the centre carried from `corner`
+    /// across the cell's cap triangles.
+    fn sign_model(
+        &self,
+        cell: &Aabb,
+        corner: (DVec3, &Sample),
+        candidates: &CellCandidates,
+    ) -> Option<volga_mesh::WindingModel> {
+        let meets_none = candidates.meeting_cell().is_empty();
+        if candidates.sign_bounds.is_some() || !meets_none || !self.may_jump() {
+            return None;
+        }
+        let (q, s) = corner;
+        let centre = cell.center();
+        let integer = s.region.and_then(|i| {
+            self.winding
+                .integer_along_listed(q, i, centre, std::iter::empty(), candidates.sheets.iter().copied())
+        });
+        let (model, terms) = self.winding.winding_model(cell, integer);
+        self.winding_terms.fetch_add(terms, Ordering::Relaxed);
+        model
+    }
+
     /// Only with holes (caps closing a boundary).
     fn may_jump(&self) -> bool {
         self.winding.cap_triangle_count() > 0
@@ -672,6 +702,9 @@ impl AdfSource for MeshSource {
         corner: (DVec3, &Sample),
         parent: Option<&CellCandidates>,
     ) -> Option<bool> {
+        if let Some(side) = parent.and_then(|p| p.sign_model.as_ref()?.side_in(cell)) {
+            return Some(side);
+        }
         if let (Some((lo, hi)), Some(integer)) = (parent.and_then(|p| p.sign_bounds), corner.1.region) {
             let threshold = integer as f64 - 0.5;
             if corner.1.value.abs() > cell.size().length() {

@@ -121,8 +121,14 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
     fn candidates(&self, min: DVec3, size: f64, samples: &[Sample; 8], parent: Option<&CellCandidates>) -> Candidates {
         let nearest = samples.iter().map(|s| s.value.abs()).fold(f64::INFINITY, f64::min);
         let reach = nearest + size * 3f64.sqrt();
-        self.source
-            .candidates(&Aabb::new(min, min + DVec3::splat(size)), reach, parent)
+        let cell = Aabb::new(min, min + DVec3::splat(size));
+        let mut candidates = self.source.candidates(&cell, reach, parent)?;
+        // The first corner that knows its region, if any (the source carries it).
+        let b = (0..8).find(|&b| samples[b].region.is_some()).unwrap_or(0);
+        candidates.sign_model =
+            self.source
+                .sign_model(&cell, (corner_position(min, size, b), &samples[b]), &candidates);
+        Some(candidates)
     }
 
     /// Decides one cell: a leaf (with its sign-field corners if it is a jump leaf), or
