@@ -68,7 +68,8 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
 
     /// Whether the source proves cheaply that all 19 test points of a cell no surface
     /// meets have the corners' sign (`outside`: all positive): the same answer as sampling
-    /// them ([`AdfSource::inside_in_empty_cell`]); `false` when it cannot tell.
+    /// them (the parent's [`CellCandidates::sign_model`], else
+    /// [`AdfSource::inside_in_empty_cell`]); `false` when it cannot tell.
     fn signs_confirmed(
         &self,
         min: DVec3,
@@ -99,9 +100,13 @@ impl<S: AdfSource + ?Sized> Builder<'_, S> {
                     let side = known.or_else(|| {
                         let b = (i / 2) | ((j / 2) << 1) | ((k / 2) << 2);
                         let p = min + DVec3::new(i as f64, j as f64, k as f64) * half;
-                        let side = self
-                            .source
-                            .inside_in_empty_cell(p, (corner_position(min, size, b), &samples[b]))?;
+                        // The parent's model of the sign's winding number, else the source.
+                        let side = parent_candidates
+                            .and_then(|c| c.sign_model.as_ref()?.side_at(p))
+                            .or_else(|| {
+                                self.source
+                                    .inside_in_empty_cell(p, (corner_position(min, size, b), &samples[b]))
+                            })?;
                         if let Some(c) = cache.as_deref_mut() {
                             c.keep_side(key, [i, j, k], side);
                         }
