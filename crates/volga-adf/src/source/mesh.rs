@@ -213,7 +213,10 @@ impl MeshSource {
         };
         // Else by the cell's model of `w` (no triangle meets the cell).
         // (When `I` is known: a sample's region is then kept for its neighbours.)
-        let by_bounds = by_bounds.or_else(|| candidates?.sign_model.as_ref()?.side_at(p).filter(|_| known.is_some()));
+        let by_bounds = by_bounds.or_else(|| {
+            known?;
+            candidates?.sign_model.as_ref()?.side_at(p)
+        });
         let (inside, integer) = match by_bounds {
             Some(inside) => (inside, known),
             None => {
